@@ -1,0 +1,660 @@
+//! Phase 1: the syntax tree, parsed with syn. It keeps identifiers and spans
+//! and resolves nothing: names, types and counts are checked in
+//! [`crate::check`].
+//!
+//! ```text
+//! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
+//! Item       := Doc* ( Param | Body | Point | Equation )
+//! Param      := "param" Ident ( "=" Expr )? ";"
+//! Body       := "body" Ident ( "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" ","? )? "}" | ";" )
+//! Point      := "point" Ident "." Ident "=" Expr ";"
+//! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" Expr ( "==" Expr )? ";"
+//! Expr       := Product ( ( "+" | "-" ) Product )*
+//! Product    := Unary ( ( "*" | "/" ) Unary )*
+//! Unary      := "-"* Postfix
+//! Postfix    := Primary ( "." Ident )*
+//! Primary    := Number | Ident | Ident "(" Expr,* ")" | "(" Expr ")" | "(" Expr "," Expr,* ")"
+//! Doc        := "///" text        (a `#[doc = "…"]` attribute)
+//! ```
+//!
+//! Expressions are stored flat ([`Expr`]): children always precede their
+//! parents, so every later pass is a forward loop, never a recursion.
+
+use proc_macro2::TokenStream;
+use syn::parse::{Parse, ParseStream};
+use syn::{Ident, Token, braced, bracketed, parenthesized};
+
+use crate::diagnostic::Diagnostics;
+use crate::span::Span;
+
+/// Custom keywords of the language.
+pub(crate) mod kw {
+    syn::custom_keyword!(mechanism);
+    syn::custom_keyword!(param);
+    syn::custom_keyword!(body);
+    syn::custom_keyword!(point);
+    syn::custom_keyword!(joint);
+    syn::custom_keyword!(constraint);
+    syn::custom_keyword!(driver);
+    syn::custom_keyword!(guess);
+    syn::custom_keyword!(doc);
+}
+
+/// Deepest nesting of parentheses, calls and groups accepted in one
+/// expression. Deeper input is rejected with an error instead of risking the
+/// stack.
+pub const MAX_NESTING: usize = 128;
+
+/// A mechanism as written: the root of the syntax tree.
+#[derive(Clone, Debug)]
+pub struct Mechanism {
+    /// Doc comments before `mechanism`.
+    pub docs: Vec<String>,
+    /// The mechanism's name.
+    pub name: Ident,
+    /// Declarations in source order.
+    pub items: Vec<Item>,
+    /// Errors recovered from while parsing items (parsing goes on after a bad
+    /// item, so that independent mistakes are reported together).
+    pub errors: Diagnostics,
+}
+
+/// One declaration inside `mechanism Name { … }`.
+#[derive(Clone, Debug)]
+pub enum Item {
+    /// `param name = expr;`
+    Param(ParamDecl),
+    /// `body name { guess: (x, y, phi) }`
+    Body(BodyDecl),
+    /// `point body.name = (sx, sy);`
+    Point(PointDecl),
+    /// `joint|constraint|driver name: …;`
+    Equation(EquationDecl),
+}
+
+/// `param name = expr;`
+#[derive(Clone, Debug)]
+pub struct ParamDecl {
+    /// Doc comments.
+    pub docs: Vec<String>,
+    /// The `param` keyword's span.
+    pub keyword: Span,
+    /// The parameter's name.
+    pub name: Ident,
+    /// Its default value (a constant expression), if written.
+    pub value: Option<Expr>,
+}
+
+/// `body name { guess: (x, y, phi) }` or `body name;`
+#[derive(Clone, Debug)]
+pub struct BodyDecl {
+    /// Doc comments.
+    pub docs: Vec<String>,
+    /// The body's name.
+    pub name: Ident,
+    /// The initial guess `(x, y, phi)`, if written.
+    pub guess: Option<[Expr; 3]>,
+}
+
+/// `point body.name = (sx, sy);`
+#[derive(Clone, Debug)]
+pub struct PointDecl {
+    /// Doc comments.
+    pub docs: Vec<String>,
+    /// The body the point is fixed in.
+    pub body: Ident,
+    /// The point's name.
+    pub name: Ident,
+    /// Its local coordinates (a vector expression).
+    pub value: Expr,
+}
+
+/// Which keyword introduced an equation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EquationKeyword {
+    /// `joint`: a kinematic constraint.
+    Joint,
+    /// `constraint`: a kinematic constraint.
+    Constraint,
+    /// `driver`: a driving constraint (a function of time).
+    Driver,
+}
+
+impl EquationKeyword {
+    /// The keyword as written.
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EquationKeyword::Joint => "joint",
+            EquationKeyword::Constraint => "constraint",
+            EquationKeyword::Driver => "driver",
+        }
+    }
+}
+
+/// `joint|constraint|driver name: lhs == rhs;` or `…: library(args);`
+#[derive(Clone, Debug)]
+pub struct EquationDecl {
+    /// Doc comments.
+    pub docs: Vec<String>,
+    /// The introducing keyword.
+    pub keyword: EquationKeyword,
+    /// The keyword's span.
+    pub keyword_span: Span,
+    /// The equation's name.
+    pub name: Ident,
+    /// Left-hand side, or the library call.
+    pub lhs: Expr,
+    /// Right-hand side after `==`, if any.
+    pub rhs: Option<Expr>,
+}
+
+/// A binary operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BinOp {
+    /// `+`
+    Add,
+    /// `-`
+    Sub,
+    /// `*`
+    Mul,
+    /// `/`
+    Div,
+}
+
+/// One node of a flat expression.
+#[derive(Clone, Debug)]
+pub enum ExprKind {
+    /// A number literal; `suffix` is the Rust type suffix if one was written
+    /// (an error, reported by the checker).
+    Num {
+        /// The value (may be non-finite, e.g. `1e999`: an error).
+        value: f64,
+        /// The literal's type suffix, empty if none.
+        suffix: String,
+    },
+    /// A name: param, body, `pi`, `t`, `ground`.
+    Ident(Ident),
+    /// `base.field`
+    Field(u32, Ident),
+    /// `name(args…)`
+    Call(Ident, Vec<u32>),
+    /// `(a, b, …)` with at least two elements.
+    Tuple(Vec<u32>),
+    /// `-a`
+    Neg(u32),
+    /// `a op b`
+    Binary(BinOp, u32, u32),
+}
+
+/// A node and the span of its tokens.
+#[derive(Clone, Debug)]
+pub struct ExprNode {
+    /// What the node is.
+    pub kind: ExprKind,
+    /// Its tokens.
+    pub span: Span,
+}
+
+/// A flat expression: `nodes[root]` is the root; every node's children have
+/// smaller indices than the node.
+#[derive(Clone, Debug)]
+pub struct Expr {
+    /// The nodes, children first.
+    pub nodes: Vec<ExprNode>,
+    /// Index of the root node.
+    pub root: u32,
+}
+
+impl Expr {
+    /// The node at `i`.
+    #[must_use]
+    pub fn node(&self, i: u32) -> &ExprNode {
+        &self.nodes[i as usize]
+    }
+
+    /// Span of the whole expression.
+    #[must_use]
+    pub fn span(&self) -> Span {
+        self.node(self.root).span
+    }
+
+    /// Indices of the subtree rooted at `root`, in increasing order (children
+    /// first). Iterative.
+    #[must_use]
+    pub fn subtree(&self, root: u32) -> Vec<u32> {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![root];
+        let mut out = Vec::new();
+        while let Some(i) = stack.pop() {
+            if std::mem::replace(&mut seen[i as usize], true) {
+                continue;
+            }
+            out.push(i);
+            match &self.node(i).kind {
+                ExprKind::Num { .. } | ExprKind::Ident(_) => {}
+                ExprKind::Field(a, _) | ExprKind::Neg(a) => stack.push(*a),
+                ExprKind::Call(_, args) | ExprKind::Tuple(args) => stack.extend(args),
+                ExprKind::Binary(_, a, b) => {
+                    stack.push(*a);
+                    stack.push(*b);
+                }
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+}
+
+/// Builds a flat expression while parsing.
+struct ExprBuilder {
+    nodes: Vec<ExprNode>,
+}
+
+impl ExprBuilder {
+    fn push(&mut self, kind: ExprKind, span: Span) -> u32 {
+        // Cannot overflow u32 in practice: a token stream that large does
+        // not fit in memory; saturate anyway rather than panic.
+        let id = u32::try_from(self.nodes.len()).unwrap_or(u32::MAX);
+        self.nodes.push(ExprNode { kind, span });
+        id
+    }
+    fn span(&self, i: u32) -> Span {
+        self.nodes[i as usize].span
+    }
+}
+
+impl Parse for Expr {
+    fn parse(input: ParseStream<'_>) -> syn::Result<Self> {
+        let mut b = ExprBuilder { nodes: Vec::new() };
+        let root = parse_sum(input, &mut b, 0)?;
+        Ok(Expr {
+            nodes: b.nodes,
+            root,
+        })
+    }
+}
+
+fn parse_sum(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
+    let mut lhs = parse_product(input, b, depth)?;
+    loop {
+        let op = if input.peek(Token![+]) {
+            input.parse::<Token![+]>()?;
+            BinOp::Add
+        } else if input.peek(Token![-]) && !input.peek(Token![->]) && !input.peek(Token![-=]) {
+            input.parse::<Token![-]>()?;
+            BinOp::Sub
+        } else {
+            return Ok(lhs);
+        };
+        let rhs = parse_product(input, b, depth)?;
+        let span = b.span(lhs).to(b.span(rhs));
+        lhs = b.push(ExprKind::Binary(op, lhs, rhs), span);
+    }
+}
+
+fn parse_product(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
+    let mut lhs = parse_unary(input, b, depth)?;
+    loop {
+        let op = if input.peek(Token![*]) && !input.peek(Token![*=]) {
+            input.parse::<Token![*]>()?;
+            BinOp::Mul
+        } else if input.peek(Token![/]) && !input.peek(Token![/=]) {
+            input.parse::<Token![/]>()?;
+            BinOp::Div
+        } else {
+            return Ok(lhs);
+        };
+        let rhs = parse_unary(input, b, depth)?;
+        let span = b.span(lhs).to(b.span(rhs));
+        lhs = b.push(ExprKind::Binary(op, lhs, rhs), span);
+    }
+}
+
+fn parse_unary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
+    // A run of unary minus signs is read in a loop, not by recursion.
+    let mut minus = Vec::new();
+    while input.peek(Token![-]) {
+        minus.push(input.parse::<Token![-]>()?.span);
+    }
+    let mut e = parse_postfix(input, b, depth)?;
+    while let Some(m) = minus.pop() {
+        let span = Span::new(m).to(b.span(e));
+        e = b.push(ExprKind::Neg(e), span);
+    }
+    Ok(e)
+}
+
+fn parse_postfix(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
+    let mut e = parse_primary(input, b, depth)?;
+    while input.peek(Token![.]) && !input.peek(Token![..]) {
+        input.parse::<Token![.]>()?;
+        let field: Ident = input.parse().map_err(|err| {
+            syn::Error::new(
+                err.span(),
+                "expected a field name after `.` (`x`, `y`, `phi` or a point name)",
+            )
+        })?;
+        let span = b.span(e).to(Span::new(field.span()));
+        e = b.push(ExprKind::Field(e, field), span);
+    }
+    Ok(e)
+}
+
+fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
+    if depth >= MAX_NESTING {
+        // error: expression nested too deeply (more than 128 levels of parentheses or calls)
+        return Err(input.error(format!(
+            "expression nested too deeply (more than {MAX_NESTING} levels of parentheses or calls)"
+        )));
+    }
+    let lookahead = input.lookahead1();
+    if lookahead.peek(syn::LitFloat) {
+        let lit: syn::LitFloat = input.parse()?;
+        let value = lit.base10_digits().parse::<f64>().unwrap_or(f64::NAN);
+        Ok(b.push(
+            ExprKind::Num {
+                value,
+                suffix: lit.suffix().to_string(),
+            },
+            Span::new(lit.span()),
+        ))
+    } else if lookahead.peek(syn::LitInt) {
+        let lit: syn::LitInt = input.parse()?;
+        let value = lit.base10_digits().parse::<f64>().unwrap_or(f64::NAN);
+        Ok(b.push(
+            ExprKind::Num {
+                value,
+                suffix: lit.suffix().to_string(),
+            },
+            Span::new(lit.span()),
+        ))
+    } else if lookahead.peek(Ident) {
+        let name: Ident = input.parse()?;
+        if input.peek(syn::token::Paren) {
+            let content;
+            let paren = parenthesized!(content in input);
+            let args = parse_args(&content, b, depth + 1)?;
+            let span = Span::new(name.span()).to(Span::new(paren.span.close()));
+            Ok(b.push(ExprKind::Call(name, args), span))
+        } else {
+            let span = Span::new(name.span());
+            Ok(b.push(ExprKind::Ident(name), span))
+        }
+    } else if lookahead.peek(syn::token::Paren) {
+        let content;
+        let paren = parenthesized!(content in input);
+        let span = Span::range(paren.span.open(), paren.span.close());
+        let args = parse_args(&content, b, depth + 1)?;
+        match args.as_slice() {
+            // error: expected an expression, found `()`
+            [] => Err(syn::Error::new(
+                paren.span.join(),
+                "expected an expression, found `()`",
+            )),
+            [single] => Ok(*single),
+            _ => Ok(b.push(ExprKind::Tuple(args), span)),
+        }
+    } else if input.is_empty() {
+        // error: expected an expression
+        Err(input.error("expected an expression"))
+    } else {
+        // error: expected one of: floating point literal, integer literal, identifier, parentheses
+        Err(lookahead.error())
+    }
+}
+
+/// Comma-separated expressions (trailing comma allowed) filling `content`.
+fn parse_args(content: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<Vec<u32>> {
+    let mut args = Vec::new();
+    while !content.is_empty() {
+        args.push(parse_sum(content, b, depth)?);
+        if content.is_empty() {
+            break;
+        }
+        content.parse::<Token![,]>()?;
+    }
+    Ok(args)
+}
+
+/// Parses `#[doc = "…"]` attributes (what `///` comments become).
+fn parse_docs(input: ParseStream<'_>) -> syn::Result<Vec<String>> {
+    let mut docs = Vec::new();
+    while input.peek(Token![#]) {
+        input.parse::<Token![#]>()?;
+        let content;
+        bracketed!(content in input);
+        let lookahead = content.lookahead1();
+        if !lookahead.peek(kw::doc) {
+            // error: expected `doc` (only `///` doc comments are allowed here)
+            return Err(syn::Error::new(
+                content.span(),
+                "expected a doc comment: only `///` doc comments are allowed as attributes",
+            ));
+        }
+        content.parse::<kw::doc>()?;
+        content.parse::<Token![=]>()?;
+        let text: syn::LitStr = content.parse()?;
+        let value = text.value();
+        docs.push(value.strip_prefix(' ').unwrap_or(&value).to_string());
+    }
+    Ok(docs)
+}
+
+impl Parse for Mechanism {
+    fn parse(input: ParseStream<'_>) -> syn::Result<Self> {
+        let docs = parse_docs(input)?;
+        // error: expected `mechanism`
+        input.parse::<kw::mechanism>()?;
+        let name: Ident = input.parse()?;
+        let content;
+        braced!(content in input);
+        let mut items = Vec::new();
+        let mut errors = Diagnostics::new();
+        while !content.is_empty() {
+            match parse_item(&content) {
+                Ok(item) => items.push(item),
+                Err(e) => {
+                    errors.extend(Diagnostics::from(e));
+                    skip_item(&content);
+                }
+            }
+        }
+        if !input.is_empty() {
+            // error: unexpected tokens after the mechanism
+            return Err(input.error("expected the end of input after the mechanism's `}`"));
+        }
+        Ok(Mechanism {
+            docs,
+            name,
+            items,
+            errors,
+        })
+    }
+}
+
+/// After a parse error, skips to just after the next `;` or `{…}` group at
+/// item level, so that parsing can go on with the next item.
+fn skip_item(input: ParseStream<'_>) {
+    let _ = input.step(|cursor| {
+        let mut rest = *cursor;
+        while let Some((tt, next)) = rest.token_tree() {
+            rest = next;
+            match tt {
+                proc_macro2::TokenTree::Punct(p) if p.as_char() == ';' => break,
+                proc_macro2::TokenTree::Group(g)
+                    if g.delimiter() == proc_macro2::Delimiter::Brace =>
+                {
+                    break;
+                }
+                _ => {}
+            }
+        }
+        Ok(((), rest))
+    });
+}
+
+fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
+    let docs = parse_docs(input)?;
+    let lookahead = input.lookahead1();
+    if lookahead.peek(kw::param) {
+        let keyword = Span::new(input.parse::<kw::param>()?.span);
+        let name: Ident = input.parse()?;
+        let value = if input.peek(Token![=]) {
+            input.parse::<Token![=]>()?;
+            Some(input.parse::<Expr>()?)
+        } else {
+            None
+        };
+        input.parse::<Token![;]>()?;
+        Ok(Item::Param(ParamDecl {
+            docs,
+            keyword,
+            name,
+            value,
+        }))
+    } else if lookahead.peek(kw::body) {
+        input.parse::<kw::body>()?;
+        let name: Ident = input.parse()?;
+        let lookahead = input.lookahead1();
+        let guess = if lookahead.peek(Token![;]) {
+            input.parse::<Token![;]>()?;
+            None
+        } else if lookahead.peek(syn::token::Brace) {
+            let content;
+            braced!(content in input);
+            let mut guess = None;
+            if !content.is_empty() {
+                content.parse::<kw::guess>()?;
+                content.parse::<Token![:]>()?;
+                let inner;
+                parenthesized!(inner in content);
+                let x: Expr = inner.parse()?;
+                inner.parse::<Token![,]>()?;
+                let y: Expr = inner.parse()?;
+                inner.parse::<Token![,]>()?;
+                let phi: Expr = inner.parse()?;
+                if inner.peek(Token![,]) {
+                    inner.parse::<Token![,]>()?;
+                }
+                if !inner.is_empty() {
+                    // error: expected `)`: a guess is `(x, y, phi)`
+                    return Err(inner.error("expected `)`: a guess is `(x, y, phi)`"));
+                }
+                if content.peek(Token![,]) {
+                    content.parse::<Token![,]>()?;
+                }
+                if !content.is_empty() {
+                    return Err(content.error("expected `}`: a body has only a `guess`"));
+                }
+                guess = Some([x, y, phi]);
+            }
+            guess
+        } else {
+            // error: expected one of: `;`, curly braces
+            return Err(lookahead.error());
+        };
+        Ok(Item::Body(BodyDecl { docs, name, guess }))
+    } else if lookahead.peek(kw::point) {
+        input.parse::<kw::point>()?;
+        let body: Ident = input.parse()?;
+        input.parse::<Token![.]>()?;
+        let name: Ident = input.parse()?;
+        input.parse::<Token![=]>()?;
+        let value: Expr = input.parse()?;
+        input.parse::<Token![;]>()?;
+        Ok(Item::Point(PointDecl {
+            docs,
+            body,
+            name,
+            value,
+        }))
+    } else if lookahead.peek(kw::joint) || lookahead.peek(kw::constraint) || lookahead.peek(kw::driver)
+    {
+        let (keyword, keyword_span) = if input.peek(kw::joint) {
+            (EquationKeyword::Joint, input.parse::<kw::joint>()?.span)
+        } else if input.peek(kw::constraint) {
+            (EquationKeyword::Constraint, input.parse::<kw::constraint>()?.span)
+        } else {
+            (EquationKeyword::Driver, input.parse::<kw::driver>()?.span)
+        };
+        let name: Ident = input.parse()?;
+        input.parse::<Token![:]>()?;
+        let lhs: Expr = input.parse()?;
+        let rhs = if input.peek(Token![==]) {
+            input.parse::<Token![==]>()?;
+            Some(input.parse::<Expr>()?)
+        } else {
+            None
+        };
+        if !input.peek(Token![;]) {
+            // error: expected `==` or `;`
+            return Err(input.error(if rhs.is_none() {
+                "expected `==` or `;`"
+            } else {
+                "expected `;`"
+            }));
+        }
+        input.parse::<Token![;]>()?;
+        Ok(Item::Equation(EquationDecl {
+            docs,
+            keyword,
+            keyword_span: Span::new(keyword_span),
+            name,
+            lhs,
+            rhs,
+        }))
+    } else {
+        // error: expected one of: `param`, `body`, `point`, `joint`, `constraint`, `driver`
+        Err(lookahead.error())
+    }
+}
+
+/// Tokenizes `source` (text of a `.kin` file) and parses it. Lexer and parser
+/// errors come back as diagnostics.
+pub fn parse_str(source: &str) -> Result<Mechanism, Diagnostics> {
+    if let Some(d) = nesting_error(source) {
+        return Err(d);
+    }
+    let tokens: TokenStream = source.parse().map_err(|e: proc_macro2::LexError| {
+        let mut d = Diagnostics::new();
+        d.push(crate::diagnostic::Diagnostic::error(
+            Span::new(e.span()),
+            format!("cannot read the model text: {e}"),
+        ));
+        d
+    })?;
+    parse_tokens(tokens)
+}
+
+/// Parses a token stream (the input of `mechanism! { … }`).
+pub fn parse_tokens(tokens: TokenStream) -> Result<Mechanism, Diagnostics> {
+    syn::parse2::<Mechanism>(tokens).map_err(Diagnostics::from)
+}
+
+/// Rejects text whose bracket nesting is deeper than the lexer and token
+/// trees should see (deeply nested groups are built and dropped
+/// recursively by proc-macro2). A rough scan: brackets inside comments or
+/// string literals also count, which only matters for absurd input.
+fn nesting_error(source: &str) -> Option<Diagnostics> {
+    let limit = 4 * MAX_NESTING;
+    let mut depth = 0usize;
+    for c in source.chars() {
+        match c {
+            '(' | '[' | '{' => {
+                depth += 1;
+                if depth > limit {
+                    let mut d = Diagnostics::new();
+                    d.push(crate::diagnostic::Diagnostic::error(
+                        Span::new(proc_macro2::Span::call_site()),
+                        format!("brackets nested too deeply (more than {limit} levels)"),
+                    ));
+                    return Some(d);
+                }
+            }
+            ')' | ']' | '}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    None
+}
