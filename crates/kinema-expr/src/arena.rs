@@ -1,0 +1,482 @@
+//! The hash-consed arena: node storage, interning, symbols and the canonical order.
+
+use std::cmp::Ordering;
+
+use rustc_hash::FxHashMap;
+
+use crate::node::{ExprId, Factor, Node, NodeRef, SymId, SymKind, Symbol, Term};
+
+/// No node: end of an interning chain.
+const NONE: u32 = u32::MAX;
+
+/// An arena of hash-consed expressions.
+///
+/// Every constructor canonicalizes (see the crate docs) and then interns, so
+/// building the same expression twice yields the same [`ExprId`]. Nodes are
+/// never removed; children always have smaller ids than their parents.
+///
+/// ```
+/// use kinema_expr::Arena;
+/// let mut a = Arena::new();
+/// let x = a.coordinate("x", 0);
+/// let y = a.coordinate("y", 1);
+/// let s1 = a.add(x, y);
+/// let s2 = a.add(y, x);
+/// assert_eq!(s1, s2);
+/// assert_eq!(a.display(s1).to_string(), "x + y");
+/// ```
+#[derive(Clone)]
+pub struct Arena {
+    pub(crate) nodes: Vec<Node>,
+    /// Structural hash of every node: depends only on the expression, never on
+    /// ids or construction order. Drives interning and the canonical order.
+    pub(crate) shash: Vec<u64>,
+    /// Bloom mask of the symbols each node depends on (bit = symbol index mod 64).
+    pub(crate) mask: Vec<u64>,
+    pub(crate) terms: Vec<Term>,
+    pub(crate) factors: Vec<Factor>,
+    /// Structural hash → first node with that hash; collisions chain via `next`.
+    intern: FxHashMap<u64, u32>,
+    next: Vec<u32>,
+    pub(crate) symbols: Vec<Symbol>,
+    pub(crate) sym_node: Vec<ExprId>,
+    sym_lookup: FxHashMap<SymKind, SymId>,
+    pub(crate) zero: ExprId,
+    pub(crate) one: ExprId,
+    pub(crate) calc: crate::calculus::Memo,
+}
+
+impl Default for Arena {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::fmt::Debug for Arena {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Arena")
+            .field("nodes", &self.nodes.len())
+            .field("symbols", &self.symbols.len())
+            .finish_non_exhaustive()
+    }
+}
+
+// ---------------------------------------------------------------- hashing
+
+const TAG_NUM: u64 = 0x6e75_6d00;
+const TAG_SYM: u64 = 0x7379_6d00;
+const TAG_ADD: u64 = 0x6164_6400;
+const TAG_MUL: u64 = 0x6d75_6c00;
+const TAG_UN: u64 = 0x756e_0000;
+const TAG_POW: u64 = 0x706f_7700;
+const TAG_ATAN2: u64 = 0x6174_6e32;
+
+/// Combines a value into a running hash (fixed function: output is the same on
+/// every platform and every run).
+#[inline]
+pub(crate) fn mix(h: u64, v: u64) -> u64 {
+    let x = (h ^ v).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    let x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    x ^ (x >> 31)
+}
+
+fn hash_str(s: &str) -> u64 {
+    // FNV-1a, then mixed.
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in s.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    mix(h, s.len() as u64)
+}
+
+fn num_bits(v: f64) -> u64 {
+    // 0.0 and -0.0 are one number.
+    if v == 0.0 { 0 } else { v.to_bits() }
+}
+
+fn kind_hash(kind: SymKind) -> u64 {
+    match kind {
+        SymKind::Parameter(i) => mix(1, u64::from(i)),
+        SymKind::Coordinate(i) => mix(2, u64::from(i)),
+        SymKind::Velocity(i) => mix(3, u64::from(i)),
+        SymKind::Time => 4,
+    }
+}
+
+impl Arena {
+    /// An empty arena (holding only the numbers 0 and 1).
+    #[must_use]
+    pub fn new() -> Self {
+        let mut arena = Arena {
+            nodes: Vec::new(),
+            shash: Vec::new(),
+            mask: Vec::new(),
+            terms: Vec::new(),
+            factors: Vec::new(),
+            intern: FxHashMap::default(),
+            next: Vec::new(),
+            symbols: Vec::new(),
+            sym_node: Vec::new(),
+            sym_lookup: FxHashMap::default(),
+            zero: ExprId(0),
+            one: ExprId(0),
+            calc: crate::calculus::Memo::default(),
+        };
+        arena.zero = arena.num(0.0);
+        arena.one = arena.num(1.0);
+        arena
+    }
+
+    /// Number of nodes in the arena.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether the arena is empty (it never is: 0 and 1 are always present).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The number 0.
+    #[must_use]
+    pub fn zero(&self) -> ExprId {
+        self.zero
+    }
+
+    /// The number 1.
+    #[must_use]
+    pub fn one(&self) -> ExprId {
+        self.one
+    }
+
+    // ------------------------------------------------------------ symbols
+
+    fn symbol_expr(&mut self, name: &str, kind: SymKind) -> ExprId {
+        if let Some(&s) = self.sym_lookup.get(&kind) {
+            return self.sym_node[s.index()];
+        }
+        let s = SymId(u32::try_from(self.symbols.len()).unwrap_or(u32::MAX));
+        self.symbols.push(Symbol {
+            name: name.to_owned(),
+            kind,
+        });
+        self.sym_lookup.insert(kind, s);
+        let h = mix(mix(TAG_SYM, kind_hash(kind)), hash_str(name));
+        let id = self.insert(Node::Sym(s), h, 1u64 << (s.0 % 64));
+        self.sym_node.push(id);
+        id
+    }
+
+    /// The generalized coordinate `q[index]`, named `name` (the first name
+    /// given for an index is kept).
+    pub fn coordinate(&mut self, name: &str, index: u32) -> ExprId {
+        self.symbol_expr(name, SymKind::Coordinate(index))
+    }
+
+    /// The velocity `q̇[index]`, named `name`.
+    pub fn velocity(&mut self, name: &str, index: u32) -> ExprId {
+        self.symbol_expr(name, SymKind::Velocity(index))
+    }
+
+    /// The parameter `params[index]`, named `name`: a run-time value that
+    /// is never folded.
+    pub fn parameter(&mut self, name: &str, index: u32) -> ExprId {
+        self.symbol_expr(name, SymKind::Parameter(index))
+    }
+
+    /// Time `t`.
+    pub fn time(&mut self) -> ExprId {
+        self.symbol_expr("t", SymKind::Time)
+    }
+
+    /// The symbol of a kind, if it has been created.
+    #[must_use]
+    pub fn lookup(&self, kind: SymKind) -> Option<SymId> {
+        self.sym_lookup.get(&kind).copied()
+    }
+
+    /// The symbol a leaf stands for, or `None` if `e` is not a symbol.
+    #[must_use]
+    pub fn symbol_of(&self, e: ExprId) -> Option<SymId> {
+        match self.nodes[e.index()] {
+            Node::Sym(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// A symbol's name and kind.
+    #[must_use]
+    pub fn symbol(&self, s: SymId) -> &Symbol {
+        &self.symbols[s.index()]
+    }
+
+    /// The expression that is the symbol `s`.
+    #[must_use]
+    pub fn sym_expr(&self, s: SymId) -> ExprId {
+        self.sym_node[s.index()]
+    }
+
+    /// All symbols, in creation order.
+    pub fn symbols(&self) -> impl ExactSizeIterator<Item = (SymId, &Symbol)> {
+        self.symbols
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (SymId(i as u32), s))
+    }
+
+    // ------------------------------------------------------------ views
+
+    /// A view of the node `e`.
+    #[must_use]
+    pub fn node(&self, e: ExprId) -> NodeRef<'_> {
+        match self.nodes[e.index()] {
+            Node::Num(v) => NodeRef::Num(v),
+            Node::Sym(s) => NodeRef::Sym(s),
+            Node::Add {
+                constant,
+                start,
+                len,
+            } => NodeRef::Add {
+                constant,
+                terms: &self.terms[start as usize..(start + len) as usize],
+            },
+            Node::Mul { coeff, start, len } => NodeRef::Mul {
+                coeff,
+                factors: &self.factors[start as usize..(start + len) as usize],
+            },
+            Node::Unary(op, a) => NodeRef::Unary(op, a),
+            Node::Pow(a, b) => NodeRef::Pow(a, b),
+            Node::Atan2(y, x) => NodeRef::Atan2(y, x),
+        }
+    }
+
+    /// The value of `e` if it is a number.
+    #[must_use]
+    pub fn as_num(&self, e: ExprId) -> Option<f64> {
+        match self.nodes[e.index()] {
+            Node::Num(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// Whether `e` is the number 0.
+    #[must_use]
+    pub fn is_zero(&self, e: ExprId) -> bool {
+        e == self.zero
+    }
+
+    /// The children of `e` (operands), in canonical order.
+    pub(crate) fn children(&self, e: ExprId, out: &mut Vec<ExprId>) {
+        match self.node(e) {
+            NodeRef::Num(_) | NodeRef::Sym(_) => {}
+            NodeRef::Add { terms, .. } => out.extend(terms.iter().map(|t| t.expr)),
+            NodeRef::Mul { factors, .. } => out.extend(factors.iter().map(|f| f.base)),
+            NodeRef::Unary(_, a) => out.push(a),
+            NodeRef::Pow(a, b) | NodeRef::Atan2(a, b) => {
+                out.push(a);
+                out.push(b);
+            }
+        }
+    }
+
+    /// Calls `f` on each child of `e`.
+    #[inline]
+    pub(crate) fn for_each_child(&self, e: ExprId, mut f: impl FnMut(ExprId)) {
+        match self.nodes[e.index()] {
+            Node::Num(_) | Node::Sym(_) => {}
+            Node::Add { start, len, .. } => {
+                for t in &self.terms[start as usize..(start + len) as usize] {
+                    f(t.expr);
+                }
+            }
+            Node::Mul { start, len, .. } => {
+                for t in &self.factors[start as usize..(start + len) as usize] {
+                    f(t.base);
+                }
+            }
+            Node::Unary(_, a) => f(a),
+            Node::Pow(a, b) | Node::Atan2(a, b) => {
+                f(a);
+                f(b);
+            }
+        }
+    }
+
+    // ------------------------------------------------------------ order
+
+    /// The canonical order of operands: by node kind (numbers, symbols,
+    /// functions, powers, products, sums), numbers by value, symbols by kind
+    /// and index, compound nodes by structural hash. It depends only on the
+    /// expressions compared, never on how or in which order they were built.
+    #[must_use]
+    pub fn canonical_cmp(&self, a: ExprId, b: ExprId) -> Ordering {
+        if a == b {
+            return Ordering::Equal;
+        }
+        let (na, nb) = (&self.nodes[a.index()], &self.nodes[b.index()]);
+        na.rank().cmp(&nb.rank()).then_with(|| match (na, nb) {
+            (Node::Num(x), Node::Num(y)) => x.total_cmp(y),
+            (Node::Sym(x), Node::Sym(y)) => {
+                let (sx, sy) = (&self.symbols[x.index()], &self.symbols[y.index()]);
+                sx.kind
+                    .rank()
+                    .cmp(&sy.kind.rank())
+                    .then_with(|| sx.name.cmp(&sy.name))
+            }
+            // Equal structural hashes of distinct nodes (a 64-bit collision) fall
+            // back to the id: the only place construction order could show.
+            _ => self.shash[a.index()]
+                .cmp(&self.shash[b.index()])
+                .then(a.cmp(&b)),
+        })
+    }
+
+    // ------------------------------------------------------------ interning
+
+    /// Interns a node whose operands are already canonical. For sums and
+    /// products the operands are the last `len` entries of the pool (they are
+    /// popped again if an equal node exists).
+    pub(crate) fn intern(&mut self, node: Node) -> ExprId {
+        let (h, m) = self.hash_and_mask(&node);
+        let mut cur = self.intern.get(&h).copied().unwrap_or(NONE);
+        while cur != NONE {
+            if self.same(&self.nodes[cur as usize], &node) {
+                // Drop the operands just pushed for this node: they are a copy.
+                match node {
+                    Node::Add { start, .. } => self.terms.truncate(start as usize),
+                    Node::Mul { start, .. } => self.factors.truncate(start as usize),
+                    _ => {}
+                }
+                return ExprId(cur);
+            }
+            cur = self.next[cur as usize];
+        }
+        self.insert(node, h, m)
+    }
+
+    fn insert(&mut self, node: Node, h: u64, m: u64) -> ExprId {
+        let id = u32::try_from(self.nodes.len()).unwrap_or(NONE);
+        let prev = self.intern.insert(h, id).unwrap_or(NONE);
+        self.nodes.push(node);
+        self.shash.push(h);
+        self.mask.push(m);
+        self.next.push(prev);
+        ExprId(id)
+    }
+
+    fn hash_and_mask(&self, node: &Node) -> (u64, u64) {
+        match *node {
+            Node::Num(v) => (mix(TAG_NUM, num_bits(v)), 0),
+            Node::Sym(s) => {
+                let kind = self.symbols[s.index()].kind;
+                (
+                    mix(
+                        mix(TAG_SYM, kind_hash(kind)),
+                        hash_str(&self.symbols[s.index()].name),
+                    ),
+                    1u64 << (s.0 % 64),
+                )
+            }
+            Node::Add {
+                constant,
+                start,
+                len,
+            } => {
+                let mut h = mix(TAG_ADD, num_bits(constant));
+                let mut m = 0;
+                for t in &self.terms[start as usize..(start + len) as usize] {
+                    h = mix(mix(h, num_bits(t.coeff)), self.shash[t.expr.index()]);
+                    m |= self.mask[t.expr.index()];
+                }
+                (h, m)
+            }
+            Node::Mul { coeff, start, len } => {
+                let mut h = mix(TAG_MUL, num_bits(coeff));
+                let mut m = 0;
+                for f in &self.factors[start as usize..(start + len) as usize] {
+                    h = mix(mix(h, num_bits(f.exp)), self.shash[f.base.index()]);
+                    m |= self.mask[f.base.index()];
+                }
+                (h, m)
+            }
+            Node::Unary(op, a) => (
+                mix(mix(TAG_UN, op.tag()), self.shash[a.index()]),
+                self.mask[a.index()],
+            ),
+            Node::Pow(a, b) => (
+                mix(mix(TAG_POW, self.shash[a.index()]), self.shash[b.index()]),
+                self.mask[a.index()] | self.mask[b.index()],
+            ),
+            Node::Atan2(a, b) => (
+                mix(mix(TAG_ATAN2, self.shash[a.index()]), self.shash[b.index()]),
+                self.mask[a.index()] | self.mask[b.index()],
+            ),
+        }
+    }
+
+    fn same(&self, a: &Node, b: &Node) -> bool {
+        match (*a, *b) {
+            (Node::Num(x), Node::Num(y)) => num_bits(x) == num_bits(y),
+            (Node::Sym(x), Node::Sym(y)) => x == y,
+            (
+                Node::Add {
+                    constant: c1,
+                    start: s1,
+                    len: l1,
+                },
+                Node::Add {
+                    constant: c2,
+                    start: s2,
+                    len: l2,
+                },
+            ) => {
+                num_bits(c1) == num_bits(c2)
+                    && l1 == l2
+                    && self.terms[s1 as usize..(s1 + l1) as usize]
+                        .iter()
+                        .zip(&self.terms[s2 as usize..(s2 + l2) as usize])
+                        .all(|(p, q)| p.expr == q.expr && num_bits(p.coeff) == num_bits(q.coeff))
+            }
+            (
+                Node::Mul {
+                    coeff: c1,
+                    start: s1,
+                    len: l1,
+                },
+                Node::Mul {
+                    coeff: c2,
+                    start: s2,
+                    len: l2,
+                },
+            ) => {
+                num_bits(c1) == num_bits(c2)
+                    && l1 == l2
+                    && self.factors[s1 as usize..(s1 + l1) as usize]
+                        .iter()
+                        .zip(&self.factors[s2 as usize..(s2 + l2) as usize])
+                        .all(|(p, q)| p.base == q.base && num_bits(p.exp) == num_bits(q.exp))
+            }
+            (Node::Unary(o1, a1), Node::Unary(o2, a2)) => o1 == o2 && a1 == a2,
+            (Node::Pow(a1, b1), Node::Pow(a2, b2)) | (Node::Atan2(a1, b1), Node::Atan2(a2, b2)) => {
+                a1 == a2 && b1 == b2
+            }
+            _ => false,
+        }
+    }
+
+    /// Bloom mask of the symbols `e` may depend on.
+    #[inline]
+    pub(crate) fn mask_of(&self, e: ExprId) -> u64 {
+        self.mask[e.index()]
+    }
+
+    /// Structural hash of `e`: a function of the expression alone.
+    #[must_use]
+    pub fn structural_hash(&self, e: ExprId) -> u64 {
+        self.shash[e.index()]
+    }
+}

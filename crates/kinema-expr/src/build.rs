@@ -1,0 +1,390 @@
+//! Constructors. Each one canonicalizes, then interns.
+//!
+//! Canonical forms:
+//! - numbers are finite where folding keeps them so; `-0.0` is `0.0`;
+//! - a sum is `constant + Σ cᵢ·eᵢ` with each `eᵢ` distinct, not a number, not a
+//!   sum and not a product with a coefficient ≠ 1; `cᵢ ≠ 0`; terms sorted by
+//!   [`Arena::canonical_cmp`]; a sum of one term and no constant is that term;
+//! - a product is `c · Π bᵢ^pᵢ` with each `bᵢ` distinct, not a number (unless
+//!   folding it would not be finite), not a product raised to an integer power
+//!   (it is flattened), `pᵢ ≠ 0`, `c ≠ 0`; factors sorted; `c·x` is the product
+//!   `c · x^1`, and `1 · x^1` is `x`.
+//!
+//! Simplification never changes a value where the original expression is
+//! defined (it may define a value where the original was not, e.g. `x/x → 1`).
+
+use crate::arena::Arena;
+use crate::node::{ExprId, Factor, Node, NodeRef, Term, UnaryOp};
+
+/// Whether `p` is an integer small enough for `powi`.
+pub(crate) fn is_int(p: f64) -> bool {
+    p.fract() == 0.0 && p.abs() <= f64::from(i32::MAX)
+}
+
+/// `x^p` evaluated the way both the tree evaluator and the tape do it.
+#[inline]
+pub(crate) fn powv(x: f64, p: f64) -> f64 {
+    if p == 1.0 {
+        x
+    } else if p == 2.0 {
+        x * x
+    } else if p == 0.5 {
+        x.sqrt()
+    } else if is_int(p) {
+        x.powi(p as i32)
+    } else {
+        x.powf(p)
+    }
+}
+
+fn finite_or(v: f64) -> Option<f64> {
+    v.is_finite().then_some(if v == 0.0 { 0.0 } else { v })
+}
+
+impl Arena {
+    /// A number. `-0.0` becomes `0.0`.
+    pub fn num(&mut self, v: f64) -> ExprId {
+        let v = if v == 0.0 { 0.0 } else { v };
+        self.intern(Node::Num(v))
+    }
+
+    /// `a + b`.
+    pub fn add(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        self.linear(
+            0.0,
+            &[
+                Term {
+                    coeff: 1.0,
+                    expr: a,
+                },
+                Term {
+                    coeff: 1.0,
+                    expr: b,
+                },
+            ],
+        )
+    }
+
+    /// `a − b`.
+    pub fn sub(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        self.linear(
+            0.0,
+            &[
+                Term {
+                    coeff: 1.0,
+                    expr: a,
+                },
+                Term {
+                    coeff: -1.0,
+                    expr: b,
+                },
+            ],
+        )
+    }
+
+    /// `−a`.
+    pub fn neg(&mut self, a: ExprId) -> ExprId {
+        self.scale(-1.0, a)
+    }
+
+    /// `c · a`.
+    pub fn scale(&mut self, c: f64, a: ExprId) -> ExprId {
+        self.linear(0.0, &[Term { coeff: c, expr: a }])
+    }
+
+    /// `Σ items` in one canonicalization pass (linear in the number of terms;
+    /// prefer it to repeated [`add`](Self::add) for long sums).
+    pub fn sum(&mut self, items: &[ExprId]) -> ExprId {
+        let terms: Vec<Term> = items
+            .iter()
+            .map(|&expr| Term { coeff: 1.0, expr })
+            .collect();
+        self.linear(0.0, &terms)
+    }
+
+    /// `constant + Σ coeff·expr`, canonicalized.
+    pub fn linear(&mut self, constant: f64, terms: &[Term]) -> ExprId {
+        let mut constant = constant;
+        let mut flat: Vec<Term> = Vec::with_capacity(terms.len());
+        for &Term { coeff, expr } in terms {
+            if coeff == 0.0 {
+                continue;
+            }
+            match self.node(expr) {
+                NodeRef::Num(v) => constant += coeff * v,
+                NodeRef::Add {
+                    constant: c,
+                    terms: inner,
+                } => {
+                    constant += coeff * c;
+                    flat.extend(inner.iter().map(|t| Term {
+                        coeff: coeff * t.coeff,
+                        expr: t.expr,
+                    }));
+                }
+                NodeRef::Mul { coeff: c, factors } if c != 1.0 => {
+                    let factors = factors.to_vec();
+                    let unit = self.product_of(1.0, factors);
+                    flat.push(Term {
+                        coeff: coeff * c,
+                        expr: unit,
+                    });
+                }
+                _ => flat.push(Term { coeff, expr }),
+            }
+        }
+        flat.sort_by(|a, b| self.canonical_cmp(a.expr, b.expr));
+        // Merge like terms (now adjacent) and drop zeros.
+        let mut merged: Vec<Term> = Vec::with_capacity(flat.len());
+        for t in flat {
+            match merged.last_mut() {
+                Some(last) if last.expr == t.expr => last.coeff += t.coeff,
+                _ => merged.push(t),
+            }
+        }
+        merged.retain(|t| t.coeff != 0.0);
+        let constant = if constant == 0.0 { 0.0 } else { constant };
+        match (merged.as_slice(), constant == 0.0) {
+            ([], _) => self.num(constant),
+            ([t], true) if t.coeff == 1.0 => t.expr,
+            ([t], true) => {
+                // c·e is a product.
+                let (c, e) = (t.coeff, t.expr);
+                match self.node(e) {
+                    NodeRef::Mul { factors, .. } => {
+                        let factors = factors.to_vec();
+                        self.product_of(c, factors)
+                    }
+                    _ => self.product_of(c, vec![Factor { base: e, exp: 1.0 }]),
+                }
+            }
+            _ => {
+                let start = self.terms.len() as u32;
+                let len = merged.len() as u32;
+                self.terms.extend_from_slice(&merged);
+                self.intern(Node::Add {
+                    constant,
+                    start,
+                    len,
+                })
+            }
+        }
+    }
+
+    /// `a · b`.
+    pub fn mul(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        self.product_of(
+            1.0,
+            vec![Factor { base: a, exp: 1.0 }, Factor { base: b, exp: 1.0 }],
+        )
+    }
+
+    /// `a / b`.
+    pub fn div(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        self.product_of(
+            1.0,
+            vec![Factor { base: a, exp: 1.0 }, Factor { base: b, exp: -1.0 }],
+        )
+    }
+
+    /// `Π items` in one canonicalization pass.
+    pub fn product(&mut self, items: &[ExprId]) -> ExprId {
+        let factors = items
+            .iter()
+            .map(|&base| Factor { base, exp: 1.0 })
+            .collect();
+        self.product_of(1.0, factors)
+    }
+
+    /// `a^n` for an integer `n`.
+    pub fn powi(&mut self, a: ExprId, n: i32) -> ExprId {
+        self.powf(a, f64::from(n))
+    }
+
+    /// `a^p` for a constant real `p` (for non-integer `p`, defined for `a ≥ 0`).
+    pub fn powf(&mut self, a: ExprId, p: f64) -> ExprId {
+        if p == 0.0 {
+            return self.one;
+        }
+        self.product_of(1.0, vec![Factor { base: a, exp: p }])
+    }
+
+    /// `√a`.
+    pub fn sqrt(&mut self, a: ExprId) -> ExprId {
+        self.powf(a, 0.5)
+    }
+
+    /// `a^b`; with a constant `b` this is [`powf`](Self::powf).
+    pub fn pow(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        if let Some(p) = self.as_num(b) {
+            return self.powf(a, p);
+        }
+        if a == self.one {
+            return self.one;
+        }
+        self.intern(Node::Pow(a, b))
+    }
+
+    /// `coeff · Π base^exp`, canonicalized.
+    pub fn product_of(&mut self, coeff: f64, factors: Vec<Factor>) -> ExprId {
+        let mut coeff = coeff;
+        let mut flat: Vec<Factor> = Vec::with_capacity(factors.len());
+        let mut work = factors;
+        work.reverse();
+        while let Some(Factor { base, exp }) = work.pop() {
+            if exp == 0.0 {
+                continue;
+            }
+            match self.node(base) {
+                NodeRef::Num(v) => match finite_or(powv(v, exp)) {
+                    Some(r) => coeff *= r,
+                    None => flat.push(Factor { base, exp }),
+                },
+                NodeRef::Mul {
+                    coeff: c,
+                    factors: inner,
+                } if is_int(exp) => {
+                    flat.extend(inner.iter().map(|f| Factor {
+                        base: f.base,
+                        exp: f.exp * exp,
+                    }));
+                    match finite_or(powv(c, exp)) {
+                        Some(r) => coeff *= r,
+                        None => {
+                            let cb = self.intern(Node::Num(c));
+                            flat.push(Factor { base: cb, exp });
+                        }
+                    }
+                }
+                NodeRef::Mul {
+                    coeff: c,
+                    factors: inner,
+                } if c > 0.0 && c != 1.0 => {
+                    // (c·X)^p = c^p · X^p for c > 0.
+                    let inner = inner.to_vec();
+                    coeff *= powv(c, exp);
+                    let unit = self.product_of(1.0, inner);
+                    flat.push(Factor { base: unit, exp });
+                }
+                _ => flat.push(Factor { base, exp }),
+            }
+        }
+        if coeff == 0.0 {
+            return self.zero;
+        }
+        flat.sort_by(|a, b| self.canonical_cmp(a.base, b.base));
+        let mut merged: Vec<Factor> = Vec::with_capacity(flat.len());
+        for f in flat {
+            match merged.last_mut() {
+                Some(last) if last.base == f.base => last.exp += f.exp,
+                _ => merged.push(f),
+            }
+        }
+        merged.retain(|f| f.exp != 0.0);
+        if !coeff.is_finite() {
+            // Overflowed coefficient: keep it visible as a factor instead of folding.
+            let c = self.intern(Node::Num(coeff));
+            merged.insert(0, Factor { base: c, exp: 1.0 });
+            coeff = 1.0;
+        }
+        match merged.as_slice() {
+            [] => self.num(coeff),
+            [f] if coeff == 1.0 && f.exp == 1.0 => f.base,
+            _ => {
+                let start = self.factors.len() as u32;
+                let len = merged.len() as u32;
+                self.factors.extend_from_slice(&merged);
+                self.intern(Node::Mul { coeff, start, len })
+            }
+        }
+    }
+
+    /// A function of one argument, folded when the argument is a number and
+    /// the result is finite.
+    pub fn unary(&mut self, op: UnaryOp, a: ExprId) -> ExprId {
+        if let Some(v) = self.as_num(a)
+            && let Some(r) = finite_or(op.apply(v))
+        {
+            return self.num(r);
+        }
+        match (op, self.node(a)) {
+            (UnaryOp::Smooth(k), _) if k > 3 => self.zero,
+            (UnaryOp::Abs, NodeRef::Unary(UnaryOp::Abs | UnaryOp::Exp, _)) => a,
+            (UnaryOp::Ln, NodeRef::Unary(UnaryOp::Exp, x)) => x,
+            _ => self.intern(Node::Unary(op, a)),
+        }
+    }
+
+    /// `sin a`.
+    pub fn sin(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Sin, a)
+    }
+    /// `cos a`.
+    pub fn cos(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Cos, a)
+    }
+    /// `tan a`.
+    pub fn tan(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Tan, a)
+    }
+    /// `asin a`.
+    pub fn asin(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Asin, a)
+    }
+    /// `acos a`.
+    pub fn acos(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Acos, a)
+    }
+    /// `atan a`.
+    pub fn atan(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Atan, a)
+    }
+    /// `sinh a`.
+    pub fn sinh(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Sinh, a)
+    }
+    /// `cosh a`.
+    pub fn cosh(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Cosh, a)
+    }
+    /// `tanh a`.
+    pub fn tanh(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Tanh, a)
+    }
+    /// `e^a`.
+    pub fn exp(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Exp, a)
+    }
+    /// `ln a`.
+    pub fn ln(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Ln, a)
+    }
+    /// `|a|`.
+    pub fn abs(&mut self, a: ExprId) -> ExprId {
+        self.unary(UnaryOp::Abs, a)
+    }
+
+    /// `atan2(y, x)`: the angle of the vector (x, y).
+    pub fn atan2(&mut self, y: ExprId, x: ExprId) -> ExprId {
+        if let (Some(yv), Some(xv)) = (self.as_num(y), self.as_num(x))
+            && let Some(r) = finite_or(yv.atan2(xv))
+        {
+            return self.num(r);
+        }
+        self.intern(Node::Atan2(y, x))
+    }
+
+    /// The smooth cubic step of multibody tools:
+    /// `h0` for `x ≤ x0`, `h1` for `x ≥ x1`, and in between
+    /// `h0 + (h1 − h0)·Δ²(3 − 2Δ)` with `Δ = (x − x0)/(x1 − x0)`.
+    /// C¹ in `x`; its second derivative jumps at `x0` and `x1`.
+    pub fn step(&mut self, x: ExprId, x0: ExprId, h0: ExprId, x1: ExprId, h1: ExprId) -> ExprId {
+        let num = self.sub(x, x0);
+        let den = self.sub(x1, x0);
+        let u = self.div(num, den);
+        let s = self.unary(UnaryOp::Smooth(0), u);
+        let dh = self.sub(h1, h0);
+        let rise = self.mul(dh, s);
+        self.add(h0, rise)
+    }
+}

@@ -1,0 +1,126 @@
+//! Schedules: the nodes a set of outputs needs, children before parents.
+
+use rustc_hash::FxHashMap;
+
+use crate::arena::Arena;
+use crate::node::ExprId;
+
+/// The nodes needed by a set of outputs in evaluation (topological) order,
+/// each exactly once, with use counts — what a code generator walks to
+/// compute every shared subexpression once.
+///
+/// The order is deterministic: a depth-first post-order over the outputs in
+/// the order given, children in canonical order.
+#[derive(Clone, Debug)]
+pub struct Schedule {
+    nodes: Vec<ExprId>,
+    parent_uses: Vec<u32>,
+    output_uses: Vec<u32>,
+    last_use: Vec<u32>,
+    position: FxHashMap<ExprId, u32>,
+}
+
+impl Schedule {
+    /// The nodes in evaluation order (children before parents), leaves included.
+    #[must_use]
+    pub fn nodes(&self) -> &[ExprId] {
+        &self.nodes
+    }
+
+    /// For each node of [`nodes`](Self::nodes): how many scheduled nodes use it as an operand.
+    #[must_use]
+    pub fn parent_uses(&self) -> &[u32] {
+        &self.parent_uses
+    }
+
+    /// For each node: how many outputs are that node.
+    #[must_use]
+    pub fn output_uses(&self) -> &[u32] {
+        &self.output_uses
+    }
+
+    /// For each node: the position of the last scheduled node that uses it as
+    /// an operand (its own position if none does).
+    #[must_use]
+    pub fn last_use(&self) -> &[u32] {
+        &self.last_use
+    }
+
+    /// The position of `e` in the schedule, if it is scheduled.
+    #[must_use]
+    pub fn position(&self, e: ExprId) -> Option<usize> {
+        self.position.get(&e).map(|&p| p as usize)
+    }
+
+    /// Number of scheduled nodes.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether nothing is scheduled.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+}
+
+impl Arena {
+    /// The schedule of the nodes that `outputs` need.
+    #[must_use]
+    pub fn schedule(&self, outputs: &[ExprId]) -> Schedule {
+        let mut position: FxHashMap<ExprId, u32> = FxHashMap::default();
+        let mut nodes: Vec<ExprId> = Vec::new();
+        let mut stack: Vec<(ExprId, bool)> = Vec::new();
+        let mut kids: Vec<ExprId> = Vec::new();
+        for &root in outputs {
+            stack.push((root, false));
+            while let Some((n, expanded)) = stack.pop() {
+                if position.contains_key(&n) {
+                    continue;
+                }
+                if expanded {
+                    position.insert(n, nodes.len() as u32);
+                    nodes.push(n);
+                } else {
+                    stack.push((n, true));
+                    kids.clear();
+                    self.children(n, &mut kids);
+                    // Reversed so that the first child is evaluated first.
+                    for &c in kids.iter().rev() {
+                        if !position.contains_key(&c) {
+                            stack.push((c, false));
+                        }
+                    }
+                }
+            }
+        }
+        let mut parent_uses = vec![0u32; nodes.len()];
+        let mut last_use: Vec<u32> = (0..nodes.len() as u32).collect();
+        for (i, &n) in nodes.iter().enumerate() {
+            kids.clear();
+            self.children(n, &mut kids);
+            kids.sort_unstable();
+            kids.dedup();
+            for c in &kids {
+                if let Some(&p) = position.get(c) {
+                    parent_uses[p as usize] += 1;
+                    last_use[p as usize] = i as u32;
+                }
+            }
+        }
+        let mut output_uses = vec![0u32; nodes.len()];
+        for o in outputs {
+            if let Some(&p) = position.get(o) {
+                output_uses[p as usize] += 1;
+            }
+        }
+        Schedule {
+            nodes,
+            parent_uses,
+            output_uses,
+            last_use,
+            position,
+        }
+    }
+}
