@@ -139,7 +139,6 @@ pub struct Param {
     pub docs: Vec<String>,
     /// Its default value, evaluated.
     pub value: f64,
-    pub(crate) expr: TExpr,
 }
 
 /// A moving body.
@@ -242,25 +241,158 @@ struct LibSpec {
 use ArgKind::{Body as AB, Point as AP, Scalar as AS, Vector as AV};
 
 const LIBRARY: &[LibSpec] = &[
-    LibSpec { name: "abs_x", kind: LibKind::AbsX, args: &[AP, AS], signature: "abs_x(P, f)", rows: 1, pair: None },
-    LibSpec { name: "abs_y", kind: LibKind::AbsY, args: &[AP, AS], signature: "abs_y(P, f)", rows: 1, pair: None },
-    LibSpec { name: "abs_angle", kind: LibKind::AbsAngle, args: &[AB, AS], signature: "abs_angle(B, f)", rows: 1, pair: None },
-    LibSpec { name: "abs_distance", kind: LibKind::AbsDistance, args: &[AP, AV, AS], signature: "abs_distance(P, (cx, cy), C)", rows: 1, pair: None },
-    LibSpec { name: "rel_x", kind: LibKind::RelX, args: &[AP, AP, AS], signature: "rel_x(Pi, Pj, f)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "rel_y", kind: LibKind::RelY, args: &[AP, AP, AS], signature: "rel_y(Pi, Pj, f)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "rel_angle", kind: LibKind::RelAngle, args: &[AB, AB, AS], signature: "rel_angle(Bi, Bj, f)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "rel_distance", kind: LibKind::RelDistance, args: &[AP, AP, AS], signature: "rel_distance(Pi, Pj, C)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "revolute", kind: LibKind::Revolute, args: &[AP, AP], signature: "revolute(Pi, Pj)", rows: 2, pair: Some((0, 1)) },
-    LibSpec { name: "translational", kind: LibKind::Translational, args: &[AP, AV, AP, AV], signature: "translational(Pi, vi, Pj, vj)", rows: 2, pair: Some((0, 2)) },
-    LibSpec { name: "revolute_revolute", kind: LibKind::RevoluteRevolute, args: &[AP, AP, AS], signature: "revolute_revolute(Pi, Pj, L)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "revolute_translational", kind: LibKind::RevoluteTranslational, args: &[AP, AV, AP, AS], signature: "revolute_translational(Pi, vi, Pj, c)", rows: 1, pair: Some((0, 2)) },
-    LibSpec { name: "gear", kind: LibKind::Gear, args: &[AP, AP, AS, AS, AS, AS], signature: "gear(Pi, Pj, Ri, Rj, theta_i, theta_j)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "rack_pinion", kind: LibKind::RackPinion, args: &[AP, AV, AP, AS, AS], signature: "rack_pinion(Pi, vi, Pj, Rp, c0)", rows: 2, pair: Some((0, 2)) },
-    LibSpec { name: "translational_distance", kind: LibKind::TranslationalDistance, args: &[AP, AV, AP, AS], signature: "translational_distance(Pi, vi, Pj, C)", rows: 1, pair: Some((0, 2)) },
-    LibSpec { name: "dp1", kind: LibKind::Dp1, args: &[AB, AV, AB, AV, AS], signature: "dp1(Bi, ai, Bj, aj, f)", rows: 1, pair: Some((0, 2)) },
-    LibSpec { name: "dp2", kind: LibKind::Dp2, args: &[AP, AV, AP, AS], signature: "dp2(Pi, ai, Pj, f)", rows: 1, pair: Some((0, 2)) },
-    LibSpec { name: "d", kind: LibKind::D, args: &[AP, AP, AS], signature: "d(Pi, Pj, f)", rows: 1, pair: Some((0, 1)) },
-    LibSpec { name: "cd", kind: LibKind::Cd, args: &[AV, AP, AP, AS], signature: "cd((cx, cy), Pi, Pj, f)", rows: 1, pair: Some((1, 2)) },
+    LibSpec {
+        name: "abs_x",
+        kind: LibKind::AbsX,
+        args: &[AP, AS],
+        signature: "abs_x(P, f)",
+        rows: 1,
+        pair: None,
+    },
+    LibSpec {
+        name: "abs_y",
+        kind: LibKind::AbsY,
+        args: &[AP, AS],
+        signature: "abs_y(P, f)",
+        rows: 1,
+        pair: None,
+    },
+    LibSpec {
+        name: "abs_angle",
+        kind: LibKind::AbsAngle,
+        args: &[AB, AS],
+        signature: "abs_angle(B, f)",
+        rows: 1,
+        pair: None,
+    },
+    LibSpec {
+        name: "abs_distance",
+        kind: LibKind::AbsDistance,
+        args: &[AP, AV, AS],
+        signature: "abs_distance(P, (cx, cy), C)",
+        rows: 1,
+        pair: None,
+    },
+    LibSpec {
+        name: "rel_x",
+        kind: LibKind::RelX,
+        args: &[AP, AP, AS],
+        signature: "rel_x(Pi, Pj, f)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "rel_y",
+        kind: LibKind::RelY,
+        args: &[AP, AP, AS],
+        signature: "rel_y(Pi, Pj, f)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "rel_angle",
+        kind: LibKind::RelAngle,
+        args: &[AB, AB, AS],
+        signature: "rel_angle(Bi, Bj, f)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "rel_distance",
+        kind: LibKind::RelDistance,
+        args: &[AP, AP, AS],
+        signature: "rel_distance(Pi, Pj, C)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "revolute",
+        kind: LibKind::Revolute,
+        args: &[AP, AP],
+        signature: "revolute(Pi, Pj)",
+        rows: 2,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "translational",
+        kind: LibKind::Translational,
+        args: &[AP, AV, AP, AV],
+        signature: "translational(Pi, vi, Pj, vj)",
+        rows: 2,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "revolute_revolute",
+        kind: LibKind::RevoluteRevolute,
+        args: &[AP, AP, AS],
+        signature: "revolute_revolute(Pi, Pj, L)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "revolute_translational",
+        kind: LibKind::RevoluteTranslational,
+        args: &[AP, AV, AP, AS],
+        signature: "revolute_translational(Pi, vi, Pj, c)",
+        rows: 1,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "gear",
+        kind: LibKind::Gear,
+        args: &[AP, AP, AS, AS, AS, AS],
+        signature: "gear(Pi, Pj, Ri, Rj, theta_i, theta_j)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "rack_pinion",
+        kind: LibKind::RackPinion,
+        args: &[AP, AV, AP, AS, AS],
+        signature: "rack_pinion(Pi, vi, Pj, Rp, c0)",
+        rows: 2,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "translational_distance",
+        kind: LibKind::TranslationalDistance,
+        args: &[AP, AV, AP, AS],
+        signature: "translational_distance(Pi, vi, Pj, C)",
+        rows: 1,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "dp1",
+        kind: LibKind::Dp1,
+        args: &[AB, AV, AB, AV, AS],
+        signature: "dp1(Bi, ai, Bj, aj, f)",
+        rows: 1,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "dp2",
+        kind: LibKind::Dp2,
+        args: &[AP, AV, AP, AS],
+        signature: "dp2(Pi, ai, Pj, f)",
+        rows: 1,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "d",
+        kind: LibKind::D,
+        args: &[AP, AP, AS],
+        signature: "d(Pi, Pj, f)",
+        rows: 1,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "cd",
+        kind: LibKind::Cd,
+        args: &[AV, AP, AP, AS],
+        signature: "cd((cx, cy), Pi, Pj, f)",
+        rows: 1,
+        pair: Some((1, 2)),
+    },
 ];
 
 fn library(name: &str) -> Option<&'static LibSpec> {
@@ -560,21 +692,33 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         let span = Span::new(ident.span());
         if RESERVED.contains(&name.as_str()) {
             // error: `t` is reserved (time) and cannot be declared
-            cx.error(span, format!("`{name}` is reserved ({}) and cannot be declared", reserved_meaning(&name)));
+            cx.error(
+                span,
+                format!(
+                    "`{name}` is reserved ({}) and cannot be declared",
+                    reserved_meaning(&name)
+                ),
+            );
             continue;
         }
         if matches!(decl, Decl::Body(_))
             && (FUNCTIONS.iter().any(|(f, _)| *f == name) || library(&name).is_some())
         {
             // error: a body cannot be named `sin`: it is a function
-            cx.error(span, format!("a body cannot be named `{name}`: it is the name of a function"));
+            cx.error(
+                span,
+                format!("a body cannot be named `{name}`: it is the name of a function"),
+            );
             continue;
         }
         if let Some(first) = first_span.get(&name) {
             let s = first.start();
             cx.push(
-                Diagnostic::error(span, format!("duplicate name `{name}`"))
-                    .with_help(format!("`{name}` is first declared at {}:{}", s.line, s.column + 1)),
+                Diagnostic::error(span, format!("duplicate name `{name}`")).with_help(format!(
+                    "`{name}` is first declared at {}:{}",
+                    s.line,
+                    s.column + 1
+                )),
             );
             continue;
         }
@@ -597,7 +741,11 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         } else if let Some(Decl::Body(b)) = decls.get(&body_name) {
             BodyRef::Body(*b)
         } else {
-            cx.push(unknown_body(Span::new(p.body.span()), &body_name, &body_names));
+            cx.push(unknown_body(
+                Span::new(p.body.span()),
+                &body_name,
+                &body_names,
+            ));
             continue;
         };
         let name = p.name.to_string();
@@ -609,7 +757,10 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
             continue;
         }
         if point_names.contains_key(&(body, name.clone())) {
-            cx.error(Span::new(p.name.span()), format!("duplicate point `{body_name}.{name}`"));
+            cx.error(
+                Span::new(p.name.span()),
+                format!("duplicate point `{body_name}.{name}`"),
+            );
             continue;
         }
         point_names.insert((body, name), idx(point_items.len()));
@@ -633,27 +784,39 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         let span = Span::new(p.name.span());
         let typed = match &p.value {
             None => {
-                cx.error(span, format!("param `{name}` has no value: expected `param {name} = <expression>;`"));
+                cx.error(
+                    span,
+                    format!("param `{name}` has no value: expected `param {name} = <expression>;`"),
+                );
                 None
             }
-            Some(e) => check_expr(&mut cx, &names, e, e.root, i).and_then(|t| {
-                constant(&mut cx, &t, "the value of a param").then_some(t)
-            }),
+            Some(e) => check_expr(&mut cx, &names, e, e.root, i)
+                .and_then(|t| constant(&mut cx, &t, "the value of a param").then_some(t)),
         };
-        let typed = typed.and_then(|t| expect_ty(&mut cx, t, Ty::Scalar, p.value.as_ref().map(|e| e.span()).unwrap_or(span)));
-        let (expr, value) = match typed {
+        let typed = typed.and_then(|t| {
+            expect_ty(
+                &mut cx,
+                t,
+                Ty::Scalar,
+                p.value.as_ref().map(|e| e.span()).unwrap_or(span),
+            )
+        });
+        let value = match typed {
             Some(t) => {
                 let v = eval_scalar(&t.expr, &param_values);
                 if !v.is_finite() {
                     // error: the value of param `x` is NaN: expected a finite number
                     cx.error(
                         p.value.as_ref().map_or(span, |e| e.span()),
-                        format!("the value of param `{name}` is {}: expected a finite number", show_nonfinite(v)),
+                        format!(
+                            "the value of param `{name}` is {}: expected a finite number",
+                            show_nonfinite(v)
+                        ),
                     );
                 }
-                (t.expr, v)
+                v
             }
-            None => (scalar_const(f64::NAN), f64::NAN),
+            None => f64::NAN,
         };
         param_values.push(value);
         out_params.push(Param {
@@ -661,7 +824,6 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
             span,
             docs: p.docs.clone(),
             value,
-            expr,
         });
     }
     let all_params = out_params.len();
@@ -704,7 +866,13 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
                 if let Some(t) = t {
                     let v = eval_scalar(&t.expr, &param_values);
                     if !v.is_finite() {
-                        cx.error(g[k].span(), format!("this initial guess is {}: expected a finite number", show_nonfinite(v)));
+                        cx.error(
+                            g[k].span(),
+                            format!(
+                                "this initial guess is {}: expected a finite number",
+                                show_nonfinite(v)
+                            ),
+                        );
                     }
                     guess[k] = t.expr;
                     guess_value[k] = v;
@@ -733,13 +901,16 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         if let Some(first) = eq_names.get(&name) {
             let s = first.start();
             cx.push(
-                Diagnostic::error(span, format!("duplicate equation name `{name}`"))
-                    .with_help(format!("`{name}` is first declared at {}:{}", s.line, s.column + 1)),
+                Diagnostic::error(span, format!("duplicate equation name `{name}`")).with_help(
+                    format!("`{name}` is first declared at {}:{}", s.line, s.column + 1),
+                ),
             );
         } else {
             eq_names.insert(name.clone(), span);
         }
-        let Some((form, deps, library_kind, rows)) = check_equation(&mut cx, &names, e, all_params, &param_values) else {
+        let Some((form, deps, library_kind, rows)) =
+            check_equation(&mut cx, &names, e, all_params, &param_values)
+        else {
             // Its row count is unknown: the DOF rule stays quiet.
             rows_known = false;
             continue;
@@ -886,7 +1057,10 @@ fn vector_const(a: f64, b: f64) -> TExpr {
 fn constant(cx: &mut Ctxt, t: &Typed, what: &str) -> bool {
     let mut ok = true;
     if let Some(s) = t.deps.time {
-        cx.error(s, format!("time `t` cannot appear in {what}: expected a constant expression of params"));
+        cx.error(
+            s,
+            format!("time `t` cannot appear in {what}: expected a constant expression of params"),
+        );
         ok = false;
     }
     if let Some(s) = t.deps.coord {
@@ -902,7 +1076,10 @@ fn expect_ty(cx: &mut Ctxt, t: Typed, ty: Ty, span: Span) -> Option<Typed> {
     if t.expr.ty() == ty {
         return Some(t);
     }
-    cx.error(span, format!("expected {}, found {}", ty_name(ty), ty_name(t.expr.ty())));
+    cx.error(
+        span,
+        format!("expected {}, found {}", ty_name(ty), ty_name(t.expr.ty())),
+    );
     None
 }
 
@@ -1002,41 +1179,54 @@ fn check_expr(
                 let n = id.to_string();
                 match n.as_str() {
                     "pi" => Some((TNode::Pi, Ty::Scalar, Deps::default())),
-                    "t" => Some((TNode::Time, Ty::Scalar, Deps { time: Some(span), coord: None })),
+                    "t" => Some((
+                        TNode::Time,
+                        Ty::Scalar,
+                        Deps {
+                            time: Some(span),
+                            coord: None,
+                        },
+                    )),
                     "ground" => {
-                        cx.push(Diagnostic::error(span, "expected a scalar, found the body `ground`")
-                            .with_help("a point on ground is `ground(x, y)`"));
+                        cx.push(
+                            Diagnostic::error(span, "expected a scalar, found the body `ground`")
+                                .with_help("a point on ground is `ground(x, y)`"),
+                        );
                         None
                     }
-                    _ => match names.decls.get(&n) {
-                        Some(Decl::Param(p)) => {
-                            if (*p as usize) < params_visible {
-                                Some((TNode::Param(*p), Ty::Scalar, Deps::default()))
-                            } else {
-                                // error: param `b` is used before its declaration
-                                cx.error(span, format!("param `{n}` is used before its value is known: a param may use only params declared before it"));
+                    _ => {
+                        match names.decls.get(&n) {
+                            Some(Decl::Param(p)) => {
+                                if (*p as usize) < params_visible {
+                                    Some((TNode::Param(*p), Ty::Scalar, Deps::default()))
+                                } else {
+                                    // error: param `b` is used before its declaration
+                                    cx.error(span, format!("param `{n}` is used before its value is known: a param may use only params declared before it"));
+                                    None
+                                }
+                            }
+                            Some(Decl::Body(_)) => {
+                                // error: expected a scalar, found the body `crank`
+                                cx.push(Diagnostic::error(span, format!("expected a scalar, found the body `{n}`"))
+                                .with_help(format!("use a coordinate (`{n}.x`, `{n}.y`, `{n}.phi`) or a point (`{n}(sx, sy)`)")));
+                                None
+                            }
+                            None => {
+                                // error: unknown name `l3`
+                                cx.push(Diagnostic::error(span, format!("unknown name `{n}`"))
+                                .with_help("expected a param, `pi`, `t`, or a coordinate such as `body.x`"));
                                 None
                             }
                         }
-                        Some(Decl::Body(_)) => {
-                            // error: expected a scalar, found the body `crank`
-                            cx.push(Diagnostic::error(span, format!("expected a scalar, found the body `{n}`"))
-                                .with_help(format!("use a coordinate (`{n}.x`, `{n}.y`, `{n}.phi`) or a point (`{n}(sx, sy)`)")));
-                            None
-                        }
-                        None => {
-                            // error: unknown name `l3`
-                            cx.push(Diagnostic::error(span, format!("unknown name `{n}`"))
-                                .with_help("expected a param, `pi`, `t`, or a coordinate such as `body.x`"));
-                            None
-                        }
-                    },
+                    }
                 }
             }
             ExprKind::Field(b, field) => {
                 let f = field.to_string();
                 if body_base.contains(b) {
-                    let ExprKind::Ident(body_id) = &expr.node(*b).kind else { continue };
+                    let ExprKind::Ident(body_id) = &expr.node(*b).kind else {
+                        continue;
+                    };
                     let bn = body_id.to_string();
                     let body = if bn == "ground" {
                         BodyRef::Ground
@@ -1057,7 +1247,14 @@ fn check_expr(
                                 "y" => Comp::Y,
                                 _ => Comp::Phi,
                             };
-                            Some((TNode::Coord(k, c), Ty::Scalar, Deps { time: None, coord: Some(span) }))
+                            Some((
+                                TNode::Coord(k, c),
+                                Ty::Scalar,
+                                Deps {
+                                    time: None,
+                                    coord: Some(span),
+                                },
+                            ))
                         }
                         _ => match names.points.get(&(body, f.clone())) {
                             Some(p) => {
@@ -1084,7 +1281,13 @@ fn check_expr(
                             Some((n, Ty::Scalar, da))
                         }
                         "x" | "y" => {
-                            cx.error(expr.node(*b).span, format!("expected a vector before `.{f}`, found {}", describe(expr, *b, ta)));
+                            cx.error(
+                                expr.node(*b).span,
+                                format!(
+                                    "expected a vector before `.{f}`, found {}",
+                                    describe(expr, *b, ta)
+                                ),
+                            );
                             None
                         }
                         _ => {
@@ -1097,7 +1300,13 @@ fn check_expr(
             }
             ExprKind::Tuple(items) => {
                 if items.len() != 2 {
-                    cx.error(span, format!("expected a vector `(a, b)`, found a tuple of {} elements", items.len()));
+                    cx.error(
+                        span,
+                        format!(
+                            "expected a vector `(a, b)`, found a tuple of {} elements",
+                            items.len()
+                        ),
+                    );
                     None
                 } else {
                     let (a, da) = child!(&items[0]);
@@ -1118,13 +1327,26 @@ fn check_expr(
                 let deps = dx.or(dy);
                 match (op, tx, ty) {
                     (BinOp::Add | BinOp::Sub, _, _) if tx == ty => {
-                        let n = if *op == BinOp::Add { TNode::Add(x, y) } else { TNode::Sub(x, y) };
+                        let n = if *op == BinOp::Add {
+                            TNode::Add(x, y)
+                        } else {
+                            TNode::Sub(x, y)
+                        };
                         Some((n, tx, deps))
                     }
                     (BinOp::Add | BinOp::Sub, _, _) => {
                         // error: expected a scalar, found a vector (point `crank.o`)
-                        cx.push(Diagnostic::error(expr.node(*b).span, format!("expected {}, found {}", ty_name(tx), describe(expr, *b, ty)))
-                            .with_label(format!("the left side is {}", ty_name(tx))));
+                        cx.push(
+                            Diagnostic::error(
+                                expr.node(*b).span,
+                                format!(
+                                    "expected {}, found {}",
+                                    ty_name(tx),
+                                    describe(expr, *b, ty)
+                                ),
+                            )
+                            .with_label(format!("the left side is {}", ty_name(tx))),
+                        );
                         None
                     }
                     (BinOp::Mul, Ty::Vector, Ty::Vector) => {
@@ -1133,11 +1355,21 @@ fn check_expr(
                         None
                     }
                     (BinOp::Mul, _, _) => {
-                        let t = if tx == Ty::Vector || ty == Ty::Vector { Ty::Vector } else { Ty::Scalar };
+                        let t = if tx == Ty::Vector || ty == Ty::Vector {
+                            Ty::Vector
+                        } else {
+                            Ty::Scalar
+                        };
                         Some((TNode::Mul(x, y), t, deps))
                     }
                     (BinOp::Div, _, Ty::Vector) => {
-                        cx.error(expr.node(*b).span, format!("expected a scalar divisor, found {}", describe(expr, *b, ty)));
+                        cx.error(
+                            expr.node(*b).span,
+                            format!(
+                                "expected a scalar divisor, found {}",
+                                describe(expr, *b, ty)
+                            ),
+                        );
                         None
                     }
                     (BinOp::Div, _, _) => Some((TNode::Div(x, y), tx, deps)),
@@ -1178,9 +1410,14 @@ fn check_expr(
                             ok = false;
                         }
                         if ok {
-                            let v = out.push(TNode::Vec(typed_args[0].0, typed_args[1].0), Ty::Vector);
+                            let v =
+                                out.push(TNode::Vec(typed_args[0].0, typed_args[1].0), Ty::Vector);
                             let coord = (body != BodyRef::Ground).then_some(span);
-                            Some((TNode::Point(body, v), Ty::Vector, Deps { time: None, coord }))
+                            Some((
+                                TNode::Point(body, v),
+                                Ty::Vector,
+                                Deps { time: None, coord },
+                            ))
                         } else {
                             None
                         }
@@ -1224,7 +1461,10 @@ fn scalar_arg(cx: &mut Ctxt, expr: &syntax::Expr, out: &TExpr, syn_i: u32, typed
         return true;
     }
     // error: expected a scalar, found a vector (point `crank.o`)
-    cx.error(expr.node(syn_i).span, format!("expected a scalar, found {}", describe(expr, syn_i, ty)));
+    cx.error(
+        expr.node(syn_i).span,
+        format!("expected a scalar, found {}", describe(expr, syn_i, ty)),
+    );
     false
 }
 
@@ -1234,7 +1474,10 @@ fn vector_arg(cx: &mut Ctxt, expr: &syntax::Expr, out: &TExpr, syn_i: u32, typed
         return true;
     }
     // error: expected a vector, found a scalar
-    cx.error(expr.node(syn_i).span, format!("expected a vector, found {}", describe(expr, syn_i, ty)));
+    cx.error(
+        expr.node(syn_i).span,
+        format!("expected a vector, found {}", describe(expr, syn_i, ty)),
+    );
     false
 }
 
@@ -1254,9 +1497,15 @@ fn check_call(
     //   error: unknown function `sine`
     let Some((_, signature)) = FUNCTIONS.iter().find(|(n, _)| *n == f) else {
         let help = if library(f).is_some() {
-            format!("`{f}` is a library constraint: it is a whole equation, as in `joint j: {};`", library(f).map_or("", |s| s.signature))
+            format!(
+                "`{f}` is a library constraint: it is a whole equation, as in `joint j: {};`",
+                library(f).map_or("", |s| s.signature)
+            )
         } else {
-            format!("expected a body (for a point `B(sx, sy)`) or one of: {}", function_names())
+            format!(
+                "expected a body (for a point `B(sx, sy)`) or one of: {}",
+                function_names()
+            )
         };
         cx.push(Diagnostic::error(fspan, format!("unknown function `{f}`")).with_help(help));
         return None;
@@ -1269,18 +1518,29 @@ fn check_call(
     // Rule: argument counts match the signature.
     //   error: wrong number of arguments: expected `atan2(y, x)`, found 1 argument
     if args.len() != arity {
-        cx.error(span, format!("wrong number of arguments: expected `{signature}`, found {}", plural_args(args.len())));
+        cx.error(
+            span,
+            format!(
+                "wrong number of arguments: expected `{signature}`, found {}",
+                plural_args(args.len())
+            ),
+        );
         return None;
     }
     let deps = typed.iter().fold(Deps::default(), |d, (_, e)| d.or(*e));
     let a = |k: usize| typed[k].0;
     let node = match f {
         "dot" | "cross" => {
-            let ok = vector_arg(cx, expr, out, args[0], a(0)) & vector_arg(cx, expr, out, args[1], a(1));
+            let ok =
+                vector_arg(cx, expr, out, args[0], a(0)) & vector_arg(cx, expr, out, args[1], a(1));
             if !ok {
                 return None;
             }
-            let n = if f == "dot" { TNode::Dot(a(0), a(1)) } else { TNode::Cross(a(0), a(1)) };
+            let n = if f == "dot" {
+                TNode::Dot(a(0), a(1))
+            } else {
+                TNode::Cross(a(0), a(1))
+            };
             return Some((n, Ty::Scalar, deps));
         }
         "norm" => {
@@ -1296,7 +1556,8 @@ fn check_call(
             return Some((TNode::Perp(a(0)), Ty::Vector, deps));
         }
         "rot" => {
-            let ok = scalar_arg(cx, expr, out, args[0], a(0)) & vector_arg(cx, expr, out, args[1], a(1));
+            let ok =
+                scalar_arg(cx, expr, out, args[0], a(0)) & vector_arg(cx, expr, out, args[1], a(1));
             if !ok {
                 return None;
             }
@@ -1357,7 +1618,9 @@ fn integer_literal(expr: &syntax::Expr, i: u32) -> Option<i32> {
         _ => (false, i),
     };
     match &expr.node(j).kind {
-        ExprKind::Num { value, suffix } if suffix.is_empty() && value.fract() == 0.0 && value.abs() <= 1e6 => {
+        ExprKind::Num { value, suffix }
+            if suffix.is_empty() && value.fract() == 0.0 && value.abs() <= 1e6 =>
+        {
             // Checked range above: the cast is exact.
             #[allow(clippy::cast_possible_truncation)]
             let n = *value as i32;
@@ -1389,14 +1652,29 @@ fn check_equation(
             if l.expr.ty() != r.expr.ty() {
                 // error: expected a scalar, found a vector: both sides of `==` have the same type
                 cx.push(
-                    Diagnostic::error(rhs.span(), format!("expected {}, found {}", ty_name(l.expr.ty()), describe(rhs, rhs.root, r.expr.ty())))
-                        .with_label(format!("the left side is {}", ty_name(l.expr.ty()))),
+                    Diagnostic::error(
+                        rhs.span(),
+                        format!(
+                            "expected {}, found {}",
+                            ty_name(l.expr.ty()),
+                            describe(rhs, rhs.root, r.expr.ty())
+                        ),
+                    )
+                    .with_label(format!("the left side is {}", ty_name(l.expr.ty()))),
                 );
                 return None;
             }
             let rows = if l.expr.ty() == Ty::Vector { 2 } else { 1 };
             let deps = l.deps.or(r.deps);
-            Some((Form::User { lhs: l.expr, rhs: r.expr }, deps, None, rows))
+            Some((
+                Form::User {
+                    lhs: l.expr,
+                    rhs: r.expr,
+                },
+                deps,
+                None,
+                rows,
+            ))
         }
         (Some(_), Some((spec, f, _))) => {
             // error: `revolute(…)` is a whole equation and cannot be compared with `==`
@@ -1417,12 +1695,19 @@ fn check_equation(
                 _ => e.lhs.span(),
             };
             cx.push(
-                Diagnostic::error(span, format!("expected a library constraint or an equation `lhs == rhs`, found {found}"))
-                    .with_help(format!("the library constraints are {}", library_names())),
+                Diagnostic::error(
+                    span,
+                    format!(
+                        "expected a library constraint or an equation `lhs == rhs`, found {found}"
+                    ),
+                )
+                .with_help(format!("the library constraints are {}", library_names())),
             );
             None
         }
-        (None, Some((spec, _, args))) => check_library(cx, names, e, spec, args, all_params, param_values),
+        (None, Some((spec, _, args))) => {
+            check_library(cx, names, e, spec, args, all_params, param_values)
+        }
     }
 }
 
@@ -1439,7 +1724,14 @@ fn check_library(
     // Rule: argument counts match the signature.
     //   error: wrong number of arguments: expected `revolute(Pi, Pj)`, found 3 arguments
     if args.len() != spec.args.len() {
-        cx.error(expr.span(), format!("wrong number of arguments: expected `{}`, found {}", spec.signature, plural_args(args.len())));
+        cx.error(
+            expr.span(),
+            format!(
+                "wrong number of arguments: expected `{}`, found {}",
+                spec.signature,
+                plural_args(args.len())
+            ),
+        );
         return None;
     }
     let mut out = Vec::new();
@@ -1455,7 +1747,10 @@ fn check_library(
                     if n == "ground" {
                         (Some(LibArg::Body(BodyRef::Ground)), Some(BodyRef::Ground))
                     } else if let Some(Decl::Body(k)) = names.decls.get(&n) {
-                        (Some(LibArg::Body(BodyRef::Body(*k))), Some(BodyRef::Body(*k)))
+                        (
+                            Some(LibArg::Body(BodyRef::Body(*k))),
+                            Some(BodyRef::Body(*k)),
+                        )
                     } else {
                         cx.push(unknown_body(node.span, &n, &names.bodies));
                         (None, None)
@@ -1463,7 +1758,10 @@ fn check_library(
                 }
                 _ => {
                     // error: expected a body name, found an expression
-                    cx.error(node.span, format!("expected a body name (or `ground`) in `{}`", spec.signature));
+                    cx.error(
+                        node.span,
+                        format!("expected a body name (or `ground`) in `{}`", spec.signature),
+                    );
                     (None, None)
                 }
             },
@@ -1529,8 +1827,11 @@ fn check_library(
             BodyRef::Body(k) => names.bodies.get(*k as usize).cloned().unwrap_or_default(),
         };
         cx.push(
-            Diagnostic::error(expr.span(), format!("`{}` joins the body `{name}` to itself", spec.name))
-                .with_help("expected two different bodies"),
+            Diagnostic::error(
+                expr.span(),
+                format!("`{}` joins the body `{name}` to itself", spec.name),
+            )
+            .with_help("expected two different bodies"),
         );
         ok = false;
     }
@@ -1538,7 +1839,12 @@ fn check_library(
         return None;
     }
     // A library constraint depends on coordinates through its points and bodies.
-    Some((Form::Library(spec.kind, out), deps, Some(spec.kind), spec.rows))
+    Some((
+        Form::Library(spec.kind, out),
+        deps,
+        Some(spec.kind),
+        spec.rows,
+    ))
 }
 
 /// A point argument: `B(sx, sy)`, `B.name` or `ground(x, y)`.
@@ -1594,7 +1900,13 @@ fn check_point_arg(
         }
         ExprKind::Field(b, f) => {
             let ExprKind::Ident(bid) = &expr.node(*b).kind else {
-                cx.error(node.span, format!("expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{}`", spec.signature));
+                cx.error(
+                    node.span,
+                    format!(
+                        "expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{}`",
+                        spec.signature
+                    ),
+                );
                 return None;
             };
             let bn = bid.to_string();
@@ -1609,15 +1921,28 @@ fn check_point_arg(
                     Some((body, point.local.clone()))
                 }
                 None => {
-                    cx.push(Diagnostic::error(Span::new(f.span()), format!("body `{bn}` has no point `{fname}`"))
-                        .with_help(format!("expected a point declared with `point {bn}.{fname} = (sx, sy);`")));
+                    cx.push(
+                        Diagnostic::error(
+                            Span::new(f.span()),
+                            format!("body `{bn}` has no point `{fname}`"),
+                        )
+                        .with_help(format!(
+                            "expected a point declared with `point {bn}.{fname} = (sx, sy);`"
+                        )),
+                    );
                     None
                 }
             }
         }
         _ => {
             // error: expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`)
-            cx.error(node.span, format!("expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{}`", spec.signature));
+            cx.error(
+                node.span,
+                format!(
+                    "expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{}`",
+                    spec.signature
+                ),
+            );
             None
         }
     }
@@ -1686,14 +2011,22 @@ fn eval(t: &TExpr, params: &[f64]) -> Val {
                 _ => Val::S(-s(&v, a)),
             },
             TNode::Add(a, b) | TNode::Sub(a, b) => {
-                let sign = if matches!(n, TNode::Add(..)) { 1.0 } else { -1.0 };
+                let sign = if matches!(n, TNode::Add(..)) {
+                    1.0
+                } else {
+                    -1.0
+                };
                 match (v.get(a as usize), v.get(b as usize)) {
-                    (Some(Val::V(x1, y1)), Some(Val::V(x2, y2))) => Val::V(x1 + sign * x2, y1 + sign * y2),
+                    (Some(Val::V(x1, y1)), Some(Val::V(x2, y2))) => {
+                        Val::V(x1 + sign * x2, y1 + sign * y2)
+                    }
                     _ => Val::S(s(&v, a) + sign * s(&v, b)),
                 }
             }
             TNode::Mul(a, b) => match (v.get(a as usize), v.get(b as usize)) {
-                (Some(Val::V(x, y)), Some(Val::S(c))) | (Some(Val::S(c)), Some(Val::V(x, y))) => Val::V(c * x, c * y),
+                (Some(Val::V(x, y)), Some(Val::S(c))) | (Some(Val::S(c)), Some(Val::V(x, y))) => {
+                    Val::V(c * x, c * y)
+                }
                 _ => Val::S(s(&v, a) * s(&v, b)),
             },
             TNode::Div(a, b) => match v.get(a as usize) {

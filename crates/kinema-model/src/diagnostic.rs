@@ -259,9 +259,8 @@ impl Diagnostics {
     /// failures).
     #[must_use]
     pub fn into_syn_error(self) -> syn::Error {
-        self.to_syn_error().unwrap_or_else(|| {
-            syn::Error::new(proc_macro2::Span::call_site(), "invalid mechanism")
-        })
+        self.to_syn_error()
+            .unwrap_or_else(|| syn::Error::new(proc_macro2::Span::call_site(), "invalid mechanism"))
     }
 }
 

@@ -1,11 +1,181 @@
-//! kinema-model (draft; docs completed below).
+//! The kinema model language: parsing, validation, the planar constraint
+//! library and the symbolic derivation.
+//!
+//! Three phases, three types:
+//!
+//! 1. [`Model`] — the syntax tree ([`syntax`]), parsed with syn from text
+//!    ([`Model::parse_str`]) or from the tokens of a proc-macro
+//!    ([`Model::parse_tokens`]). It keeps tokens and spans.
+//! 2. [`CheckedModel`] — validated by [`Model::check`] ([`check`]): names
+//!    resolved, expressions typed, counts right. Every independent error is
+//!    reported at once as [`Diagnostics`], which render like rustc for text
+//!    ([`Diagnostics::render`]) or become one combined `syn::Error` for the
+//!    proc-macro ([`Diagnostics::into_syn_error`]).
+//! 3. [`Derivation`] — built by [`Derivation::new`], which cannot fail:
+//!    Φ, sparse Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ in one
+//!    [`kinema_expr::Arena`], the DOF report, and [`Derivation::render`].
+//!
+//! ```
+//! use kinema_model::{Derivation, Model};
+//! let src = r#"
+//! mechanism Pendulum {
+//!     /// bar half-length [m]
+//!     param L = 1;
+//!     body bar { guess: (L, 0, 0) }
+//!     joint pin: revolute(bar(-L, 0), ground(0, 0));
+//!     driver swing: bar.phi == 4 * t * t;
+//! }"#;
+//! let model = Model::parse_str(src).and_then(|m| m.check());
+//! let checked = match model {
+//!     Ok(c) => c,
+//!     Err(d) => panic!("{}", d.render(src, "pendulum.kin")),
+//! };
+//! let derivation = Derivation::new(&checked);
+//! assert_eq!(derivation.dof.ndof(), 0);
+//! assert!(derivation.render().contains("swing"));
+//! ```
+//!
+//! # The language
+//!
+//! Tokens are Rust tokens: `//` comments are skipped, `///` doc comments are
+//! kept (on the mechanism, params, bodies, points and equations).
+//!
+//! ```text
+//! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
+//! Item       := Doc* ( Param | Body | Point | Equation )
+//! Param      := "param" Ident "=" Expr ";"              constant: numbers, `pi`, earlier params
+//! Body       := "body" Ident "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" )? "}"
+//!             | "body" Ident ";"                          guess (0, 0, 0)
+//! Point      := "point" Body "." Ident "=" Expr ";"      local coordinates, constants of params
+//! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" ( Expr "==" Expr | LibraryCall ) ";"
+//! Expr       := Product ( ( "+" | "-" ) Product )*
+//! Product    := Unary ( ( "*" | "/" ) Unary )*
+//! Unary      := "-"* Postfix
+//! Postfix    := Primary ( "." Ident )*
+//! Primary    := Number | Ident | Ident "(" Expr,* ")" | "(" Expr ")" | "(" Expr "," Expr ")"
+//! ```
+//!
+//! - Numbers are written as in maths: `2`, `0.3`, `1e-3`. Type suffixes
+//!   (`2f64`) are errors, so are non-finite values (`1e999`).
+//! - Names: `pi`; `t` (time); `ground` (the fixed body, no coordinates; a
+//!   point on ground `ground(x, y)` is a global point); params; bodies.
+//! - Scalars: numbers, params, `pi`, `t`, coordinates `B.x`, `B.y`,
+//!   `B.phi`, components `v.x`, `v.y` of a vector `v`, `+ - * /`, unary `-`,
+//!   and the functions `sin cos tan asin acos atan sinh cosh tanh exp ln sqrt
+//!   abs`, `atan2(y, x)`, `pow(x, y)`, `powi(x, n)` (n an integer literal),
+//!   `step(x, x0, h0, x1, h1)` (cubic step), `dot(a, b)`,
+//!   `cross(a, b)` (= a_x b_y − a_y b_x), `norm(a)`.
+//! - Vectors: points `B(sx, sy)` and `B.name` (global position of a
+//!   body-fixed point, local coordinates in the body frame), literals
+//!   `(a, b)`, `u + v`, `u - v`, `-u`, `c * u`, `u * c`, `u / c`,
+//!   `rot(angle, v)` (= A(angle) v), `perp(v)` (= R v, rotated +90°).
+//! - `lhs == rhs` is the equation Φ = lhs − rhs; a vector equation gives two
+//!   rows `name.x`, `name.y`.
+//! - `joint` and `constraint` are kinematic: they may not depend on `t`.
+//!   `driver` rows are driving equations, normally functions of `t` (a driver
+//!   that does not mention `t` is accepted with a warning).
+//! - The mechanism must have NDOF = 3·bodies − kinematic rows − driving rows = 0.
+//!
+//! Library constraints (CONSTRAINTS.md; P is a point `B(sx, sy)`, `B.name`
+//! or `ground(x, y)`; B a body or `ground`; v, a body-fixed vectors `(vx, vy)`
+//! in the frame of the body of the point they follow; f, C, L, c, R, θ scalar
+//! expressions of params and `t`). Rows are named `name` for one row,
+//! `name.x`/`name.y` for `revolute` and `name.1`/`name.2` for the other
+//! two-row constraints. Distance forms are Φ = dᵀd − C² (no ½).
+//!
+//! | call | Φ | rows |
+//! |---|---|---|
+//! | `abs_x(P, f)`, `abs_y(P, f)` | x (y) of P − f | 1 |
+//! | `abs_angle(B, f)` | φ_B − f | 1 |
+//! | `abs_distance(P, (cx, cy), C)` | hᵀh − C², h = P − c | 1 |
+//! | `rel_x(Pi, Pj, f)`, `rel_y(Pi, Pj, f)` | x (y) of d − f, d = Pj − Pi | 1 |
+//! | `rel_angle(Bi, Bj, f)` | φ_j − φ_i − f | 1 |
+//! | `rel_distance(Pi, Pj, C)` | dᵀd − C² | 1 |
+//! | `revolute(Pi, Pj)` | Pi − Pj | 2 |
+//! | `translational(Pi, vi, Pj, vj)` | [n_iᵀd; n_iᵀu_j], u = A v, n_i = R u_i | 2 |
+//! | `revolute_revolute(Pi, Pj, L)` | dᵀd − L² | 1 |
+//! | `revolute_translational(Pi, vi, Pj, c)` | n̂_iᵀd − c (v normalised) | 1 |
+//! | `gear(Pi, Pj, Ri, Rj, theta_i, theta_j)` | e⊥ᵀd (CONSTRAINTS §3) | 1 |
+//! | `rack_pinion(Pi, vi, Pj, Rp, c0)` | [n̂ᵀd − Rp; ûᵀd + Rp(φ_j − φ_i) − c0] | 2 |
+//! | `translational_distance(Pi, vi, Pj, C)` | ûᵀd − C | 1 |
+//! | `dp1(Bi, ai, Bj, aj, f)` | a_iᵀa_j − f | 1 |
+//! | `dp2(Pi, ai, Pj, f)` | a_iᵀd − f | 1 |
+//! | `d(Pi, Pj, f)` | dᵀd − f | 1 |
+//! | `cd((cx, cy), Pi, Pj, f)` | cᵀd − f | 1 |
+//!
+//! Every library constraint is written with the same vector algebra users
+//! have ([`algebra`]); no derivative is written by hand. The point-follower
+//! and cam-follower constraints (PF, CF), which need extra coordinates, are
+//! not part of the language yet.
 
+pub mod algebra;
+pub mod chain;
 pub mod check;
 mod ctxt;
+pub mod derive;
 pub mod diagnostic;
+mod library;
+mod lower;
+mod render;
 pub mod span;
 pub mod syntax;
 
-pub use check::{CheckedModel, DofReport};
+pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind};
+pub use derive::{Coordinate, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Severity};
 pub use span::Span;
+pub use syntax::EquationKeyword;
+
+/// A parsed (not yet validated) mechanism.
+#[derive(Clone, Debug)]
+pub struct Model {
+    syntax: syntax::Mechanism,
+}
+
+impl Model {
+    /// Parses the text of a `.kin` file.
+    ///
+    /// # Errors
+    /// Lexer and parser errors.
+    pub fn parse_str(source: &str) -> Result<Model, Diagnostics> {
+        syntax::parse_str(source).map(|syntax| Model { syntax })
+    }
+
+    /// Parses the tokens of a `mechanism! { … }` invocation.
+    ///
+    /// # Errors
+    /// Parser errors.
+    pub fn parse_tokens(tokens: proc_macro2::TokenStream) -> Result<Model, Diagnostics> {
+        syntax::parse_tokens(tokens).map(|syntax| Model { syntax })
+    }
+
+    /// The syntax tree.
+    #[must_use]
+    pub fn syntax(&self) -> &syntax::Mechanism {
+        &self.syntax
+    }
+
+    /// Validates the model (all rules of [`check`]).
+    ///
+    /// # Errors
+    /// Every error found, with the warnings.
+    pub fn check(&self) -> Result<CheckedModel, Diagnostics> {
+        check::check(&self.syntax)
+    }
+}
+
+/// Parses and checks the text of a `.kin` file in one go.
+///
+/// # Errors
+/// Every error found, with the warnings.
+pub fn check_str(source: &str) -> Result<CheckedModel, Diagnostics> {
+    Model::parse_str(source)?.check()
+}
+
+/// Parses, checks and derives the text of a `.kin` file in one go.
+///
+/// # Errors
+/// Every error found, with the warnings.
+pub fn derive_str(source: &str) -> Result<Derivation, Diagnostics> {
+    check_str(source).map(|c| Derivation::new(&c))
+}

@@ -405,7 +405,11 @@ fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
 }
 
 /// Comma-separated expressions (trailing comma allowed) filling `content`.
-fn parse_args(content: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<Vec<u32>> {
+fn parse_args(
+    content: ParseStream<'_>,
+    b: &mut ExprBuilder,
+    depth: usize,
+) -> syn::Result<Vec<u32>> {
     let mut args = Vec::new();
     while !content.is_empty() {
         args.push(parse_sum(content, b, depth)?);
@@ -569,12 +573,17 @@ fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
             name,
             value,
         }))
-    } else if lookahead.peek(kw::joint) || lookahead.peek(kw::constraint) || lookahead.peek(kw::driver)
+    } else if lookahead.peek(kw::joint)
+        || lookahead.peek(kw::constraint)
+        || lookahead.peek(kw::driver)
     {
         let (keyword, keyword_span) = if input.peek(kw::joint) {
             (EquationKeyword::Joint, input.parse::<kw::joint>()?.span)
         } else if input.peek(kw::constraint) {
-            (EquationKeyword::Constraint, input.parse::<kw::constraint>()?.span)
+            (
+                EquationKeyword::Constraint,
+                input.parse::<kw::constraint>()?.span,
+            )
         } else {
             (EquationKeyword::Driver, input.parse::<kw::driver>()?.span)
         };

@@ -1,0 +1,218 @@
+//! Lowering typed expressions of a [`CheckedModel`] into the engine's arena.
+//! A forward loop over flat expressions: no recursion, whatever the depth.
+
+use kinema_expr::{Arena, ExprId};
+
+use crate::algebra::{Vec2, VecAlgebra};
+use crate::check::{BodyRef, CheckedModel, Comp, Func1, TExpr, TNode};
+
+/// A lowered value: scalar or vector.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Value {
+    S(ExprId),
+    V(Vec2),
+}
+
+/// The symbols of a model in an arena, and the lowered named points.
+pub(crate) struct Lowerer<'m> {
+    pub(crate) model: &'m CheckedModel,
+    pub(crate) params: Vec<ExprId>,
+    /// `[x, y, phi]` per body.
+    pub(crate) coords: Vec<[ExprId; 3]>,
+    pub(crate) time: ExprId,
+    /// Local coordinates of each named point.
+    pub(crate) point_locals: Vec<Vec2>,
+}
+
+impl<'m> Lowerer<'m> {
+    /// Creates the symbols: params, then coordinates (bodies in order, x, y,
+    /// phi), then time; and lowers the named points' local coordinates.
+    pub(crate) fn new(arena: &mut Arena, model: &'m CheckedModel) -> Self {
+        let params = model
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, p)| arena.parameter(&p.name, idx(i)))
+            .collect();
+        let coords = model
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(k, b)| {
+                let base = 3 * k;
+                [
+                    arena.coordinate(&format!("{}.x", b.name), idx(base)),
+                    arena.coordinate(&format!("{}.y", b.name), idx(base + 1)),
+                    arena.coordinate(&format!("{}.phi", b.name), idx(base + 2)),
+                ]
+            })
+            .collect();
+        let time = arena.time();
+        let mut me = Lowerer {
+            model,
+            params,
+            coords,
+            time,
+            point_locals: Vec::new(),
+        };
+        let mut locals = Vec::with_capacity(model.points.len());
+        for p in &model.points {
+            locals.push(me.vector(arena, &p.local));
+        }
+        me.point_locals = locals;
+        me
+    }
+
+    /// Global position of the body-fixed point with local coordinates `s`.
+    pub(crate) fn global(&self, arena: &mut Arena, body: BodyRef, s: Vec2) -> Vec2 {
+        match body {
+            BodyRef::Ground => s,
+            BodyRef::Body(k) => {
+                let [x, y, phi] = self.coords[k as usize];
+                let a = arena.rot(phi, s);
+                arena.vadd(Vec2::new(x, y), a)
+            }
+        }
+    }
+
+    /// A body-fixed vector expressed globally: `A(φ) v`.
+    pub(crate) fn rotate(&self, arena: &mut Arena, body: BodyRef, v: Vec2) -> Vec2 {
+        match body {
+            BodyRef::Ground => v,
+            BodyRef::Body(k) => arena.rot(self.coords[k as usize][2], v),
+        }
+    }
+
+    /// The angle of a body (0 for ground).
+    pub(crate) fn angle(&self, arena: &mut Arena, body: BodyRef) -> ExprId {
+        match body {
+            BodyRef::Ground => arena.num(0.0),
+            BodyRef::Body(k) => self.coords[k as usize][2],
+        }
+    }
+
+    /// Lowers a scalar expression (a vector one gives its x component; the
+    /// checker never lets that happen).
+    pub(crate) fn scalar(&self, arena: &mut Arena, t: &TExpr) -> ExprId {
+        match self.lower(arena, t) {
+            Value::S(e) => e,
+            Value::V(v) => v.x,
+        }
+    }
+
+    /// Lowers a vector expression.
+    pub(crate) fn vector(&self, arena: &mut Arena, t: &TExpr) -> Vec2 {
+        match self.lower(arena, t) {
+            Value::V(v) => v,
+            Value::S(e) => Vec2::new(e, e),
+        }
+    }
+
+    /// Lowers a typed expression, forward over its nodes.
+    pub(crate) fn lower(&self, arena: &mut Arena, t: &TExpr) -> Value {
+        let mut vals: Vec<Value> = Vec::with_capacity(t.nodes.len());
+        let zero = arena.num(0.0);
+        let s = |vals: &Vec<Value>, i: u32| match vals.get(i as usize) {
+            Some(Value::S(e)) => *e,
+            Some(Value::V(v)) => v.x,
+            None => zero,
+        };
+        let w = |vals: &Vec<Value>, i: u32| match vals.get(i as usize) {
+            Some(Value::V(v)) => *v,
+            Some(Value::S(e)) => Vec2::new(*e, *e),
+            None => Vec2::new(zero, zero),
+        };
+        for n in &t.nodes {
+            let v = match *n {
+                TNode::Num(x) => Value::S(arena.num(x)),
+                TNode::Pi => Value::S(arena.num(std::f64::consts::PI)),
+                TNode::Time => Value::S(self.time),
+                TNode::Param(i) => Value::S(self.params.get(i as usize).copied().unwrap_or(zero)),
+                TNode::Coord(k, c) => {
+                    let xyz = self.coords[k as usize];
+                    Value::S(match c {
+                        Comp::X => xyz[0],
+                        Comp::Y => xyz[1],
+                        Comp::Phi => xyz[2],
+                    })
+                }
+                TNode::Point(body, local) => {
+                    let l = w(&vals, local);
+                    Value::V(self.global(arena, body, l))
+                }
+                TNode::NamedPoint(p) => {
+                    let point = &self.model.points[p as usize];
+                    let l = self
+                        .point_locals
+                        .get(p as usize)
+                        .copied()
+                        .unwrap_or(Vec2::new(zero, zero));
+                    Value::V(self.global(arena, point.body, l))
+                }
+                TNode::Vec(a, b) => Value::V(Vec2::new(s(&vals, a), s(&vals, b))),
+                TNode::X(a) => Value::S(w(&vals, a).x),
+                TNode::Y(a) => Value::S(w(&vals, a).y),
+                TNode::Neg(a) => match vals.get(a as usize) {
+                    Some(Value::V(v)) => Value::V(arena.vneg(*v)),
+                    _ => Value::S(arena.neg(s(&vals, a))),
+                },
+                TNode::Add(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
+                    (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vadd(*u, *v)),
+                    _ => Value::S(arena.add(s(&vals, a), s(&vals, b))),
+                },
+                TNode::Sub(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
+                    (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vsub(*u, *v)),
+                    _ => Value::S(arena.sub(s(&vals, a), s(&vals, b))),
+                },
+                TNode::Mul(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
+                    (Some(Value::V(u)), Some(Value::S(c)))
+                    | (Some(Value::S(c)), Some(Value::V(u))) => Value::V(arena.vscale(*c, *u)),
+                    _ => Value::S(arena.mul(s(&vals, a), s(&vals, b))),
+                },
+                TNode::Div(a, b) => match vals.get(a as usize) {
+                    Some(Value::V(u)) => Value::V(arena.vdiv(*u, s(&vals, b))),
+                    _ => Value::S(arena.div(s(&vals, a), s(&vals, b))),
+                },
+                TNode::F1(f, a) => {
+                    let x = s(&vals, a);
+                    Value::S(match f {
+                        Func1::Sin => arena.sin(x),
+                        Func1::Cos => arena.cos(x),
+                        Func1::Tan => arena.tan(x),
+                        Func1::Asin => arena.asin(x),
+                        Func1::Acos => arena.acos(x),
+                        Func1::Atan => arena.atan(x),
+                        Func1::Sinh => arena.sinh(x),
+                        Func1::Cosh => arena.cosh(x),
+                        Func1::Tanh => arena.tanh(x),
+                        Func1::Exp => arena.exp(x),
+                        Func1::Ln => arena.ln(x),
+                        Func1::Sqrt => arena.sqrt(x),
+                        Func1::Abs => arena.abs(x),
+                    })
+                }
+                TNode::Atan2(a, b) => Value::S(arena.atan2(s(&vals, a), s(&vals, b))),
+                TNode::Pow(a, b) => Value::S(arena.pow(s(&vals, a), s(&vals, b))),
+                TNode::Powi(a, k) => Value::S(arena.powi(s(&vals, a), k)),
+                TNode::Step([x, x0, h0, x1, h1]) => Value::S(arena.step(
+                    s(&vals, x),
+                    s(&vals, x0),
+                    s(&vals, h0),
+                    s(&vals, x1),
+                    s(&vals, h1),
+                )),
+                TNode::Dot(a, b) => Value::S(arena.dot(w(&vals, a), w(&vals, b))),
+                TNode::Cross(a, b) => Value::S(arena.cross(w(&vals, a), w(&vals, b))),
+                TNode::Norm(a) => Value::S(arena.norm(w(&vals, a))),
+                TNode::Rot(a, b) => Value::V(arena.rot(s(&vals, a), w(&vals, b))),
+                TNode::Perp(a) => Value::V(arena.perp(w(&vals, a))),
+            };
+            vals.push(v);
+        }
+        vals.last().copied().unwrap_or(Value::S(zero))
+    }
+}
+
+fn idx(i: usize) -> u32 {
+    u32::try_from(i).unwrap_or(u32::MAX)
+}
