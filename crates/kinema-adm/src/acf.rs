@@ -1,0 +1,420 @@
+//! ACF analysis files: what to simulate, until when, and where to output.
+//!
+//! Two forms are read. JSON (the usual one):
+//!
+//! ```text
+//! { "simulation": "Kinematics", "tend": 5.0, "stepSize": 0.01, "outputSteps": 500 }
+//! ```
+//!
+//! and the older plain text, one `key: value` per line, `%` starting a
+//! comment:
+//!
+//! ```text
+//! % analysis
+//! simulation: kinematics
+//! tend: 5
+//! stepSize: 0.01
+//! outputSteps: 500
+//! ```
+//!
+//! `simulation` is compared case-insensitively; keys are matched exactly in
+//! JSON and case-insensitively in the plain form. Numbers may be written as
+//! arithmetic (`1/100`). Outputs are at t_k = k·tend/outputSteps,
+//! k = 0..=outputSteps.
+
+use crate::error::{Diagnostic, Error, Pos, Source};
+use crate::fun::Expr;
+use crate::json::{self, Value};
+
+/// The kind of simulation an ACF asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Simulation {
+    /// Kinematic analysis: position, velocity, acceleration from the drivers.
+    Kinematics,
+    /// Forward dynamics (not supported by kinema yet).
+    Dynamics,
+}
+
+/// An analysis read from an ACF file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Analysis {
+    /// `simulation`.
+    pub simulation: Simulation,
+    /// `tend`: the final time (time starts at 0).
+    pub tend: f64,
+    /// `stepSize`: the largest time step between solves.
+    pub step_size: f64,
+    /// `outputSteps`: the number of output intervals.
+    pub output_steps: usize,
+}
+
+impl Default for Analysis {
+    /// The analysis of simEngine2D's `kinematics.acf`, used for kinematic
+    /// models that come without an ACF: Kinematics, tend 5, stepSize 0.01,
+    /// 500 output steps.
+    fn default() -> Self {
+        Analysis {
+            simulation: Simulation::Kinematics,
+            tend: 5.0,
+            step_size: 0.01,
+            output_steps: 500,
+        }
+    }
+}
+
+impl Analysis {
+    /// Reads an ACF text (JSON if it starts with `{`, else the plain form);
+    /// `file` names it in messages.
+    ///
+    /// # Errors
+    /// Syntax errors, missing or malformed fields, non-positive `tend`,
+    /// `stepSize` or `outputSteps`, an unknown `simulation`.
+    pub fn parse(text: &str, file: &str) -> Result<Analysis, Error> {
+        let source = Source::new(file, text);
+        let fields = if text
+            .trim_start_matches('\u{feff}')
+            .trim_start()
+            .starts_with('{')
+        {
+            json_fields(&source)?
+        } else {
+            plain_fields(&source)?
+        };
+        let mut diags = Vec::new();
+        let analysis = build(&source, &fields, &mut diags);
+        match analysis {
+            Some(a) if diags.is_empty() => Ok(a),
+            _ => Err(Error::new(diags)),
+        }
+    }
+
+    /// Reads an ACF file.
+    ///
+    /// # Errors
+    /// The file cannot be read, or [`Analysis::parse`]'s errors.
+    pub fn read(path: &std::path::Path) -> Result<Analysis, Error> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Diagnostic::whole_file(&name, format!("cannot read the file: {e}")))?;
+        Analysis::parse(&text, &name)
+    }
+
+    /// The output times t_k = k·tend/outputSteps, k = 0..=outputSteps
+    /// (both ends included; the last is exactly `tend`).
+    #[must_use]
+    pub fn output_times(&self) -> Vec<f64> {
+        let n = self.output_steps;
+        (0..=n)
+            .map(|k| {
+                if k == n {
+                    self.tend // k·tend/n may round away from tend
+                } else {
+                    k as f64 * self.tend / n as f64
+                }
+            })
+            .collect()
+    }
+
+    /// The times at which simEngine2D solved: every `stepSize` from 0 and
+    /// additionally at every output time (a step that would pass an output
+    /// time stops on it). Useful to follow the engine's branch choices; the
+    /// results are reported at [`Analysis::output_times`] only.
+    #[must_use]
+    pub fn solve_times(&self) -> Vec<f64> {
+        let outputs = self.output_times();
+        let mut times = vec![0.0];
+        let mut t = 0.0;
+        let mut next = 1; // index of the next output time
+        // Every step advances by stepSize or lands on an output time, so the
+        // loop ends; the cap guards against a degenerate stepSize.
+        let cap = outputs.len() + (self.tend / self.step_size).ceil().min(1e8) as usize + 2;
+        while next < outputs.len() && times.len() < cap {
+            let target = outputs[next];
+            if t + self.step_size >= target {
+                t = target;
+                next += 1;
+            } else {
+                t += self.step_size;
+            }
+            times.push(t);
+        }
+        times
+    }
+}
+
+/// A field value with the position of its key and value.
+struct Field {
+    key: String,
+    pos: Pos,
+    value: FieldValue,
+}
+
+enum FieldValue {
+    Number(f64),
+    Text(String),
+    Other(&'static str),
+}
+
+fn json_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
+    let root: Value = json::parse(source)?;
+    let Some(members) = root.as_object() else {
+        return Err(source
+            .diagnostic(
+                root.pos,
+                format!("expected a JSON object, found {}", root.describe()),
+            )
+            .into());
+    };
+    Ok(members
+        .iter()
+        .map(|m| Field {
+            key: m.key.clone(),
+            pos: m.value.pos,
+            value: match (&m.value.as_f64(), m.value.as_str()) {
+                (Some(x), _) => FieldValue::Number(*x),
+                (None, Some(s)) => FieldValue::Text(s.text.clone()),
+                _ => FieldValue::Other(m.value.describe()),
+            },
+        })
+        .collect())
+}
+
+fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
+    let mut fields = Vec::new();
+    let mut diags = Vec::new();
+    for (i, raw) in source.text().split('\n').enumerate() {
+        let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
+        let line = raw.split('%').next().unwrap_or("");
+        if line.trim().is_empty() {
+            continue;
+        }
+        let at = |chars: usize| Pos {
+            line: line_no,
+            col: u32::try_from(chars + 1).unwrap_or(u32::MAX),
+            offset: 0,
+        };
+        let indent = line.chars().take_while(|c| c.is_whitespace()).count();
+        let Some((key, value)) = line.split_once(':') else {
+            diags.push(
+                source.diagnostic(at(indent), "expected `key: value` (for example `tend: 5`)"),
+            );
+            continue;
+        };
+        let key = key.trim().trim_matches('"').to_string();
+        let value_col = key_len(line) + 1;
+        let vindent = value_col
+            + line
+                .chars()
+                .skip(value_col)
+                .take_while(|c| c.is_whitespace())
+                .count();
+        let text = value.trim().trim_end_matches(',').trim();
+        let text = text.trim_matches('"');
+        let canonical = ["simulation", "tend", "stepSize", "outputSteps"]
+            .iter()
+            .find(|k| k.eq_ignore_ascii_case(&key))
+            .map_or(key.clone(), |k| (*k).to_string());
+        let value = if canonical == "simulation" {
+            FieldValue::Text(text.to_string())
+        } else {
+            match Expr::parse_constant(text) {
+                Ok(x) => FieldValue::Number(x),
+                Err(e) => {
+                    diags.push(source.diagnostic(
+                        at(vindent + e.offset),
+                        format!("field \"{canonical}\": cannot read `{text}`: {}", e.message),
+                    ));
+                    continue;
+                }
+            }
+        };
+        fields.push(Field {
+            key: canonical,
+            pos: at(vindent),
+            value,
+        });
+    }
+    if diags.is_empty() {
+        Ok(fields)
+    } else {
+        Err(Error::new(diags))
+    }
+}
+
+/// The number of characters before the first `:` of a line.
+fn key_len(line: &str) -> usize {
+    line.chars().take_while(|&c| c != ':').count()
+}
+
+fn build(source: &Source<'_>, fields: &[Field], diags: &mut Vec<Diagnostic>) -> Option<Analysis> {
+    let mut err = |pos: Pos, msg: String| diags.push(source.diagnostic(pos, msg));
+    let end = Pos::start();
+    let get = |key: &str| fields.iter().find(|f| f.key == key);
+
+    let simulation = match get("simulation") {
+        None => {
+            err(
+                end,
+                "missing field \"simulation\" (\"Kinematics\" or \"Dynamics\")".into(),
+            );
+            None
+        }
+        Some(f) => match &f.value {
+            FieldValue::Text(s) if s.trim().eq_ignore_ascii_case("kinematics") => {
+                Some(Simulation::Kinematics)
+            }
+            FieldValue::Text(s) if s.trim().eq_ignore_ascii_case("dynamics") => {
+                Some(Simulation::Dynamics)
+            }
+            FieldValue::Text(s) => {
+                err(
+                    f.pos,
+                    format!(
+                        "field \"simulation\": unknown simulation \"{}\" (expected \"Kinematics\" or \"Dynamics\")",
+                        s.escape_debug()
+                    ),
+                );
+                None
+            }
+            FieldValue::Number(_) => {
+                err(
+                    f.pos,
+                    "field \"simulation\": expected a string, found a number".into(),
+                );
+                None
+            }
+            FieldValue::Other(what) => {
+                err(
+                    f.pos,
+                    format!("field \"simulation\": expected a string, found {what}"),
+                );
+                None
+            }
+        },
+    };
+    let mut positive = |key: &str, integer: bool| -> Option<f64> {
+        let Some(f) = get(key) else {
+            err(end, format!("missing field \"{key}\""));
+            return None;
+        };
+        let x = match &f.value {
+            FieldValue::Number(x) => *x,
+            FieldValue::Text(_) => {
+                err(
+                    f.pos,
+                    format!("field \"{key}\": expected a number, found a string"),
+                );
+                return None;
+            }
+            FieldValue::Other(what) => {
+                err(
+                    f.pos,
+                    format!("field \"{key}\": expected a number, found {what}"),
+                );
+                return None;
+            }
+        };
+        if !(x > 0.0 && x.is_finite()) || (integer && (x.fract() != 0.0 || x > 1e9)) {
+            let what = if integer {
+                "a positive integer"
+            } else {
+                "a positive number"
+            };
+            err(
+                f.pos,
+                format!(
+                    "field \"{key}\": expected {what}, found {}",
+                    crate::fun::format_number(x)
+                ),
+            );
+            return None;
+        }
+        Some(x)
+    };
+    let tend = positive("tend", false);
+    let step_size = positive("stepSize", false);
+    let output_steps = positive("outputSteps", true);
+    Some(Analysis {
+        simulation: simulation?,
+        tend: tend?,
+        step_size: step_size?,
+        output_steps: output_steps? as usize,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_form() {
+        let a = Analysis::parse(
+            "{\n\t\"simulation\": \"kinematics\",\n \"tend\": 2.0, \"stepSize\": 0.01, \"outputSteps\": 4}",
+            "a.acf",
+        )
+        .expect("parses");
+        assert_eq!(a.simulation, Simulation::Kinematics);
+        assert_eq!(a.output_times(), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
+    }
+
+    #[test]
+    fn plain_form() {
+        let text = "% my analysis\nsimulation: Dynamics\ntend: 1 % seconds\nstepSize: 1/1000\n\noutputSteps: 500\n";
+        let a = Analysis::parse(text, "a.acf").expect("parses");
+        assert_eq!(a.simulation, Simulation::Dynamics);
+        assert_eq!(a.tend, 1.0);
+        assert_eq!(a.step_size, 0.001);
+        assert_eq!(a.output_steps, 500);
+    }
+
+    #[test]
+    fn output_times_are_k_tend_over_n() {
+        let a = Analysis {
+            simulation: Simulation::Kinematics,
+            tend: 5.0,
+            step_size: 0.01,
+            output_steps: 300,
+        };
+        let t = a.output_times();
+        assert_eq!(t.len(), 301);
+        assert_eq!(t[7], 7.0 * 5.0 / 300.0);
+        assert_eq!(t[300], 5.0);
+    }
+
+    #[test]
+    fn solve_times_include_outputs() {
+        let a = Analysis {
+            simulation: Simulation::Kinematics,
+            tend: 0.05,
+            step_size: 0.01,
+            output_steps: 3,
+        };
+        let s = a.solve_times();
+        for t in a.output_times() {
+            assert!(s.contains(&t), "{t} missing from {s:?}");
+        }
+        assert!(
+            s.windows(2)
+                .all(|w| w[1] > w[0] && w[1] - w[0] <= 0.01 + 1e-15)
+        );
+        assert_eq!(s.last().copied(), Some(0.05));
+    }
+
+    #[test]
+    fn errors() {
+        let e = Analysis::parse(
+            "{\"simulation\": \"Static\", \"tend\": -1, \"stepSize\": 0.1}",
+            "x.acf",
+        )
+        .expect_err("bad");
+        let text = e.to_string();
+        assert!(text.contains("unknown simulation \"Static\""), "{text}");
+        assert!(
+            text.contains("\"tend\": expected a positive number, found -1"),
+            "{text}"
+        );
+        assert!(text.contains("missing field \"outputSteps\""), "{text}");
+        assert!(Analysis::parse("simulation kinematics", "x.acf").is_err());
+        assert!(Analysis::parse("{", "x.acf").is_err());
+    }
+}

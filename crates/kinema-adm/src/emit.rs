@@ -1,0 +1,549 @@
+//! Prints an ADM model as the equivalent model in kinema's language
+//! (`kinema import model.adm`).
+//!
+//! Mapping (bodies and equations keep the ADM order, so q and Φ's rows are
+//! the same as the engine's):
+//!
+//! | ADM | kinema |
+//! |---|---|
+//! | body, `q0` | `body name { guess: (x, y, phi) }` |
+//! | AbsoluteX / AbsoluteY, `sP1`, `fun` | `abs_x(B(sx, sy), f)` / `abs_y(…)` |
+//! | AbsoluteAngle, `fun` | `abs_angle(B, f)` |
+//! | RevoluteJoint | `joint n: revolute(Bi(sP1), Bj(sP2))` |
+//! | TranslationalJoint | `joint n: translational(Bi(sP1), v1, Bj(sP2), v2)`, v normalised |
+//! | RackPinion | two written equations `n_1`, `n_2` with the engine's formula |
+//!
+//! An Absolute* element whose `fun` mentions `t` is a `driver`, otherwise a
+//! `constraint`. Names become identifiers ([`Names`]); each item carries a
+//! `///` doc comment with the original name, id and type. `fun` strings are
+//! translated by [`crate::fun::Expr::to_kin`].
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+
+use crate::adm::{Constraint, ConstraintKind, Model, Vec2};
+use crate::check::ignored_by_kinematics;
+use crate::fun::format_number;
+
+/// Words an identifier must not be: Rust keywords (the language is parsed as
+/// Rust tokens), the model language's keywords and built-in names.
+const RESERVED: &[&str] = &[
+    // Rust keywords, strict and reserved.
+    "as",
+    "async",
+    "await",
+    "break",
+    "const",
+    "continue",
+    "crate",
+    "dyn",
+    "else",
+    "enum",
+    "extern",
+    "false",
+    "fn",
+    "for",
+    "if",
+    "impl",
+    "in",
+    "let",
+    "loop",
+    "match",
+    "mod",
+    "move",
+    "mut",
+    "pub",
+    "ref",
+    "return",
+    "self",
+    "Self",
+    "static",
+    "struct",
+    "super",
+    "trait",
+    "true",
+    "type",
+    "unsafe",
+    "use",
+    "where",
+    "while",
+    "abstract",
+    "become",
+    "box",
+    "do",
+    "final",
+    "macro",
+    "override",
+    "priv",
+    "typeof",
+    "unsized",
+    "virtual",
+    "yield",
+    "try",
+    "gen",
+    "union",
+    // The model language.
+    "mechanism",
+    "param",
+    "body",
+    "point",
+    "joint",
+    "constraint",
+    "driver",
+    "guess",
+    "ground",
+    "t",
+    "pi",
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "sinh",
+    "cosh",
+    "tanh",
+    "exp",
+    "ln",
+    "sqrt",
+    "atan2",
+    "pow",
+    "powi",
+    "abs",
+    "step",
+    "dot",
+    "cross",
+    "norm",
+    "rot",
+    "perp",
+    "revolute",
+    "translational",
+    "abs_x",
+    "abs_y",
+    "abs_angle",
+];
+
+/// The identifiers used for a model in kinema's language.
+///
+/// Names are kept as far as possible: characters other than ASCII letters,
+/// digits and `_` become `_` (runs collapsed, ends trimmed: "Long Rod" →
+/// `Long_Rod`), a leading digit gets a prefix, reserved words get a trailing
+/// `_` (`driver` → `driver_`), and clashes get `_2`, `_3`, … Bodies and
+/// equations share one namespace.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Names {
+    /// The mechanism's name, in UpperCamelCase ("Double Pend 6.5.2" →
+    /// `DoublePend6_5_2`).
+    pub mechanism: String,
+    /// One identifier per body, in order.
+    pub bodies: Vec<String>,
+    /// Per constraint element, the names of the items it becomes: one, or
+    /// two for a RackPinion (`name_1`, `name_2`).
+    pub constraints: Vec<Vec<String>>,
+}
+
+impl Names {
+    /// The identifiers of `model`'s mechanism, bodies and constraints.
+    #[must_use]
+    pub fn of(model: &Model) -> Names {
+        let mut used: HashSet<String> = HashSet::new();
+        let mut take = |base: String| -> String {
+            let mut name = base.clone();
+            let mut k = 2;
+            while used.contains(&name) {
+                name = format!("{base}_{k}");
+                k += 1;
+            }
+            used.insert(name.clone());
+            name
+        };
+        let bodies = model
+            .bodies
+            .iter()
+            .map(|b| take(identifier(&b.name, "body", b.id)))
+            .collect();
+        let constraints = model
+            .constraints
+            .iter()
+            .map(|c| {
+                let base = identifier(&c.name, "c", c.id);
+                if matches!(c.kind, ConstraintKind::RackPinion { .. }) {
+                    vec![take(format!("{base}_1")), take(format!("{base}_2"))]
+                } else {
+                    vec![take(base)]
+                }
+            })
+            .collect();
+        Names {
+            mechanism: camel_identifier(&model.name),
+            bodies,
+            constraints,
+        }
+    }
+}
+
+/// `name` as an identifier: see [`Names`]. `prefix` and `id` make the
+/// fallback for a name with no usable character, and the prefix for a
+/// leading digit.
+fn identifier(name: &str, prefix: &str, id: usize) -> String {
+    let mut s = String::new();
+    for c in name.chars() {
+        let c = if c.is_ascii_alphanumeric() { c } else { '_' };
+        if c == '_' && (s.is_empty() || s.ends_with('_')) {
+            continue;
+        }
+        s.push(c);
+    }
+    while s.ends_with('_') {
+        s.pop();
+    }
+    if s.is_empty() {
+        return format!("{prefix}_{id}");
+    }
+    if s.starts_with(|c: char| c.is_ascii_digit()) {
+        s = format!("{prefix}_{s}");
+    }
+    if RESERVED.contains(&s.as_str()) {
+        s.push('_');
+    }
+    s
+}
+
+/// `name` as an UpperCamelCase identifier; digit groups that would touch are
+/// separated by `_`.
+fn camel_identifier(name: &str) -> String {
+    let mut s = String::new();
+    for word in name
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .filter(|w| !w.is_empty())
+    {
+        if s.ends_with(|c: char| c.is_ascii_digit())
+            && word.starts_with(|c: char| c.is_ascii_digit())
+        {
+            s.push('_');
+        }
+        let mut chars = word.chars();
+        if let Some(first) = chars.next() {
+            s.push(first.to_ascii_uppercase());
+            s.extend(chars);
+        }
+    }
+    if s.is_empty() {
+        return "Model".to_string();
+    }
+    if s.starts_with(|c: char| c.is_ascii_digit()) {
+        s.insert_str(0, "Model");
+    }
+    if RESERVED.contains(&s.as_str()) {
+        s.push('_');
+    }
+    s
+}
+
+/// Text for a comment: control characters (a newline in a JSON string)
+/// become spaces so the comment stays on its line.
+fn comment_text(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect()
+}
+
+fn pair(v: Vec2) -> String {
+    format!("({}, {})", format_number(v[0]), format_number(v[1]))
+}
+
+/// `v / |v|`, the engine's normalisation of direction vectors.
+fn normalised(v: Vec2) -> Vec2 {
+    let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
+    [v[0] / n, v[1] / n]
+}
+
+/// A sum of terms, each with a sign: numbers are folded into the sign
+/// (`x + -1.5` prints as `x - 1.5`); zero numbers are left out.
+enum Term {
+    Text(bool, String),
+    Num(f64),
+}
+
+fn sum(terms: &[Term]) -> String {
+    let mut out = String::new();
+    for term in terms {
+        let (negative, text) = match term {
+            Term::Num(x) if *x == 0.0 => continue,
+            Term::Num(x) => (*x < 0.0, format_number(x.abs())),
+            Term::Text(neg, t) => (*neg, t.clone()),
+        };
+        match (out.is_empty(), negative) {
+            (true, false) => {}
+            (true, true) => out.push('-'),
+            (false, false) => out.push_str(" + "),
+            (false, true) => out.push_str(" - "),
+        }
+        out.push_str(&text);
+    }
+    if out.is_empty() {
+        out.push('0');
+    }
+    out
+}
+
+/// Prints `model` in kinema's language. The text parses with kinema's model
+/// parser and states the same equations, in the same order, as the engine.
+///
+/// ```
+/// let adm = r#"{ "name": "pendulum",
+///   "bodies": [ { "name": "rod", "id": 1, "q0": [1, 0, 0] } ],
+///   "constraints": [
+///     { "name": "x", "id": 1, "type": "AbsoluteX", "body1": 1, "sP1": [-1, 0], "fun": "0" },
+///     { "name": "y", "id": 2, "type": "AbsoluteY", "body1": 1, "sP1": [-1, 0], "fun": "0" },
+///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#;
+/// let model = kinema_adm::Model::parse(adm, "pendulum.adm").unwrap();
+/// let kin = kinema_adm::to_kin(&model);
+/// assert!(kin.contains("driver swing: abs_angle(rod, sin(t));"));
+/// ```
+#[must_use]
+pub fn to_kin(model: &Model) -> String {
+    let names = Names::of(model);
+    let mut out = String::new();
+    let file = std::path::Path::new(&model.file)
+        .file_name()
+        .map_or(model.file.clone(), |f| f.to_string_lossy().into_owned());
+    let _ = writeln!(
+        out,
+        "// Imported by kinema from the simEngine2D model \"{}\" ({}).",
+        comment_text(&model.name),
+        comment_text(&file)
+    );
+    let _ = writeln!(
+        out,
+        "// Each body's q0 is its guess. Kinematics does not use mass, jbar, qd0 or gravity {}.",
+        pair(model.gravity)
+    );
+    let ignored = ignored_by_kinematics(model);
+    if ignored.is_empty() {
+        let _ = writeln!(out, "// No force elements.");
+    } else {
+        let _ = writeln!(out, "// Ignored:");
+        for line in &ignored {
+            let _ = writeln!(out, "//   {}", comment_text(line));
+        }
+    }
+    let _ = writeln!(out, "mechanism {} {{", names.mechanism);
+    for (body, ident) in model.bodies.iter().zip(&names.bodies) {
+        let _ = writeln!(
+            out,
+            "    /// body {} \"{}\"",
+            body.id,
+            comment_text(&body.name)
+        );
+        let [x, y, phi] = body.q0;
+        let _ = writeln!(
+            out,
+            "    body {ident} {{ guess: ({}, {}, {}) }}",
+            format_number(x),
+            format_number(y),
+            format_number(phi)
+        );
+    }
+    for (c, idents) in model.constraints.iter().zip(&names.constraints) {
+        out.push('\n');
+        emit_constraint(&mut out, c, idents, &names.bodies);
+    }
+    out.push_str("}\n");
+    out
+}
+
+fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: &[String]) {
+    let body = |i: usize| bodies.get(i).map_or("ground", String::as_str);
+    let point = |i: usize, s: Vec2| {
+        format!(
+            "{}({}, {})",
+            body(i),
+            format_number(s[0]),
+            format_number(s[1])
+        )
+    };
+    let name = idents.first().map_or("c", String::as_str);
+    let head = format!(
+        "    /// constraint {} \"{}\": {}",
+        c.id,
+        comment_text(&c.name),
+        c.kind.type_name()
+    );
+    let ignored_fun = |fun: &Option<String>| match fun.as_deref() {
+        None | Some("NONE") => String::new(),
+        Some(f) => format!(
+            " (its fun \"{}\" is ignored, as by the engine)",
+            comment_text(f)
+        ),
+    };
+    match &c.kind {
+        ConstraintKind::AbsoluteX { body1, sp1, fun }
+        | ConstraintKind::AbsoluteY { body1, sp1, fun } => {
+            let f = if matches!(c.kind, ConstraintKind::AbsoluteX { .. }) {
+                "abs_x"
+            } else {
+                "abs_y"
+            };
+            let keyword = if fun.mentions_t() {
+                "driver"
+            } else {
+                "constraint"
+            };
+            let _ = writeln!(out, "{head}, fun \"{}\"", comment_text(fun.text()));
+            let _ = writeln!(
+                out,
+                "    {keyword} {name}: {f}({}, {});",
+                point(*body1, *sp1),
+                fun.to_kin()
+            );
+        }
+        ConstraintKind::AbsoluteAngle { body1, fun } => {
+            let keyword = if fun.mentions_t() {
+                "driver"
+            } else {
+                "constraint"
+            };
+            let _ = writeln!(out, "{head}, fun \"{}\"", comment_text(fun.text()));
+            let _ = writeln!(
+                out,
+                "    {keyword} {name}: abs_angle({}, {});",
+                body(*body1),
+                fun.to_kin()
+            );
+        }
+        ConstraintKind::Revolute {
+            body1,
+            sp1,
+            body2,
+            sp2,
+            fun,
+        } => {
+            let _ = writeln!(out, "{head}{}", ignored_fun(fun));
+            let _ = writeln!(
+                out,
+                "    joint {name}: revolute({}, {});",
+                point(*body1, *sp1),
+                point(*body2, *sp2)
+            );
+        }
+        ConstraintKind::Translational {
+            body1,
+            sp1,
+            vp1,
+            body2,
+            sp2,
+            vp2,
+            fun,
+        } => {
+            let _ = writeln!(
+                out,
+                "{head}, directions vP1 = {} and vP2 = {} normalised{}",
+                pair(*vp1),
+                pair(*vp2),
+                ignored_fun(fun)
+            );
+            let _ = writeln!(
+                out,
+                "    joint {name}: translational({}, {}, {}, {});",
+                point(*body1, *sp1),
+                pair(normalised(*vp1)),
+                point(*body2, *sp2),
+                pair(normalised(*vp2))
+            );
+        }
+        ConstraintKind::RackPinion {
+            body1,
+            body2,
+            sp1,
+            sq1,
+            sp2,
+            r2,
+            theta1,
+            theta2,
+            fun,
+        } => {
+            let (rack, pinion) = (body(*body1), body(*body2));
+            let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
+            let l = (u[0] * u[0] + u[1] * u[1]).sqrt();
+            let a = format!("rot({rack}.phi, {})", pair(u));
+            let alpha = sum(&[
+                Term::Text(false, format!("{rack}.phi")),
+                Term::Num(*theta1),
+                Term::Text(true, format!("{pinion}.phi")),
+                Term::Num(-*theta2),
+                Term::Text(false, "3 * pi / 2".to_string()),
+            ]);
+            let scale = format!("{} * {}", format_number(l), format_number(*r2));
+            let second = idents.get(1).map_or("c_2", String::as_str);
+            let _ = writeln!(
+                out,
+                "{head} (body1 {rack} is the rack, body2 {pinion} the pinion), row 1 of 2: rolling, scaled by L = |sQ1 - sP1|{}",
+                ignored_fun(fun)
+            );
+            let _ = writeln!(out, "    constraint {name}:");
+            let _ = writeln!(
+                out,
+                "        dot({} - {}, {a})",
+                point(*body2, *sp2),
+                point(*body1, *sq1)
+            );
+            let _ = writeln!(out, "            == {scale} * ({alpha});");
+            let _ = writeln!(
+                out,
+                "    /// constraint {} \"{}\": RackPinion, row 2 of 2: pinion centre at distance R2 left of the pitch line",
+                c.id,
+                comment_text(&c.name)
+            );
+            let _ = writeln!(out, "    constraint {second}:");
+            let _ = writeln!(
+                out,
+                "        dot({} - {}, perp({a}))",
+                point(*body2, *sp2),
+                point(*body1, *sp1)
+            );
+            let _ = writeln!(out, "            == {scale};");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identifiers() {
+        assert_eq!(identifier("Long Rod", "body", 3), "Long_Rod");
+        assert_eq!(
+            identifier("Revolute Crank-Collar", "c", 3),
+            "Revolute_Crank_Collar"
+        );
+        assert_eq!(identifier("absX_crank", "c", 1), "absX_crank");
+        assert_eq!(identifier("driver", "c", 3), "driver_");
+        assert_eq!(identifier("ground", "body", 1), "ground_");
+        assert_eq!(identifier("  ", "body", 4), "body_4");
+        assert_eq!(identifier("1st pin", "c", 2), "c_1st_pin");
+        assert_eq!(identifier("Zoë", "body", 2), "Zo");
+        assert_eq!(camel_identifier("Double Pend 6.5.2"), "DoublePend6_5_2");
+        assert_eq!(camel_identifier("shurikenCatapult"), "ShurikenCatapult");
+        assert_eq!(camel_identifier("Example3.4.2"), "Example3_4_2");
+        assert_eq!(camel_identifier(""), "Model");
+        assert_eq!(camel_identifier("4bar"), "Model4bar");
+    }
+
+    #[test]
+    fn sums_fold_signs() {
+        assert_eq!(
+            sum(&[
+                Term::Text(false, "a".into()),
+                Term::Num(-1.5),
+                Term::Text(true, "b".into()),
+                Term::Num(0.0),
+                Term::Num(2.0),
+            ]),
+            "a - 1.5 - b + 2"
+        );
+        assert_eq!(sum(&[Term::Num(0.0)]), "0");
+        assert_eq!(sum(&[Term::Text(true, "b".into())]), "-b");
+    }
+}

@@ -1,0 +1,1140 @@
+//! The `fun` language of simEngine2D: MATLAB expressions in the variable `t`.
+//!
+//! Grammar (SIMENGINE2D.md, "The `fun` language"), from the lowest
+//! precedence to the highest:
+//!
+//! ```text
+//! sum     := product (("+" | "-") product)*          left-associative
+//! product := unary (("*" | "/" | ".*" | "./") unary)*  left-associative
+//! unary   := ("+" | "-") unary | power               so -t^2 = -(t^2)
+//! power   := primary (("^" | ".^") operand)*          left: 2^3^2 = 64
+//! operand := ("+" | "-") operand | primary            so t^-2 is allowed
+//! primary := number | "t" | "pi" | name "(" sum ("," sum)* ")" | "(" sum ")"
+//! number  := 12 | 0.5 | .5 | 5. | 1.5e-5 | 2E+3
+//! ```
+//!
+//! Functions: `sin cos tan asin acos atan sinh cosh tanh exp log sqrt abs`
+//! (`log` is natural), and `log10`, `atan2(y, x)`, `power(x, y)`. Whitespace
+//! is insignificant. The exact string `"NONE"` means "no function" ([`Fun::None`]).
+//!
+//! A parsed [`Expr`] evaluates in `f64` ([`Expr::eval`]) and prints in kinema's
+//! expression syntax ([`Expr::to_kin`]): `log` becomes `ln`, `x^n` becomes
+//! `powi(x, n)` when `n` is a constant integer and `pow(x, y)` otherwise.
+//!
+//! Nothing here recurses without bound: the parser limits nesting depth and
+//! evaluation and printing walk a flat node list (children before parents).
+
+use std::fmt;
+
+/// Deepest nesting of parentheses, calls and signs the parser accepts.
+const MAX_DEPTH: usize = 100;
+
+/// An error in a `fun` string: a message and the 0-based character offset in
+/// the string where it was found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FunError {
+    /// 0-based offset, in characters, into the expression string.
+    pub offset: usize,
+    /// What went wrong, saying what was expected.
+    pub message: String,
+}
+
+impl fmt::Display for FunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} (at character {})", self.message, self.offset + 1)
+    }
+}
+
+impl std::error::Error for FunError {}
+
+/// A `fun` field: either the exact string `"NONE"` or an expression in `t`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fun {
+    /// `"NONE"`: no function.
+    None,
+    /// An expression in `t`.
+    Expr(Expr),
+}
+
+impl Fun {
+    /// Parses a `fun` string: `"NONE"` (exact, case-sensitive) or an expression.
+    ///
+    /// # Errors
+    /// A [`FunError`] locating the first syntax error.
+    pub fn parse(text: &str) -> Result<Fun, FunError> {
+        if text == "NONE" {
+            Ok(Fun::None)
+        } else {
+            Expr::parse(text).map(Fun::Expr)
+        }
+    }
+
+    /// The expression, or `None` for `"NONE"`.
+    #[must_use]
+    pub fn expr(&self) -> Option<&Expr> {
+        match self {
+            Fun::None => None,
+            Fun::Expr(e) => Some(e),
+        }
+    }
+}
+
+/// A one-argument function of the `fun` language.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Func {
+    /// `sin`
+    Sin,
+    /// `cos`
+    Cos,
+    /// `tan`
+    Tan,
+    /// `asin`
+    Asin,
+    /// `acos`
+    Acos,
+    /// `atan`
+    Atan,
+    /// `sinh`
+    Sinh,
+    /// `cosh`
+    Cosh,
+    /// `tanh`
+    Tanh,
+    /// `exp`
+    Exp,
+    /// `log`: natural logarithm (kinema's `ln`).
+    Log,
+    /// `log10`: decimal logarithm (printed as `ln(x) / ln(10)`).
+    Log10,
+    /// `sqrt`
+    Sqrt,
+    /// `abs`
+    Abs,
+}
+
+impl Func {
+    const ALL: [(&'static str, Func); 14] = [
+        ("sin", Func::Sin),
+        ("cos", Func::Cos),
+        ("tan", Func::Tan),
+        ("asin", Func::Asin),
+        ("acos", Func::Acos),
+        ("atan", Func::Atan),
+        ("sinh", Func::Sinh),
+        ("cosh", Func::Cosh),
+        ("tanh", Func::Tanh),
+        ("exp", Func::Exp),
+        ("log", Func::Log),
+        ("log10", Func::Log10),
+        ("sqrt", Func::Sqrt),
+        ("abs", Func::Abs),
+    ];
+
+    fn from_name(name: &str) -> Option<Func> {
+        Func::ALL.iter().find(|(n, _)| *n == name).map(|&(_, f)| f)
+    }
+
+    /// The MATLAB name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        Func::ALL
+            .iter()
+            .find(|(_, f)| *f == self)
+            .map_or("?", |&(n, _)| n)
+    }
+
+    fn apply(self, x: f64) -> f64 {
+        match self {
+            Func::Sin => x.sin(),
+            Func::Cos => x.cos(),
+            Func::Tan => x.tan(),
+            Func::Asin => x.asin(),
+            Func::Acos => x.acos(),
+            Func::Atan => x.atan(),
+            Func::Sinh => x.sinh(),
+            Func::Cosh => x.cosh(),
+            Func::Tanh => x.tanh(),
+            Func::Exp => x.exp(),
+            Func::Log => x.ln(),
+            Func::Log10 => x.log10(),
+            Func::Sqrt => x.sqrt(),
+            Func::Abs => x.abs(),
+        }
+    }
+
+    /// kinema's name of the function (all the same except `log` → `ln`).
+    fn kin_name(self) -> &'static str {
+        match self {
+            Func::Log | Func::Log10 => "ln",
+            f => f.name(),
+        }
+    }
+}
+
+/// A two-argument function of the `fun` language.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Func2 {
+    /// `atan2(y, x)`
+    Atan2,
+    /// `power(x, y)` = `x^y`
+    Power,
+}
+
+impl Func2 {
+    fn from_name(name: &str) -> Option<Func2> {
+        match name {
+            "atan2" => Some(Func2::Atan2),
+            "power" => Some(Func2::Power),
+            _ => None,
+        }
+    }
+}
+
+/// A binary operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinOp {
+    /// `+`
+    Add,
+    /// `-`
+    Sub,
+    /// `*` or `.*`
+    Mul,
+    /// `/` or `./`
+    Div,
+    /// `^` or `.^`
+    Pow,
+}
+
+/// A node of an [`Expr`]. Children are indices of earlier nodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Node {
+    /// A non-negative number literal.
+    Num(f64),
+    /// `pi`
+    Pi,
+    /// The time `t`.
+    T,
+    /// Unary minus.
+    Neg(u32),
+    /// A binary operation.
+    Bin(BinOp, u32, u32),
+    /// A one-argument function call.
+    Call(Func, u32),
+    /// A two-argument function call.
+    Call2(Func2, u32, u32),
+}
+
+/// A parsed `fun` expression: a flat list of nodes in which children precede
+/// their parents; the last node is the root.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Expr {
+    nodes: Vec<Node>,
+    text: String,
+}
+
+impl fmt::Display for Expr {
+    /// The expression as it was written.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+impl Expr {
+    /// Parses an expression in `t`.
+    ///
+    /// # Errors
+    /// A [`FunError`] locating the first syntax error.
+    ///
+    /// ```
+    /// let e = kinema_adm::fun::Expr::parse("pi/2 + 2*pi*t").unwrap();
+    /// assert_eq!(e.to_kin(), "pi / 2 + 2 * pi * t");
+    /// ```
+    pub fn parse(text: &str) -> Result<Expr, FunError> {
+        Parser::new(text, true).run()
+    }
+
+    /// Parses and evaluates a constant expression (no `t`): the arithmetic the
+    /// engine's JSON reader accepted where a number is expected (`187/255`).
+    ///
+    /// # Errors
+    /// A [`FunError`] on a syntax error, a use of `t`, or a result that is not
+    /// a finite number.
+    pub fn parse_constant(text: &str) -> Result<f64, FunError> {
+        let e = Parser::new(text, false).run()?;
+        let v = e.eval(0.0);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(FunError {
+                offset: 0,
+                message: format!(
+                    "`{}` is not a finite number (it evaluates to {v})",
+                    text.trim()
+                ),
+            })
+        }
+    }
+
+    /// The text the expression was parsed from.
+    #[must_use]
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The nodes, children before parents; the last one is the root.
+    #[must_use]
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// Whether the expression mentions `t` (then it is a driver).
+    #[must_use]
+    pub fn mentions_t(&self) -> bool {
+        self.nodes.iter().any(|n| matches!(n, Node::T))
+    }
+
+    /// The value at time `t`, with MATLAB's real semantics where they agree
+    /// with `f64` (out-of-domain arguments give NaN).
+    #[must_use]
+    pub fn eval(&self, t: f64) -> f64 {
+        self.values(t).last().copied().unwrap_or(f64::NAN)
+    }
+
+    /// The value of every node at time `t`.
+    fn values(&self, t: f64) -> Vec<f64> {
+        let mut v: Vec<f64> = Vec::with_capacity(self.nodes.len());
+        for node in &self.nodes {
+            let get = |i: u32| v.get(i as usize).copied().unwrap_or(f64::NAN);
+            let x = match *node {
+                Node::Num(x) => x,
+                Node::Pi => std::f64::consts::PI,
+                Node::T => t,
+                Node::Neg(a) => -get(a),
+                Node::Bin(op, a, b) => {
+                    let (a, b) = (get(a), get(b));
+                    match op {
+                        BinOp::Add => a + b,
+                        BinOp::Sub => a - b,
+                        BinOp::Mul => a * b,
+                        BinOp::Div => a / b,
+                        BinOp::Pow => a.powf(b),
+                    }
+                }
+                Node::Call(f, a) => f.apply(get(a)),
+                Node::Call2(Func2::Atan2, a, b) => get(a).atan2(get(b)),
+                Node::Call2(Func2::Power, a, b) => get(a).powf(get(b)),
+            };
+            v.push(x);
+        }
+        v
+    }
+
+    /// The expression in kinema's syntax, with only the parentheses the tree
+    /// needs (the printed text parses back to the same tree, so it evaluates
+    /// identically). A negative operand on the right of a binary operator is
+    /// parenthesised for readability: `t - (-1)`.
+    ///
+    /// `x^n` with `n` a constant integer becomes `powi(x, n)`, other powers
+    /// `pow(x, y)`; `log` becomes `ln`; `log10(x)` becomes `ln(x) / ln(10)`.
+    #[must_use]
+    pub fn to_kin(&self) -> String {
+        let Some(root) = self.nodes.len().checked_sub(1) else {
+            return String::new();
+        };
+        let consts = self.values(0.0);
+        let mut has_t = Vec::with_capacity(self.nodes.len());
+        for node in &self.nodes {
+            let h = |i: u32| has_t.get(i as usize).copied().unwrap_or(true);
+            let x = match *node {
+                Node::T => true,
+                Node::Num(_) | Node::Pi => false,
+                Node::Neg(a) | Node::Call(_, a) => h(a),
+                Node::Bin(_, a, b) | Node::Call2(_, a, b) => h(a) || h(b),
+            };
+            has_t.push(x);
+        }
+        // The exponent of a power, as an integer, when it is a t-free
+        // expression whose value is an exact integer of moderate size.
+        let int_exponent = |b: u32| -> Option<i64> {
+            let i = b as usize;
+            let v = *consts.get(i)?;
+            let free = !*has_t.get(i)?;
+            (free && v.is_finite() && v.fract() == 0.0 && v.abs() <= 1e6).then_some(v as i64)
+        };
+
+        enum Task {
+            Node(u32, u8),
+            Text(&'static str),
+            Owned(String),
+        }
+        let mut out = String::new();
+        let mut stack = vec![Task::Node(root as u32, 0)];
+        while let Some(task) = stack.pop() {
+            let (id, req) = match task {
+                Task::Text(s) => {
+                    out.push_str(s);
+                    continue;
+                }
+                Task::Owned(s) => {
+                    out.push_str(&s);
+                    continue;
+                }
+                Task::Node(id, req) => (id, req),
+            };
+            let Some(&node) = self.nodes.get(id as usize) else {
+                continue;
+            };
+            if self.prec(node) < req {
+                out.push('(');
+                stack.push(Task::Text(")"));
+            }
+            // Requirement on a right operand of an operator of precedence q.
+            let right = |child: u32, q: u8| -> u8 {
+                match self.nodes.get(child as usize) {
+                    Some(Node::Neg(_)) => PREC_ATOM,
+                    Some(Node::Num(x)) if *x < 0.0 => PREC_ATOM,
+                    _ => q + 1,
+                }
+            };
+            match node {
+                Node::Num(x) => out.push_str(&format_number(x)),
+                Node::Pi => out.push_str("pi"),
+                Node::T => out.push('t'),
+                Node::Neg(a) => {
+                    out.push('-');
+                    stack.push(Task::Node(a, PREC_ATOM));
+                }
+                Node::Bin(BinOp::Pow, a, b) | Node::Call2(Func2::Power, a, b) => {
+                    if let Some(n) = int_exponent(b) {
+                        out.push_str("powi(");
+                        stack.push(Task::Owned(format!(", {n})")));
+                        stack.push(Task::Node(a, 0));
+                    } else {
+                        out.push_str("pow(");
+                        stack.push(Task::Text(")"));
+                        stack.push(Task::Node(b, 0));
+                        stack.push(Task::Text(", "));
+                        stack.push(Task::Node(a, 0));
+                    }
+                }
+                Node::Bin(op, a, b) => {
+                    let (q, sym) = match op {
+                        BinOp::Add => (PREC_SUM, " + "),
+                        BinOp::Sub => (PREC_SUM, " - "),
+                        BinOp::Mul => (PREC_PRODUCT, " * "),
+                        BinOp::Div => (PREC_PRODUCT, " / "),
+                        BinOp::Pow => (PREC_ATOM, ""), // handled above
+                    };
+                    stack.push(Task::Node(b, right(b, q)));
+                    stack.push(Task::Text(sym));
+                    stack.push(Task::Node(a, q));
+                }
+                Node::Call(Func::Log10, a) => {
+                    out.push_str("ln(");
+                    stack.push(Task::Text(") / ln(10)"));
+                    stack.push(Task::Node(a, 0));
+                }
+                Node::Call(f, a) => {
+                    out.push_str(f.kin_name());
+                    out.push('(');
+                    stack.push(Task::Text(")"));
+                    stack.push(Task::Node(a, 0));
+                }
+                Node::Call2(Func2::Atan2, a, b) => {
+                    out.push_str("atan2(");
+                    stack.push(Task::Text(")"));
+                    stack.push(Task::Node(b, 0));
+                    stack.push(Task::Text(", "));
+                    stack.push(Task::Node(a, 0));
+                }
+            }
+        }
+        out
+    }
+
+    /// Precedence of a node as printed by [`Expr::to_kin`].
+    fn prec(&self, node: Node) -> u8 {
+        match node {
+            Node::Num(x) if x < 0.0 => PREC_UNARY,
+            Node::Num(_) | Node::Pi | Node::T | Node::Call2(..) => PREC_ATOM,
+            Node::Call(Func::Log10, _) => PREC_PRODUCT,
+            Node::Call(..) => PREC_ATOM,
+            Node::Neg(_) => PREC_UNARY,
+            Node::Bin(BinOp::Add | BinOp::Sub, ..) => PREC_SUM,
+            Node::Bin(BinOp::Mul | BinOp::Div, ..) => PREC_PRODUCT,
+            Node::Bin(BinOp::Pow, ..) => PREC_ATOM,
+        }
+    }
+}
+
+const PREC_SUM: u8 = 1;
+const PREC_PRODUCT: u8 = 2;
+const PREC_UNARY: u8 = 3;
+const PREC_ATOM: u8 = 4;
+
+/// Formats a number so that it reads back to the same `f64`: integers of
+/// moderate size without a decimal point (`2`), others with Rust's shortest
+/// round-trip form (`0.1`, `1.5e-5`). Negative numbers get a leading `-`.
+#[must_use]
+pub fn format_number(x: f64) -> String {
+    if x == 0.0 {
+        return "0".to_string();
+    }
+    if x.fract() == 0.0 && x.abs() < 1e15 {
+        return format!("{}", x as i64);
+    }
+    format!("{x:?}")
+}
+
+// ---------------------------------------------------------------- lexer
+
+#[derive(Clone, Debug, PartialEq)]
+enum Tok {
+    Num(f64),
+    Ident(String),
+    Plus,
+    Minus,
+    Star,
+    Slash,
+    Caret,
+    LParen,
+    RParen,
+    Comma,
+    End,
+}
+
+impl Tok {
+    fn describe(&self) -> String {
+        match self {
+            Tok::Num(x) => format!("the number `{}`", format_number(*x)),
+            Tok::Ident(s) => format!("`{s}`"),
+            Tok::Plus => "`+`".into(),
+            Tok::Minus => "`-`".into(),
+            Tok::Star => "`*`".into(),
+            Tok::Slash => "`/`".into(),
+            Tok::Caret => "`^`".into(),
+            Tok::LParen => "`(`".into(),
+            Tok::RParen => "`)`".into(),
+            Tok::Comma => "`,`".into(),
+            Tok::End => "the end of the expression".into(),
+        }
+    }
+}
+
+fn lex(text: &str) -> Result<Vec<(Tok, usize)>, FunError> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut toks = Vec::new();
+    let mut i = 0;
+    let err = |offset: usize, message: String| FunError { offset, message };
+    while let Some(&c) = chars.get(i) {
+        let at = |k: usize| chars.get(k).copied();
+        if c.is_whitespace() {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        if c.is_ascii_digit() || (c == '.' && at(i + 1).is_some_and(|d| d.is_ascii_digit())) {
+            let mut int = String::new();
+            while let Some(d) = at(i).filter(char::is_ascii_digit) {
+                int.push(d);
+                i += 1;
+            }
+            let mut frac = String::new();
+            // `5.*t` is `5 .* t`: a dot followed by an element-wise operator
+            // belongs to the operator.
+            if at(i) == Some('.') && !matches!(at(i + 1), Some('*' | '/' | '^')) {
+                i += 1;
+                while let Some(d) = at(i).filter(char::is_ascii_digit) {
+                    frac.push(d);
+                    i += 1;
+                }
+            }
+            let mut exp = String::new();
+            if matches!(at(i), Some('e' | 'E')) {
+                let mut j = i + 1;
+                if let Some(s @ ('+' | '-')) = at(j) {
+                    exp.push(s);
+                    j += 1;
+                }
+                if !at(j).is_some_and(|d| d.is_ascii_digit()) {
+                    return Err(err(
+                        i,
+                        "malformed number: `e` must be followed by an exponent such as `e-5` \
+                         (`e` is not a constant; write `exp(1)`)"
+                            .into(),
+                    ));
+                }
+                while let Some(d) = at(j).filter(char::is_ascii_digit) {
+                    exp.push(d);
+                    j += 1;
+                }
+                i = j;
+            }
+            let canonical = format!(
+                "{}.{}e{}",
+                if int.is_empty() { "0" } else { &int },
+                if frac.is_empty() { "0" } else { &frac },
+                if exp.is_empty() { "0" } else { &exp }
+            );
+            match canonical.parse::<f64>() {
+                Ok(x) if x.is_finite() => toks.push((Tok::Num(x), start)),
+                _ => {
+                    let written: String = chars.get(start..i).unwrap_or(&[]).iter().collect();
+                    return Err(err(start, format!("number `{written}` is out of range")));
+                }
+            }
+            continue;
+        }
+        if c.is_alphabetic() || c == '_' {
+            let mut name = String::new();
+            while let Some(d) = at(i).filter(|d| d.is_alphanumeric() || *d == '_') {
+                name.push(d);
+                i += 1;
+            }
+            toks.push((Tok::Ident(name), start));
+            continue;
+        }
+        let tok = match c {
+            '+' => Tok::Plus,
+            '-' => Tok::Minus,
+            '*' => Tok::Star,
+            '/' => Tok::Slash,
+            '^' => Tok::Caret,
+            '(' => Tok::LParen,
+            ')' => Tok::RParen,
+            ',' => Tok::Comma,
+            '.' => match at(i + 1) {
+                Some('*') => {
+                    i += 1;
+                    Tok::Star
+                }
+                Some('/') => {
+                    i += 1;
+                    Tok::Slash
+                }
+                Some('^') => {
+                    i += 1;
+                    Tok::Caret
+                }
+                _ => {
+                    return Err(err(
+                        i,
+                        "unexpected `.`: expected a number such as `.5` or an operator `.*`, `./`, `.^`"
+                            .into(),
+                    ));
+                }
+            },
+            '\\' => {
+                return Err(err(
+                    i,
+                    "left division `\\` is not supported; write `/`".into(),
+                ));
+            }
+            '\'' => {
+                return Err(err(i, "the transpose `'` is not supported in a fun".into()));
+            }
+            other => {
+                return Err(err(
+                    i,
+                    format!("unexpected character `{}`", other.escape_debug()),
+                ));
+            }
+        };
+        i += 1;
+        toks.push((tok, start));
+    }
+    toks.push((Tok::End, chars.len()));
+    Ok(toks)
+}
+
+// ---------------------------------------------------------------- parser
+
+struct Parser {
+    toks: Vec<(Tok, usize)>,
+    pos: usize,
+    nodes: Vec<Node>,
+    text: String,
+    allow_t: bool,
+    depth: usize,
+    lex_error: Option<FunError>,
+}
+
+const FUNCTIONS: &str = "sin, cos, tan, asin, acos, atan, sinh, cosh, tanh, exp, log, log10, \
+                         sqrt, abs, atan2, power";
+
+impl Parser {
+    fn new(text: &str, allow_t: bool) -> Self {
+        let (toks, lex_error) = match lex(text) {
+            Ok(t) => (t, None),
+            Err(e) => (vec![(Tok::End, 0)], Some(e)),
+        };
+        Parser {
+            toks,
+            pos: 0,
+            nodes: Vec::new(),
+            text: text.to_string(),
+            allow_t,
+            depth: 0,
+            lex_error,
+        }
+    }
+
+    fn run(mut self) -> Result<Expr, FunError> {
+        if let Some(e) = self.lex_error.take() {
+            return Err(e);
+        }
+        if matches!(self.peek(), Tok::End) {
+            return Err(FunError {
+                offset: 0,
+                message: "empty expression: expected a number or an expression in t".into(),
+            });
+        }
+        self.sum()?;
+        if !matches!(self.peek(), Tok::End) {
+            let what = self.peek().describe();
+            return Err(self.error(format!(
+                "expected an operator (`+ - * / ^`) or the end of the expression, found {what}"
+            )));
+        }
+        Ok(Expr {
+            nodes: self.nodes,
+            text: self.text,
+        })
+    }
+
+    fn peek(&self) -> &Tok {
+        self.toks.get(self.pos).map_or(&Tok::End, |(t, _)| t)
+    }
+
+    fn offset(&self) -> usize {
+        self.toks.get(self.pos).map_or(0, |&(_, o)| o)
+    }
+
+    fn bump(&mut self) {
+        if self.pos + 1 < self.toks.len() {
+            self.pos += 1;
+        }
+    }
+
+    fn error(&self, message: String) -> FunError {
+        FunError {
+            offset: self.offset(),
+            message,
+        }
+    }
+
+    fn push(&mut self, node: Node) -> Result<u32, FunError> {
+        let id = u32::try_from(self.nodes.len())
+            .map_err(|_| self.error("expression too large".into()))?;
+        self.nodes.push(node);
+        Ok(id)
+    }
+
+    fn enter(&mut self) -> Result<(), FunError> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            Err(self.error(format!(
+                "expression nested too deeply (more than {MAX_DEPTH} levels)"
+            )))
+        } else {
+            Ok(())
+        }
+    }
+
+    fn sum(&mut self) -> Result<u32, FunError> {
+        let mut lhs = self.product()?;
+        loop {
+            let op = match self.peek() {
+                Tok::Plus => BinOp::Add,
+                Tok::Minus => BinOp::Sub,
+                _ => return Ok(lhs),
+            };
+            self.bump();
+            let rhs = self.product()?;
+            lhs = self.push(Node::Bin(op, lhs, rhs))?;
+        }
+    }
+
+    fn product(&mut self) -> Result<u32, FunError> {
+        let mut lhs = self.unary()?;
+        loop {
+            let op = match self.peek() {
+                Tok::Star => BinOp::Mul,
+                Tok::Slash => BinOp::Div,
+                _ => return Ok(lhs),
+            };
+            self.bump();
+            let rhs = self.unary()?;
+            lhs = self.push(Node::Bin(op, lhs, rhs))?;
+        }
+    }
+
+    fn unary(&mut self) -> Result<u32, FunError> {
+        match self.peek() {
+            Tok::Plus | Tok::Minus => {
+                let neg = matches!(self.peek(), Tok::Minus);
+                self.bump();
+                self.enter()?;
+                let a = self.unary()?;
+                self.depth -= 1;
+                if neg { self.push(Node::Neg(a)) } else { Ok(a) }
+            }
+            _ => self.power(),
+        }
+    }
+
+    fn power(&mut self) -> Result<u32, FunError> {
+        let mut lhs = self.primary()?;
+        while matches!(self.peek(), Tok::Caret) {
+            self.bump();
+            let rhs = self.operand()?;
+            lhs = self.push(Node::Bin(BinOp::Pow, lhs, rhs))?;
+        }
+        Ok(lhs)
+    }
+
+    /// The right operand of `^`: signs, then a primary.
+    fn operand(&mut self) -> Result<u32, FunError> {
+        match self.peek() {
+            Tok::Plus | Tok::Minus => {
+                let neg = matches!(self.peek(), Tok::Minus);
+                self.bump();
+                self.enter()?;
+                let a = self.operand()?;
+                self.depth -= 1;
+                if neg { self.push(Node::Neg(a)) } else { Ok(a) }
+            }
+            _ => self.primary(),
+        }
+    }
+
+    fn primary(&mut self) -> Result<u32, FunError> {
+        let offset = self.offset();
+        match self.peek().clone() {
+            Tok::Num(x) => {
+                self.bump();
+                self.push(Node::Num(x))
+            }
+            Tok::LParen => {
+                self.bump();
+                self.enter()?;
+                let inner = self.sum()?;
+                self.depth -= 1;
+                self.expect_close(offset)?;
+                Ok(inner)
+            }
+            Tok::Ident(name) => {
+                self.bump();
+                if matches!(self.peek(), Tok::LParen) {
+                    self.call(&name, offset)
+                } else {
+                    self.name(&name, offset)
+                }
+            }
+            other => Err(self.error(format!(
+                "expected a number, `t`, `pi`, a function call or `(`, found {}",
+                other.describe()
+            ))),
+        }
+    }
+
+    fn expect_close(&mut self, open: usize) -> Result<(), FunError> {
+        if matches!(self.peek(), Tok::RParen) {
+            self.bump();
+            Ok(())
+        } else {
+            let what = self.peek().describe();
+            Err(self.error(format!(
+                "expected `)` to close the `(` at character {}, found {what}",
+                open + 1
+            )))
+        }
+    }
+
+    fn name(&mut self, name: &str, offset: usize) -> Result<u32, FunError> {
+        let err = |message: String| FunError { offset, message };
+        match name {
+            "t" if self.allow_t => self.push(Node::T),
+            "t" => Err(err(
+                "`t` is not allowed here: a constant number is expected".into(),
+            )),
+            "pi" => self.push(Node::Pi),
+            "e" => Err(err(
+                "unknown name `e`: MATLAB has no constant `e`; write `exp(1)`".into(),
+            )),
+            "NONE" => Err(err(
+                "`NONE` must be the whole string, exactly \"NONE\"".into()
+            )),
+            _ if Func::from_name(name).is_some() || Func2::from_name(name).is_some() => {
+                Err(err(format!("`{name}` is a function: write `{name}(...)`")))
+            }
+            _ if self.allow_t => Err(err(format!(
+                "unknown name `{name}`: a fun may use only `t` and `pi` (and functions)"
+            ))),
+            _ => Err(err(format!(
+                "unknown name `{name}`: only numbers, `pi` and arithmetic are allowed here"
+            ))),
+        }
+    }
+
+    fn call(&mut self, name: &str, offset: usize) -> Result<u32, FunError> {
+        let open = self.offset();
+        self.bump(); // `(`
+        self.enter()?;
+        let mut args = Vec::new();
+        if !matches!(self.peek(), Tok::RParen) {
+            loop {
+                args.push(self.sum()?);
+                if matches!(self.peek(), Tok::Comma) {
+                    self.bump();
+                } else {
+                    break;
+                }
+            }
+        }
+        self.depth -= 1;
+        self.expect_close(open)?;
+        let err = |message: String| FunError { offset, message };
+        if let Some(f) = Func::from_name(name) {
+            return match args[..] {
+                [a] => self.push(Node::Call(f, a)),
+                _ => Err(err(format!(
+                    "`{name}` takes 1 argument, found {}",
+                    args.len()
+                ))),
+            };
+        }
+        if let Some(f) = Func2::from_name(name) {
+            return match args[..] {
+                [a, b] => self.push(Node::Call2(f, a, b)),
+                _ => Err(err(format!(
+                    "`{name}` takes 2 arguments, found {}",
+                    args.len()
+                ))),
+            };
+        }
+        if name == "t" || name == "pi" {
+            return Err(err(format!("`{name}` is not a function")));
+        }
+        Err(err(format!(
+            "unknown function `{name}` (supported: {FUNCTIONS})"
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eval(s: &str, t: f64) -> f64 {
+        Expr::parse(s)
+            .map(|e| e.eval(t))
+            .unwrap_or_else(|e| panic!("{s}: {e}"))
+    }
+
+    fn kin(s: &str) -> String {
+        Expr::parse(s)
+            .map(|e| e.to_kin())
+            .unwrap_or_else(|e| panic!("{s}: {e}"))
+    }
+
+    fn err(s: &str) -> FunError {
+        match Expr::parse(s) {
+            Ok(e) => panic!("{s} parsed as {e:?}"),
+            Err(e) => e,
+        }
+    }
+
+    #[test]
+    fn numbers() {
+        assert_eq!(eval("12", 0.0), 12.0);
+        assert_eq!(eval("0.5", 0.0), 0.5);
+        assert_eq!(eval(".5", 0.0), 0.5);
+        assert_eq!(eval("5.", 0.0), 5.0);
+        assert_eq!(eval("1.5e-5", 0.0), 1.5e-5);
+        assert_eq!(eval("2E+3", 0.0), 2000.0);
+        assert_eq!(eval("5.e1", 0.0), 50.0);
+        assert_eq!(eval("0.1", 0.0), 0.1);
+        assert_eq!(eval("2.356194490192345", 0.0), 2.356194490192345);
+    }
+
+    #[test]
+    fn precedence() {
+        assert_eq!(eval("2^3^2", 0.0), 64.0);
+        assert_eq!(eval("-t^2", 3.0), -9.0);
+        assert_eq!(eval("t^-2", 2.0), 0.25);
+        assert_eq!(eval("2^-1^2", 0.0), 0.25); // (2^-1)^2, left to right
+        assert_eq!(eval("-2^2", 0.0), -4.0);
+        assert_eq!(eval("1 - 2 - 3", 0.0), -4.0);
+        assert_eq!(eval("8 / 4 / 2", 0.0), 1.0);
+        assert_eq!(eval("2 + 3 * 4", 0.0), 14.0);
+        assert_eq!(eval("(2 + 3) * 4", 0.0), 20.0);
+        assert_eq!(eval("2*-3", 0.0), -6.0);
+        assert_eq!(eval("- - 2", 0.0), 2.0);
+        assert_eq!(eval("+t", 1.5), 1.5);
+        assert_eq!(eval("-9.81 * 2", 0.0), -19.62);
+    }
+
+    #[test]
+    fn element_wise_operators() {
+        assert_eq!(eval("2.*t", 3.0), 6.0);
+        assert_eq!(eval("5.*t", 2.0), 10.0); // 5 .* t
+        assert_eq!(eval("t./2", 3.0), 1.5);
+        assert_eq!(eval("t.^2", 3.0), 9.0);
+        assert_eq!(eval("2.^3", 0.0), 8.0);
+    }
+
+    #[test]
+    fn functions_and_constants() {
+        let t = 0.3;
+        assert_eq!(eval("sin(10*t)", t), (10.0 * t).sin());
+        assert_eq!(
+            eval("pi/2 + 2*pi*t", t),
+            std::f64::consts::PI / 2.0 + 2.0 * std::f64::consts::PI * t
+        );
+        assert_eq!(eval("log(exp(2))", t), 2.0);
+        assert_eq!(eval("sqrt(abs(-4))", t), 2.0);
+        assert_eq!(eval("atan2(1, 1)", t), std::f64::consts::FRAC_PI_4);
+        assert_eq!(eval("power(t, 2)", t), t.powf(2.0));
+        assert_eq!(eval("log10(100)", t), 2.0);
+        for f in [
+            "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log",
+            "sqrt", "abs",
+        ] {
+            assert!(eval(&format!("{f}(t)"), t).is_finite(), "{f}");
+        }
+    }
+
+    #[test]
+    fn fun_none_and_mentions_t() {
+        assert_eq!(Fun::parse("NONE"), Ok(Fun::None));
+        assert!(err("none").message.contains("unknown name"));
+        assert!(err("NONE + 1").message.contains("exactly"));
+        assert!(Expr::parse("15*t").is_ok_and(|e| e.mentions_t()));
+        assert!(Expr::parse("0.0").is_ok_and(|e| !e.mentions_t()));
+        assert!(Expr::parse("-500").is_ok_and(|e| !e.mentions_t()));
+    }
+
+    #[test]
+    fn printing_in_kinema_syntax() {
+        assert_eq!(kin("t^2"), "powi(t, 2)");
+        assert_eq!(kin("-t^2"), "-powi(t, 2)");
+        assert_eq!(kin("t^-2"), "powi(t, -2)");
+        assert_eq!(kin("2^3^2"), "powi(powi(2, 3), 2)");
+        assert_eq!(kin("t^0.5"), "pow(t, 0.5)");
+        assert_eq!(kin("t^(1/2)"), "pow(t, 1 / 2)");
+        assert_eq!(kin("t^(4/2)"), "powi(t, 2)");
+        assert_eq!(kin("2^t"), "pow(2, t)");
+        assert_eq!(kin("log(t)"), "ln(t)");
+        assert_eq!(kin("log10(t)"), "ln(t) / ln(10)");
+        assert_eq!(kin("2*log10(t)"), "2 * (ln(t) / ln(10))");
+        assert_eq!(kin("pi/2 + 2*pi*t"), "pi / 2 + 2 * pi * t");
+        assert_eq!(kin("t + pi/6"), "t + pi / 6");
+        assert_eq!(kin("1 - (2 - t)"), "1 - (2 - t)");
+        assert_eq!(kin("(1 - 2) - t"), "1 - 2 - t");
+        assert_eq!(kin("1 + (2 + t)"), "1 + (2 + t)");
+        assert_eq!(kin("2 / (3 * t)"), "2 / (3 * t)");
+        assert_eq!(kin("-(2*t)"), "-(2 * t)");
+        assert_eq!(kin("-2*t"), "-2 * t");
+        assert_eq!(kin("t - -1"), "t - (-1)");
+        assert_eq!(kin("2*-t"), "2 * (-t)");
+        assert_eq!(kin("- -t"), "-(-t)");
+        assert_eq!(kin("0.0"), "0");
+        assert_eq!(kin("-0.04"), "-0.04");
+        assert_eq!(kin("1.5e-5*t"), "1.5e-5 * t");
+        assert_eq!(kin("sin(10*t)"), "sin(10 * t)");
+        assert_eq!(kin("atan2(t, 1)"), "atan2(t, 1)");
+        assert_eq!(kin("power(t, 3)"), "powi(t, 3)");
+        assert_eq!(kin("(((t)))"), "t");
+    }
+
+    #[test]
+    fn printing_keeps_the_value() {
+        let cases = [
+            "1 - (2 - t)",
+            "2^3^2",
+            "-t^2 + t^-2",
+            "t/(1+t)/3",
+            "2*-t^0.5",
+            "exp(-t)*sin(10*t)",
+            "1e-3*t^3 - 0.5*t^2 + t - 7",
+            "log10(t) * 2",
+            "-(t - 1)^3",
+        ];
+        for s in cases {
+            let e = Expr::parse(s).expect("parses");
+            let back = Expr::parse(
+                &e.to_kin()
+                    .replace("powi(", "power(")
+                    .replace("pow(", "power(")
+                    .replace("ln(", "log("),
+            )
+            .unwrap_or_else(|err| panic!("{s} -> {}: {err}", e.to_kin()));
+            for t in [0.25, 0.7, 1.9] {
+                let (a, b) = (e.eval(t), back.eval(t));
+                assert!(
+                    (a - b).abs() <= 1e-15 * a.abs().max(1.0),
+                    "{s}: {a} vs {b} at t = {t}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn errors_point_into_the_string() {
+        let e = err("sin(10*t");
+        assert_eq!(e.offset, 8);
+        assert!(
+            e.message
+                .contains("expected `)` to close the `(` at character 4"),
+            "{}",
+            e.message
+        );
+        let e = err("2*x");
+        assert_eq!(e.offset, 2);
+        assert!(e.message.contains("unknown name `x`"));
+        let e = err("2*e");
+        assert!(e.message.contains("exp(1)"));
+        let e = err("2e");
+        assert!(e.message.contains("exponent"));
+        let e = err("foo(t)");
+        assert!(e.message.contains("unknown function `foo`"));
+        let e = err("sin");
+        assert!(e.message.contains("is a function"));
+        let e = err("sin(1, 2)");
+        assert!(e.message.contains("takes 1 argument"));
+        let e = err("2 t");
+        assert_eq!(e.offset, 2);
+        assert!(err("").message.contains("empty"));
+        assert!(err("1 +").message.contains("end of the expression"));
+        assert!(err("t \\ 2").message.contains("left division"));
+        assert!(err("t'").message.contains("transpose"));
+        assert!(err("t # 2").message.contains("unexpected character"));
+        assert!(err("1e999").message.contains("out of range"));
+        assert_eq!(err("(t))").offset, 3);
+    }
+
+    #[test]
+    fn deep_input_is_an_error_not_a_crash() {
+        let deep = format!("{}t{}", "(".repeat(5000), ")".repeat(5000));
+        assert!(err(&deep).message.contains("nested too deeply"));
+        let signs = format!("{}t", "-".repeat(5000));
+        assert!(err(&signs).message.contains("nested too deeply"));
+        // Long flat sums are fine and evaluate and print without recursion.
+        let long = vec!["t"; 200_000].join(" + ");
+        let e = Expr::parse(&long).expect("parses");
+        assert_eq!(e.eval(1.0), 200_000.0);
+        assert_eq!(e.to_kin().len(), long.len());
+    }
+
+    #[test]
+    fn constants() {
+        assert_eq!(Expr::parse_constant("187/255"), Ok(187.0 / 255.0));
+        assert_eq!(
+            Expr::parse_constant(" 2*pi "),
+            Ok(2.0 * std::f64::consts::PI)
+        );
+        assert!(Expr::parse_constant("t").is_err());
+        assert!(Expr::parse_constant("1/0").is_err());
+    }
+}

@@ -1,0 +1,94 @@
+//! Snapshots of the rendered errors for bad ADM input and refused analyses.
+
+#![allow(clippy::unwrap_used)] // tests: a failure should stop the test
+
+mod common;
+
+use kinema_adm::{Analysis, Model, check_kinematic};
+
+fn error(name: &str) -> String {
+    match Model::parse(&common::read(name), name) {
+        Ok(_) => panic!("{name} was accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn malformed_json() {
+    insta::assert_snapshot!("bad_json", error("bad_json.adm"));
+}
+
+#[test]
+fn malformed_number() {
+    insta::assert_snapshot!("bad_number", error("bad_number.adm"));
+}
+
+#[test]
+fn unknown_constraint_type() {
+    insta::assert_snapshot!("bad_type", error("bad_type.adm"));
+}
+
+#[test]
+fn body_that_does_not_exist() {
+    let e = error("bad_body.adm");
+    assert!(e.contains(
+        "constraint \"rev_crank_rod\" (id 3): field \"body2\": body 7 does not exist (the model has 3 bodies)"
+    ));
+    insta::assert_snapshot!("bad_body", e);
+}
+
+#[test]
+fn fun_that_does_not_parse() {
+    insta::assert_snapshot!("bad_fun", error("bad_fun.adm"));
+}
+
+#[test]
+fn missing_and_malformed_fields() {
+    insta::assert_snapshot!("bad_fields", error("bad_fields.adm"));
+}
+
+#[test]
+fn unreadable_file() {
+    let e = Model::read(std::path::Path::new("no/such/model.adm")).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("no/such/model.adm: cannot read the file")
+    );
+}
+
+#[test]
+fn refusals() {
+    let free = Model::parse(&common::read("free_pendulum.adm"), "free_pendulum.adm").unwrap();
+    let refusal = check_kinematic(&free, &Analysis::default()).unwrap_err();
+    insta::assert_snapshot!("refuse_ndof", refusal.to_string());
+    let crank = Model::parse(&common::read("slider_crank.adm"), "slider_crank.adm").unwrap();
+    let dynamics = Analysis::parse(&common::read("dynamics.acf"), "dynamics.acf").unwrap();
+    let refusal = check_kinematic(&crank, &dynamics).unwrap_err();
+    insta::assert_snapshot!("refuse_dynamics", refusal.to_string());
+}
+
+#[test]
+fn garbage_never_panics() {
+    // Truncations and byte-level damage of a real-looking file: every prefix
+    // must give a model or an error, never a panic.
+    let text = common::read("absolute_pendulum.adm");
+    let chars: Vec<char> = text.chars().collect();
+    for end in 0..chars.len() {
+        let prefix: String = chars[..end].iter().collect();
+        let _ = Model::parse(&prefix, "prefix.adm");
+        let _ = Analysis::parse(&prefix, "prefix.acf");
+    }
+    for (i, c) in chars.iter().enumerate().step_by(3) {
+        for replacement in ['"', '{', ']', ',', '^', '(', '\\', 'é', '\t'] {
+            if *c == replacement {
+                continue;
+            }
+            let mut damaged = chars.clone();
+            damaged[i] = replacement;
+            let damaged: String = damaged.into_iter().collect();
+            if let Err(e) = Model::parse(&damaged, "damaged.adm") {
+                assert!(!e.to_string().is_empty());
+            }
+        }
+    }
+}
