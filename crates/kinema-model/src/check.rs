@@ -804,7 +804,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         let value = match typed {
             Some(t) => {
                 let v = eval_scalar(&t.expr, &param_values);
-                if !v.is_finite() {
+                if !v.is_finite() && !uses_bad_param(&t.expr, &param_values) {
                     // error: the value of param `x` is NaN: expected a finite number
                     cx.error(
                         p.value.as_ref().map_or(span, |e| e.span()),
@@ -837,7 +837,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         let (local, local_value) = match t {
             Some(t) => {
                 let v = eval_vector(&t.expr, &param_values);
-                finite_vector(&mut cx, v, p.value.span());
+                finite_vector(&mut cx, v, p.value.span(), &t.expr, &param_values);
                 (t.expr, v)
             }
             None => (vector_const(0.0, 0.0), [0.0, 0.0]),
@@ -865,7 +865,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
                     .and_then(|t| expect_ty(&mut cx, t, Ty::Scalar, g[k].span()));
                 if let Some(t) = t {
                     let v = eval_scalar(&t.expr, &param_values);
-                    if !v.is_finite() {
+                    if !v.is_finite() && !uses_bad_param(&t.expr, &param_values) {
                         cx.error(
                             g[k].span(),
                             format!(
@@ -964,7 +964,9 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
 
     // ---- Rule: the mechanism is kinematically determined, NDOF = 0.
     //   error: mechanism `M` has NDOF = 1, expected 0: nc = 9, kinematic equations = 7, drivers = 1, KDOF = 2
-    if rows_known {
+    // Reported only when everything else is right: a count over a model
+    // with missing or bad declarations would mislead.
+    if rows_known && cx.error_count() == 0 {
         let dof = model.dof();
         if dof.ndof() != 0 {
             let help = if dof.ndof() > 0 {
@@ -1090,8 +1092,18 @@ fn ty_name(ty: Ty) -> &'static str {
     }
 }
 
-fn finite_vector(cx: &mut Ctxt, v: [f64; 2], span: Span) {
-    if !(v[0].is_finite() && v[1].is_finite()) {
+/// True when `t` reads a param whose value is not finite (already reported).
+fn uses_bad_param(t: &TExpr, params: &[f64]) -> bool {
+    t.nodes.iter().any(|n| match n {
+        TNode::Param(i) => !params.get(*i as usize).is_some_and(|v| v.is_finite()),
+        _ => false,
+    })
+}
+
+/// Rule: constant vectors are finite (unless a bad param, already reported,
+/// is the cause).
+fn finite_vector(cx: &mut Ctxt, v: [f64; 2], span: Span, t: &TExpr, params: &[f64]) {
+    if !(v[0].is_finite() && v[1].is_finite()) && !uses_bad_param(t, params) {
         cx.error(span, "this vector is not finite: expected finite numbers");
     }
 }
@@ -1336,16 +1348,26 @@ fn check_expr(
                     }
                     (BinOp::Add | BinOp::Sub, _, _) => {
                         // error: expected a scalar, found a vector (point `crank.o`)
+                        let (v, other) = if tx == Ty::Vector { (*a, *b) } else { (*b, *a) };
+                        let verb = if *op == BinOp::Add {
+                            "added to"
+                        } else {
+                            "subtracted from"
+                        };
+                        let other_name = match &expr.node(other).kind {
+                            ExprKind::Ident(n) => format!(" (`{n}`)"),
+                            _ => String::new(),
+                        };
                         cx.push(
                             Diagnostic::error(
-                                expr.node(*b).span,
+                                expr.node(v).span,
                                 format!(
-                                    "expected {}, found {}",
-                                    ty_name(tx),
-                                    describe(expr, *b, ty)
+                                    "expected a scalar, found {}",
+                                    describe(expr, v, Ty::Vector)
                                 ),
                             )
-                            .with_label(format!("the left side is {}", ty_name(tx))),
+                            .with_label(format!("a vector cannot be {verb} a scalar"))
+                            .with_help(format!("the other operand is a scalar{other_name}")),
                         );
                         None
                     }
@@ -1770,7 +1792,7 @@ fn check_library(
                 match r {
                     Some((b, local)) => {
                         let v = eval_vector(&local, param_values);
-                        finite_vector(cx, v, node.span);
+                        finite_vector(cx, v, node.span, &local, param_values);
                         (Some(LibArg::Point(b, local)), Some(b))
                     }
                     None => (None, None),
@@ -1783,7 +1805,7 @@ fn check_library(
                 match t {
                     Some(t) => {
                         let v = eval_vector(&t.expr, param_values);
-                        finite_vector(cx, v, node.span);
+                        finite_vector(cx, v, node.span, &t.expr, param_values);
                         (Some(LibArg::Vector(t.expr)), None)
                     }
                     None => (None, None),

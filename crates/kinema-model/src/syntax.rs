@@ -453,14 +453,30 @@ impl Parse for Mechanism {
         let name: Ident = input.parse()?;
         let content;
         braced!(content in input);
+        let body: TokenStream = content.parse()?;
+        let close = body
+            .clone()
+            .into_iter()
+            .last()
+            .map_or_else(|| content.span(), |t| t.span());
         let mut items = Vec::new();
         let mut errors = Diagnostics::new();
-        while !content.is_empty() {
-            match parse_item(&content) {
+        // Each item is parsed on its own, so that an error in one item
+        // neither stops nor disturbs the others: independent mistakes are
+        // all reported.
+        for chunk in split_items(body) {
+            let last = chunk.clone().into_iter().last().map_or(close, |t| t.span());
+            match syn::parse::Parser::parse2(parse_item, chunk) {
                 Ok(item) => items.push(item),
                 Err(e) => {
-                    errors.extend(Diagnostics::from(e));
-                    skip_item(&content);
+                    for mut d in Diagnostics::from(e) {
+                        // "unexpected end of input" has no location of its
+                        // own: point at the item's last token.
+                        if d.span.start().line == 0 && last.start().line != 0 {
+                            d.span = Span::new(last);
+                        }
+                        errors.push(d);
+                    }
                 }
             }
         }
@@ -477,28 +493,38 @@ impl Parse for Mechanism {
     }
 }
 
-/// After a parse error, skips to just after the next `;` or `{…}` group at
-/// item level, so that parsing can go on with the next item.
-fn skip_item(input: ParseStream<'_>) {
-    let _ = input.step(|cursor| {
-        let mut rest = *cursor;
-        while let Some((tt, next)) = rest.token_tree() {
-            rest = next;
-            match tt {
-                proc_macro2::TokenTree::Punct(p) if p.as_char() == ';' => break,
-                proc_macro2::TokenTree::Group(g)
-                    if g.delimiter() == proc_macro2::Delimiter::Brace =>
-                {
-                    break;
-                }
-                _ => {}
-            }
+/// Splits the tokens of the mechanism's body into items: an item ends after
+/// a `;` or after a `{…}` group (a body's block).
+fn split_items(body: TokenStream) -> Vec<TokenStream> {
+    let mut items = Vec::new();
+    let mut current: Vec<proc_macro2::TokenTree> = Vec::new();
+    for tt in body {
+        let end = match &tt {
+            proc_macro2::TokenTree::Punct(p) => p.as_char() == ';',
+            proc_macro2::TokenTree::Group(g) => g.delimiter() == proc_macro2::Delimiter::Brace,
+            _ => false,
+        };
+        current.push(tt);
+        if end {
+            items.push(std::mem::take(&mut current).into_iter().collect());
         }
-        Ok(((), rest))
-    });
+    }
+    if !current.is_empty() {
+        items.push(current.into_iter().collect());
+    }
+    items
 }
 
 fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
+    let item = parse_item_inner(input)?;
+    if !input.is_empty() {
+        // error: expected the end of the item
+        return Err(input.error("unexpected tokens after the end of this item"));
+    }
+    Ok(item)
+}
+
+fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
     let docs = parse_docs(input)?;
     let lookahead = input.lookahead1();
     if lookahead.peek(kw::param) {

@@ -219,20 +219,44 @@ fn row(i: [f64; 3], j: [f64; 3]) -> [f64; 6] {
 fn abs_x_and_abs_y() {
     for driven in [false, true] {
         let f = f_text(2, driven);
-        run("AX", &format!("abs_x(bi(p0, p1), {f})"), 1, driven, 5, &[], |s| {
-            let sp = s.v(0);
-            let (_, fd, fdd) = s.f(2, driven);
-            let phi = s.phii();
-            let g = a(phi, sp)[0] * s.wi() * s.wi() + fdd;
-            (vec![row([1.0, 0.0, b(phi, sp)[0]], [0.0; 3])], vec![fd], vec![g])
-        });
-        run("AY", &format!("abs_y(bi(p0, p1), {f})"), 1, driven, 5, &[], |s| {
-            let sp = s.v(0);
-            let (_, fd, fdd) = s.f(2, driven);
-            let phi = s.phii();
-            let g = a(phi, sp)[1] * s.wi() * s.wi() + fdd;
-            (vec![row([0.0, 1.0, b(phi, sp)[1]], [0.0; 3])], vec![fd], vec![g])
-        });
+        run(
+            "AX",
+            &format!("abs_x(bi(p0, p1), {f})"),
+            1,
+            driven,
+            5,
+            &[],
+            |s| {
+                let sp = s.v(0);
+                let (_, fd, fdd) = s.f(2, driven);
+                let phi = s.phii();
+                let g = a(phi, sp)[0] * s.wi() * s.wi() + fdd;
+                (
+                    vec![row([1.0, 0.0, b(phi, sp)[0]], [0.0; 3])],
+                    vec![fd],
+                    vec![g],
+                )
+            },
+        );
+        run(
+            "AY",
+            &format!("abs_y(bi(p0, p1), {f})"),
+            1,
+            driven,
+            5,
+            &[],
+            |s| {
+                let sp = s.v(0);
+                let (_, fd, fdd) = s.f(2, driven);
+                let phi = s.phii();
+                let g = a(phi, sp)[1] * s.wi() * s.wi() + fdd;
+                (
+                    vec![row([0.0, 1.0, b(phi, sp)[1]], [0.0; 3])],
+                    vec![fd],
+                    vec![g],
+                )
+            },
+        );
     }
 }
 
@@ -240,10 +264,18 @@ fn abs_x_and_abs_y() {
 fn abs_angle() {
     for driven in [false, true] {
         let f = f_text(0, driven);
-        run("AA", &format!("abs_angle(bj, {f})"), 1, driven, 3, &[], |s| {
-            let (_, fd, fdd) = s.f(0, driven);
-            (vec![row([0.0; 3], [0.0, 0.0, 1.0])], vec![fd], vec![fdd])
-        });
+        run(
+            "AA",
+            &format!("abs_angle(bj, {f})"),
+            1,
+            driven,
+            3,
+            &[],
+            |s| {
+                let (_, fd, fdd) = s.f(0, driven);
+                (vec![row([0.0; 3], [0.0, 0.0, 1.0])], vec![fd], vec![fdd])
+            },
+        );
     }
 }
 
@@ -251,20 +283,28 @@ fn abs_angle() {
 fn abs_distance() {
     for driven in [false, true] {
         let f = f_text(4, driven);
-        run("AD", &format!("abs_distance(bi(p0, p1), (p2, p3), {f})"), 1, driven, 7, &[], |s| {
-            let sp = s.v(0);
-            let c = s.v(2);
-            let (cc, cd, cdd) = s.f(4, driven);
-            let (p, pd) = s.pi(sp);
-            let h = sub(p, c);
-            let phi = s.phii();
-            let jq = row([2.0 * h[0], 2.0 * h[1], 2.0 * dot(h, b(phi, sp))], [0.0; 3]);
-            let nu = 2.0 * cc * cd;
-            let g = -2.0 * dot(pd, pd)
-                + 2.0 * s.wi() * s.wi() * dot(h, a(phi, sp))
-                + 2.0 * (cd * cd + cc * cdd);
-            (vec![jq], vec![nu], vec![g])
-        });
+        run(
+            "AD",
+            &format!("abs_distance(bi(p0, p1), (p2, p3), {f})"),
+            1,
+            driven,
+            7,
+            &[],
+            |s| {
+                let sp = s.v(0);
+                let c = s.v(2);
+                let (cc, cd, cdd) = s.f(4, driven);
+                let (p, pd) = s.pi(sp);
+                let h = sub(p, c);
+                let phi = s.phii();
+                let jq = row([2.0 * h[0], 2.0 * h[1], 2.0 * dot(h, b(phi, sp))], [0.0; 3]);
+                let nu = 2.0 * cc * cd;
+                let g = -2.0 * dot(pd, pd)
+                    + 2.0 * s.wi() * s.wi() * dot(h, a(phi, sp))
+                    + 2.0 * (cd * cd + cc * cdd);
+                (vec![jq], vec![nu], vec![g])
+            },
+        );
     }
 }
 
@@ -298,10 +338,22 @@ fn rel_x_rel_y() {
 fn rel_angle() {
     for driven in [false, true] {
         let f = f_text(0, driven);
-        run("RA", &format!("rel_angle(bi, bj, {f})"), 1, driven, 3, &[], |s| {
-            let (_, fd, fdd) = s.f(0, driven);
-            (vec![row([0.0, 0.0, -1.0], [0.0, 0.0, 1.0])], vec![fd], vec![fdd])
-        });
+        run(
+            "RA",
+            &format!("rel_angle(bi, bj, {f})"),
+            1,
+            driven,
+            3,
+            &[],
+            |s| {
+                let (_, fd, fdd) = s.f(0, driven);
+                (
+                    vec![row([0.0, 0.0, -1.0], [0.0, 0.0, 1.0])],
+                    vec![fd],
+                    vec![fdd],
+                )
+            },
+        );
     }
 }
 
@@ -330,16 +382,34 @@ fn distance_expected(s: &State, squared: bool, driven: bool) -> Expected {
 fn rel_distance_revolute_revolute_and_d() {
     for driven in [false, true] {
         let f = f_text(4, driven);
-        run("RD", &format!("rel_distance(bi(p0, p1), bj(p2, p3), {f})"), 1, driven, 7, &[], |s| {
-            distance_expected(s, true, driven)
-        });
-        run("D", &format!("d(bi(p0, p1), bj(p2, p3), {f})"), 1, driven, 7, &[], |s| {
-            distance_expected(s, false, driven)
-        });
+        run(
+            "RD",
+            &format!("rel_distance(bi(p0, p1), bj(p2, p3), {f})"),
+            1,
+            driven,
+            7,
+            &[],
+            |s| distance_expected(s, true, driven),
+        );
+        run(
+            "D",
+            &format!("d(bi(p0, p1), bj(p2, p3), {f})"),
+            1,
+            driven,
+            7,
+            &[],
+            |s| distance_expected(s, false, driven),
+        );
     }
-    run("RR", "revolute_revolute(bi(p0, p1), bj(p2, p3), p4)", 1, false, 5, &[], |s| {
-        distance_expected(s, true, false)
-    });
+    run(
+        "RR",
+        "revolute_revolute(bi(p0, p1), bj(p2, p3), p4)",
+        1,
+        false,
+        5,
+        &[],
+        |s| distance_expected(s, true, false),
+    );
 }
 
 #[test]
@@ -360,7 +430,15 @@ fn revolute() {
             vec![g[0], g[1]],
         )
     };
-    run("REV", "revolute(bi(p0, p1), bj(p2, p3))", 2, false, 4, &[], expected);
+    run(
+        "REV",
+        "revolute(bi(p0, p1), bj(p2, p3))",
+        2,
+        false,
+        4,
+        &[],
+        expected,
+    );
     // Named points give the same rows.
     let src = "mechanism T { param p0 = 1; param p1 = 2; param p2 = 3; param p3 = 4;
         body bi; body bj; point bi.a = (p0, p1); point bj.b = (p2, p3);
@@ -386,28 +464,36 @@ fn revolute() {
 
 #[test]
 fn translational() {
-    run("TRA", "translational(bi(p0, p1), (p2, p3), bj(p4, p5), (p6, p7))", 2, false, 8, &[], |s| {
-        let (si, vi, sj, vj) = (s.v(0), s.v(2), s.v(4), s.v(6));
-        let (pi, _) = s.pi(si);
-        let (pj, _) = s.pj(sj);
-        let d = sub(pj, pi);
-        let ui = a(s.phii(), vi);
-        let ni = b(s.phii(), vi);
-        let uj = a(s.phij(), vj);
-        let rji = sub(s.rj(), s.ri());
-        let rdji = sub(s.rdj(), s.rdi());
-        let dw = s.wj() - s.wi();
-        let row1 = row(
-            [-ni[0], -ni[1], -dot(ui, d) - dot(vi, si)],
-            [ni[0], ni[1], dot(ni, b(s.phij(), sj))],
-        );
-        let row2 = row([0.0, 0.0, -dot(ui, uj)], [0.0, 0.0, dot(ui, uj)]);
-        let g1 = s.wi() * s.wi() * dot(ni, rji)
-            + 2.0 * s.wi() * dot(ui, rdji)
-            + dw * dw * dot(ni, a(s.phij(), sj));
-        let g2 = dw * dw * dot(ni, uj);
-        (vec![row1, row2], vec![0.0, 0.0], vec![g1, g2])
-    });
+    run(
+        "TRA",
+        "translational(bi(p0, p1), (p2, p3), bj(p4, p5), (p6, p7))",
+        2,
+        false,
+        8,
+        &[],
+        |s| {
+            let (si, vi, sj, vj) = (s.v(0), s.v(2), s.v(4), s.v(6));
+            let (pi, _) = s.pi(si);
+            let (pj, _) = s.pj(sj);
+            let d = sub(pj, pi);
+            let ui = a(s.phii(), vi);
+            let ni = b(s.phii(), vi);
+            let uj = a(s.phij(), vj);
+            let rji = sub(s.rj(), s.ri());
+            let rdji = sub(s.rdj(), s.rdi());
+            let dw = s.wj() - s.wi();
+            let row1 = row(
+                [-ni[0], -ni[1], -dot(ui, d) - dot(vi, si)],
+                [ni[0], ni[1], dot(ni, b(s.phij(), sj))],
+            );
+            let row2 = row([0.0, 0.0, -dot(ui, uj)], [0.0, 0.0, dot(ui, uj)]);
+            let g1 = s.wi() * s.wi() * dot(ni, rji)
+                + 2.0 * s.wi() * dot(ui, rdji)
+                + dw * dw * dot(ni, a(s.phij(), sj));
+            let g2 = dw * dw * dot(ni, uj);
+            (vec![row1, row2], vec![0.0, 0.0], vec![g1, g2])
+        },
+    );
 }
 
 /// RT / RP row 1: n̂ᵀd − c with unit v̂.
@@ -434,59 +520,83 @@ fn rt_expected(s: &State, si: V, v: V, sj: V, cd: f64, cdd: f64) -> ([f64; 6], f
 fn revolute_translational() {
     for driven in [false, true] {
         let f = f_text(6, driven);
-        run("RT", &format!("revolute_translational(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"), 1, driven, 9, &[], |s| {
-            let (_, cd, cdd) = s.f(6, driven);
-            let (jq, nu, g) = rt_expected(s, s.v(0), s.v(2), s.v(4), cd, cdd);
-            (vec![jq], vec![nu], vec![g])
-        });
+        run(
+            "RT",
+            &format!("revolute_translational(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"),
+            1,
+            driven,
+            9,
+            &[],
+            |s| {
+                let (_, cd, cdd) = s.f(6, driven);
+                let (jq, nu, g) = rt_expected(s, s.v(0), s.v(2), s.v(4), cd, cdd);
+                (vec![jq], vec![nu], vec![g])
+            },
+        );
     }
 }
 
 #[test]
 fn gear() {
-    run("GEAR", "gear(bi(p0, p1), bj(p2, p3), p4, p5, p6, p7)", 1, false, 8, &[4, 5], |s| {
-        let (si, sj) = (s.v(0), s.v(2));
-        let (ri, rj, thi, thj) = (s.p[4], s.p[5], s.p[6], s.p[7]);
-        let ki = ri / (ri + rj);
-        let kj = rj / (ri + rj);
-        let alpha = ki * (s.phii() + thi) + kj * (s.phij() + thj);
-        let e = [alpha.cos(), alpha.sin()];
-        let ep = r(e);
-        let (pi, pdi) = s.pi(si);
-        let (pj, pdj) = s.pj(sj);
-        let d = sub(pj, pi);
-        let dd = sub(pdj, pdi);
-        let ad = ki * s.wi() + kj * s.wj();
-        let jq = row(
-            [-ep[0], -ep[1], -dot(ep, b(s.phii(), si)) - ki * dot(e, d)],
-            [ep[0], ep[1], dot(ep, b(s.phij(), sj)) - kj * dot(e, d)],
-        );
-        let g = dot(ep, s.w(si, sj)) + 2.0 * ad * dot(e, dd) + ad * ad * dot(ep, d);
-        (vec![jq], vec![0.0], vec![g])
-    });
+    run(
+        "GEAR",
+        "gear(bi(p0, p1), bj(p2, p3), p4, p5, p6, p7)",
+        1,
+        false,
+        8,
+        &[4, 5],
+        |s| {
+            let (si, sj) = (s.v(0), s.v(2));
+            let (ri, rj, thi, thj) = (s.p[4], s.p[5], s.p[6], s.p[7]);
+            let ki = ri / (ri + rj);
+            let kj = rj / (ri + rj);
+            let alpha = ki * (s.phii() + thi) + kj * (s.phij() + thj);
+            let e = [alpha.cos(), alpha.sin()];
+            let ep = r(e);
+            let (pi, pdi) = s.pi(si);
+            let (pj, pdj) = s.pj(sj);
+            let d = sub(pj, pi);
+            let dd = sub(pdj, pdi);
+            let ad = ki * s.wi() + kj * s.wj();
+            let jq = row(
+                [-ep[0], -ep[1], -dot(ep, b(s.phii(), si)) - ki * dot(e, d)],
+                [ep[0], ep[1], dot(ep, b(s.phij(), sj)) - kj * dot(e, d)],
+            );
+            let g = dot(ep, s.w(si, sj)) + 2.0 * ad * dot(e, dd) + ad * ad * dot(ep, d);
+            (vec![jq], vec![0.0], vec![g])
+        },
+    );
 }
 
 #[test]
 fn rack_pinion() {
-    run("RP", "rack_pinion(bi(p0, p1), (p2, p3), bj(p4, p5), p6, p7)", 2, false, 8, &[6], |s| {
-        let (si, v, sj, rp) = (s.v(0), s.v(2), s.v(4), s.p[6]);
-        let (row1, _, g1) = rt_expected(s, si, v, sj, 0.0, 0.0);
-        let vh = unit(v);
-        let (pi, _) = s.pi(si);
-        let (pj, _) = s.pj(sj);
-        let d = sub(pj, pi);
-        let u = a(s.phii(), vh);
-        let n = b(s.phii(), vh);
-        let dw = s.wj() - s.wi();
-        let row2 = row(
-            [-u[0], -u[1], dot(n, d) - dot(u, b(s.phii(), si)) - rp],
-            [u[0], u[1], dot(u, b(s.phij(), sj)) + rp],
-        );
-        let g2 = s.wi() * s.wi() * dot(u, sub(s.rj(), s.ri()))
-            - 2.0 * s.wi() * dot(n, sub(s.rdj(), s.rdi()))
-            + dw * dw * dot(u, a(s.phij(), sj));
-        (vec![row1, row2], vec![0.0, 0.0], vec![g1, g2])
-    });
+    run(
+        "RP",
+        "rack_pinion(bi(p0, p1), (p2, p3), bj(p4, p5), p6, p7)",
+        2,
+        false,
+        8,
+        &[6],
+        |s| {
+            let (si, v, sj, rp) = (s.v(0), s.v(2), s.v(4), s.p[6]);
+            let (row1, _, g1) = rt_expected(s, si, v, sj, 0.0, 0.0);
+            let vh = unit(v);
+            let (pi, _) = s.pi(si);
+            let (pj, _) = s.pj(sj);
+            let d = sub(pj, pi);
+            let u = a(s.phii(), vh);
+            let n = b(s.phii(), vh);
+            let dw = s.wj() - s.wi();
+            let row2 = row(
+                [-u[0], -u[1], dot(n, d) - dot(u, b(s.phii(), si)) - rp],
+                [u[0], u[1], dot(u, b(s.phij(), sj)) + rp],
+            );
+            let g2 = s.wi() * s.wi() * dot(u, sub(s.rj(), s.ri()))
+                - 2.0 * s.wi() * dot(n, sub(s.rdj(), s.rdi()))
+                + dw * dw * dot(u, a(s.phij(), sj));
+            (vec![row1, row2], vec![0.0, 0.0], vec![g1, g2])
+        },
+    );
 }
 
 /// DP2 closed form (§4), also the translational-distance driver with a' = v̂.
@@ -512,10 +622,18 @@ fn dp2_expected(s: &State, si: V, ap: V, sj: V, fd: f64, fdd: f64) -> Expected {
 fn translational_distance() {
     for driven in [false, true] {
         let f = f_text(6, driven);
-        run("TD", &format!("translational_distance(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"), 1, driven, 9, &[], |s| {
-            let (_, fd, fdd) = s.f(6, driven);
-            dp2_expected(s, s.v(0), unit(s.v(2)), s.v(4), fd, fdd)
-        });
+        run(
+            "TD",
+            &format!("translational_distance(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"),
+            1,
+            driven,
+            9,
+            &[],
+            |s| {
+                let (_, fd, fdd) = s.f(6, driven);
+                dp2_expected(s, s.v(0), unit(s.v(2)), s.v(4), fd, fdd)
+            },
+        );
     }
 }
 
@@ -525,19 +643,27 @@ fn translational_distance() {
 fn dp1() {
     for driven in [false, true] {
         let f = f_text(4, driven);
-        run("DP1", &format!("dp1(bi, (p0, p1), bj, (p2, p3), {f})"), 1, driven, 7, &[], |s| {
-            let (ap, bp) = (s.v(0), s.v(2));
-            let (_, fd, fdd) = s.f(4, driven);
-            let ai = a(s.phii(), ap);
-            let aj = a(s.phij(), bp);
-            let kappa = dot(ai, b(s.phij(), bp));
-            let dw = s.wj() - s.wi();
-            (
-                vec![row([0.0, 0.0, -kappa], [0.0, 0.0, kappa])],
-                vec![fd],
-                vec![dw * dw * dot(ai, aj) + fdd],
-            )
-        });
+        run(
+            "DP1",
+            &format!("dp1(bi, (p0, p1), bj, (p2, p3), {f})"),
+            1,
+            driven,
+            7,
+            &[],
+            |s| {
+                let (ap, bp) = (s.v(0), s.v(2));
+                let (_, fd, fdd) = s.f(4, driven);
+                let ai = a(s.phii(), ap);
+                let aj = a(s.phij(), bp);
+                let kappa = dot(ai, b(s.phij(), bp));
+                let dw = s.wj() - s.wi();
+                (
+                    vec![row([0.0, 0.0, -kappa], [0.0, 0.0, kappa])],
+                    vec![fd],
+                    vec![dw * dw * dot(ai, aj) + fdd],
+                )
+            },
+        );
     }
 }
 
@@ -545,10 +671,18 @@ fn dp1() {
 fn dp2() {
     for driven in [false, true] {
         let f = f_text(6, driven);
-        run("DP2", &format!("dp2(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"), 1, driven, 9, &[], |s| {
-            let (_, fd, fdd) = s.f(6, driven);
-            dp2_expected(s, s.v(0), s.v(2), s.v(4), fd, fdd)
-        });
+        run(
+            "DP2",
+            &format!("dp2(bi(p0, p1), (p2, p3), bj(p4, p5), {f})"),
+            1,
+            driven,
+            9,
+            &[],
+            |s| {
+                let (_, fd, fdd) = s.f(6, driven);
+                dp2_expected(s, s.v(0), s.v(2), s.v(4), fd, fdd)
+            },
+        );
     }
 }
 
@@ -556,34 +690,65 @@ fn dp2() {
 fn cd() {
     for driven in [false, true] {
         let f = f_text(6, driven);
-        run("CD", &format!("cd((p0, p1), bi(p2, p3), bj(p4, p5), {f})"), 1, driven, 9, &[], |s| {
-            let (c, si, sj) = (s.v(0), s.v(2), s.v(4));
-            let (_, fd, fdd) = s.f(6, driven);
-            let jq = row(
-                [-c[0], -c[1], -dot(c, b(s.phii(), si))],
-                [c[0], c[1], dot(c, b(s.phij(), sj))],
-            );
-            (vec![jq], vec![fd], vec![dot(c, s.w(si, sj)) + fdd])
-        });
+        run(
+            "CD",
+            &format!("cd((p0, p1), bi(p2, p3), bj(p4, p5), {f})"),
+            1,
+            driven,
+            9,
+            &[],
+            |s| {
+                let (c, si, sj) = (s.v(0), s.v(2), s.v(4));
+                let (_, fd, fdd) = s.f(6, driven);
+                let jq = row(
+                    [-c[0], -c[1], -dot(c, b(s.phii(), si))],
+                    [c[0], c[1], dot(c, b(s.phij(), sj))],
+                );
+                (vec![jq], vec![fd], vec![dot(c, s.w(si, sj)) + fdd])
+            },
+        );
     }
 }
 
 /// Ground as body i: REV to ground and RX from a ground point.
 #[test]
 fn ground_variants() {
-    run("REVg", "revolute(bj(p0, p1), ground(p2, p3))", 2, false, 4, &[], |s| {
-        let sj = s.v(0);
-        let bj = b(s.phij(), sj);
-        let g = sc(s.wj() * s.wj(), a(s.phij(), sj));
-        (
-            vec![row([0.0; 3], [1.0, 0.0, bj[0]]), row([0.0; 3], [0.0, 1.0, bj[1]])],
-            vec![0.0, 0.0],
-            vec![g[0], g[1]],
-        )
-    });
-    run("RXg", "rel_x(ground(p0, p1), bj(p2, p3), p4)", 1, false, 5, &[], |s| {
-        let sj = s.v(2);
-        let g = s.wj() * s.wj() * a(s.phij(), sj)[0];
-        (vec![row([0.0; 3], [1.0, 0.0, b(s.phij(), sj)[0]])], vec![0.0], vec![g])
-    });
+    run(
+        "REVg",
+        "revolute(bj(p0, p1), ground(p2, p3))",
+        2,
+        false,
+        4,
+        &[],
+        |s| {
+            let sj = s.v(0);
+            let bj = b(s.phij(), sj);
+            let g = sc(s.wj() * s.wj(), a(s.phij(), sj));
+            (
+                vec![
+                    row([0.0; 3], [1.0, 0.0, bj[0]]),
+                    row([0.0; 3], [0.0, 1.0, bj[1]]),
+                ],
+                vec![0.0, 0.0],
+                vec![g[0], g[1]],
+            )
+        },
+    );
+    run(
+        "RXg",
+        "rel_x(ground(p0, p1), bj(p2, p3), p4)",
+        1,
+        false,
+        5,
+        &[],
+        |s| {
+            let sj = s.v(2);
+            let g = s.wj() * s.wj() * a(s.phij(), sj)[0];
+            (
+                vec![row([0.0; 3], [1.0, 0.0, b(s.phij(), sj)[0]])],
+                vec![0.0],
+                vec![g],
+            )
+        },
+    );
 }

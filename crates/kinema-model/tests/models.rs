@@ -25,15 +25,30 @@ fn dof(name: &str) -> String {
 #[test]
 fn dof_reports() {
     let expect = [
-        ("pendulum.kin", "nc = 3, kinematic equations = 2, drivers = 1, KDOF = 1, NDOF = 0"),
-        ("slider_crank.kin", "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0"),
+        (
+            "pendulum.kin",
+            "nc = 3, kinematic equations = 2, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "slider_crank.kin",
+            "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
         (
             "slider_crank_translational.kin",
             "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
         ),
-        ("four_bar.kin", "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0"),
-        ("parabola_follower.kin", "nc = 6, kinematic equations = 5, drivers = 1, KDOF = 1, NDOF = 0"),
-        ("chain10.kin", "nc = 30, kinematic equations = 20, drivers = 10, KDOF = 10, NDOF = 0"),
+        (
+            "four_bar.kin",
+            "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "parabola_follower.kin",
+            "nc = 6, kinematic equations = 5, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "chain10.kin",
+            "nc = 30, kinematic equations = 20, drivers = 10, KDOF = 10, NDOF = 0",
+        ),
     ];
     for (name, want) in expect {
         assert_eq!(dof(name), want, "{name}");
@@ -123,7 +138,10 @@ fn analyse(d: &Derivation, t: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, V
         }
     }
     let phi = d.eval_vec(&d.phi, &q, &zero, t, &p);
-    assert!(phi.iter().all(|v| v.abs() < 1e-12), "no convergence: {phi:?}");
+    assert!(
+        phi.iter().all(|v| v.abs() < 1e-12),
+        "no convergence: {phi:?}"
+    );
     let jac = d.eval_dense(&d.phi_q, &q, &zero, t, &p);
     let nu = d.eval_vec(&d.nu, &q, &zero, t, &p);
     let qd = solve(jac.clone(), nu.clone());
@@ -149,24 +167,46 @@ fn worked_example_slider_crank() {
         assert_close(
             "q",
             &q,
-            &[0.106066, 0.106066, 0.785398, 0.700753, 0.106066, -0.213756, 1.189373, 0.0, 0.0],
+            &[
+                0.106066, 0.106066, 0.785398, 0.700753, 0.106066, -0.213756, 1.189373, 0.0, 0.0,
+            ],
         );
-        assert_close("nu", &nu, &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0 * std::f64::consts::PI]);
+        assert_close(
+            "nu",
+            &nu,
+            &[
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                2.0 * std::f64::consts::PI,
+            ],
+        );
         assert_close(
             "qdot",
             &qd,
-            &[-0.666432, 0.666432, 6.283185, -1.477529, 0.666432, -1.363906, -1.622193, 0.0, 0.0],
+            &[
+                -0.666432, 0.666432, 6.283185, -1.477529, 0.666432, -1.363906, -1.622193, 0.0, 0.0,
+            ],
         );
         // Rows 1–6 are written body-minus-other as in the document.
         assert_close(
             "gamma",
             &gamma,
-            &[-4.187319, -4.187319, 5.096270, 3.990010, 0.908951, -0.197308, 0.0, 0.0, 0.0],
+            &[
+                -4.187319, -4.187319, 5.096270, 3.990010, 0.908951, -0.197308, 0.0, 0.0, 0.0,
+            ],
         );
         assert_close(
             "qddot",
             &qdd,
-            &[-4.187319, -4.187319, 0.0, -8.417467, -4.187319, 8.165867, -8.460297, 0.0, 0.0],
+            &[
+                -4.187319, -4.187319, 0.0, -8.417467, -4.187319, 8.165867, -8.460297, 0.0, 0.0,
+            ],
         );
         // Φ_q rows 1–6 at this state.
         let jac = d.eval_dense(&d.phi_q, &q, &qd, 0.0, &d.param_values());
