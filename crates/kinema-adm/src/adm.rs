@@ -537,6 +537,18 @@ impl<'v> Elem<'v> {
         let v = self.string(cx, key)?;
         let text = v.as_str().map(|s| s.text.as_str()).unwrap_or_default();
         match Fun::parse(text) {
+            Ok(Fun::Expr(e)) if !e.mentions_t() && !e.eval(0.0).is_finite() => {
+                cx.err(
+                    v.pos_in_string(0),
+                    format!(
+                        "{}: field \"{key}\": \"{}\" is a constant that is not a finite number (it evaluates to {})",
+                        self.label,
+                        text.escape_debug(),
+                        e.eval(0.0)
+                    ),
+                );
+                None
+            }
             Ok(Fun::Expr(e)) => Some(e),
             Ok(Fun::None) => {
                 cx.err(
