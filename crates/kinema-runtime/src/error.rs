@@ -1,0 +1,150 @@
+//! What can go wrong in an analysis: [`Error`], [`Dependency`], [`Quantity`].
+
+use std::fmt;
+
+use crate::linalg::LinalgError;
+
+/// An analysis failure. Every variant carries the data a user needs to find
+/// the cause, and its `Display` reads as a sentence.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Φ_q is singular or nearly so at the converged (or last) q: a lock-up
+    /// or toggle position, a bifurcation, or redundant constraints.
+    #[error("lock-up, toggle position or redundant constraints at t = {t}: {dependency}")]
+    Singular {
+        /// Time of the failing step.
+        t: f64,
+        /// Which equations are dependent, from a rank-revealing factorization.
+        dependency: Dependency,
+    },
+    /// Newton–Raphson reached the iteration cap without converging.
+    #[error(
+        "position analysis did not converge at t = {t}: ‖Φ‖∞ = {residual:e} after {iterations} \
+         Newton updates, largest in equation {worst_equation}"
+    )]
+    NoConvergence {
+        /// Time of the failing step.
+        t: f64,
+        /// Newton updates taken.
+        iterations: usize,
+        /// ‖Φ‖∞ at the last iterate.
+        residual: f64,
+        /// Name of the equation with the largest |Φᵢ| at the last iterate.
+        worst_equation: String,
+    },
+    /// The system returned NaN or ±∞, or a solve produced one.
+    #[error("non-finite {quantity} at t = {t}: {name}")]
+    NonFinite {
+        /// Time of the failing step.
+        t: f64,
+        /// Which quantity.
+        quantity: Quantity,
+        /// The equation or coordinate (for the Jacobian, "equation / coordinate").
+        name: String,
+    },
+    /// A time grid without any time.
+    #[error("the time grid is empty")]
+    EmptyTimeGrid,
+    /// A time that is NaN or infinite.
+    #[error("time {t} is not finite")]
+    NonFiniteTime {
+        /// The offending time.
+        t: f64,
+    },
+    /// Times must increase strictly from step to step.
+    #[error("times must increase: t = {t} (time index {index}) follows t = {previous}")]
+    NonIncreasingTime {
+        /// Index of the offending time in the grid (0 for a single `step`).
+        index: usize,
+        /// The previous time.
+        previous: f64,
+        /// The offending time.
+        t: f64,
+    },
+    /// A buffer or system of the wrong size, or an invalid Jacobian pattern.
+    #[error("invalid system or linear solver: {0}")]
+    Setup(#[from] LinalgError),
+}
+
+/// The quantity in which a non-finite value appeared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Quantity {
+    /// The initial guess q⁰.
+    InitialGuess,
+    /// Φ(q, t).
+    Phi,
+    /// A nonzero of Φ_q.
+    Jacobian,
+    /// ν = −Φ_t.
+    Nu,
+    /// γ.
+    Gamma,
+    /// A Newton iterate q.
+    Position,
+    /// q̇.
+    Velocity,
+    /// q̈.
+    Acceleration,
+}
+
+impl fmt::Display for Quantity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::InitialGuess => "initial guess",
+            Self::Phi => "Φ",
+            Self::Jacobian => "Jacobian entry",
+            Self::Nu => "ν",
+            Self::Gamma => "γ",
+            Self::Position => "position",
+            Self::Velocity => "velocity",
+            Self::Acceleration => "acceleration",
+        })
+    }
+}
+
+/// The outcome of a rank-revealing factorization (SVD) of a singular Φ_q.
+///
+/// With Φ_q = U Σ Vᵀ, the left singular vectors uₖ whose σₖ are negligible
+/// (σₖ ≤ max(10 τ, n ε) σ₁, and always the smallest) span the combinations
+/// of equations that vanish: ∑ᵢ uᵢₖ ∂Φᵢ/∂q ≈ 0. An equation is *dependent*
+/// when it takes part in such a combination; the right singular vectors vₖ
+/// give the motions δq that no equation resists to first order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dependency {
+    /// Numerical rank of Φ_q (`None` when n was too large for the dense
+    /// diagnosis).
+    pub rank: Option<usize>,
+    /// n.
+    pub dim: usize,
+    /// Names of the equations in the dependent combinations.
+    pub equations: Vec<String>,
+    /// A smallest set of those equations whose removal restores full rank
+    /// (one per null direction): the redundant ones.
+    pub redundant: Vec<String>,
+    /// Names of the coordinates that move along the null directions.
+    pub coordinates: Vec<String>,
+}
+
+impl fmt::Display for Dependency {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Some(rank) = self.rank else {
+            return write!(
+                f,
+                "Φ_q is singular ({} × {}; too large for the dense rank-revealing diagnosis)",
+                self.dim, self.dim
+            );
+        };
+        write!(f, "equations {} are dependent", self.equations.join(", "))?;
+        write!(f, " (rank {rank} of {})", self.dim)?;
+        if !self.redundant.is_empty() {
+            let s = if self.redundant.len() == 1 { "" } else { "s" };
+            write!(f, "; removing equation{s} {} restores full rank", self.redundant.join(", "))?;
+        }
+        if !self.coordinates.is_empty() {
+            write!(f, "; coordinates left free or unbounded: {}", self.coordinates.join(", "))?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,65 @@
+//! The runtime of kinema's generated solvers: kinematic analysis of a planar
+//! constraint system Φ(q, t) = 0 over time.
+//!
+//! Given a [`System`] — Φ, the nonzeros of Φ_q in a fixed pattern, ν = −Φ_t
+//! and γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt, as generated code or a tape
+//! interpreter evaluates them — a [`Solver`] computes at each time
+//!
+//! * the position q: Φ(q, t) = 0, by Newton–Raphson;
+//! * the velocity q̇: Φ_q q̇ = ν;
+//! * the acceleration q̈: Φ_q q̈ = γ,
+//!
+//! with one factorization of Φ_q at the converged q for the last two. It
+//! knows nothing of symbolic expressions: an application embedding a
+//! generated solver depends on this crate, nalgebra and faer only.
+//!
+//! | module | job |
+//! |---|---|
+//! | [`system`] | the [`System`] trait |
+//! | [`linalg`] | dense and sparse LU behind the [`LinearSolver`](linalg::LinearSolver) trait |
+//! | [`solver`] | [`Solver`]: assembly, stepping, runs over a time grid |
+//! | [`options`] | [`Options`]: tolerances, predictor, modified Newton |
+//! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
+//! | [`trajectory`], [`state`], [`kinematics`], [`csv`] | results: states, body-point kinematics, CSV |
+//! | `handwritten` | reference mechanisms of the benchmarks (feature `handwritten`) |
+//!
+//! ```
+//! # #[cfg(feature = "handwritten")] {
+//! use kinema_runtime::{Options, Solver, handwritten::SliderCrank};
+//!
+//! let mut solver: Solver<SliderCrank> = Solver::with_options(SliderCrank::default(), Options::default())?;
+//! let times: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
+//! let trajectory = solver.run(&times)?;
+//! // Velocity of the crank pin A, at s′ = (0.15, 0) on the crank (body 0).
+//! let pin = trajectory.point(0, 0, [0.15, 0.0]).ok_or("in range")?;
+//! let speed = pin.velocity[0].hypot(pin.velocity[1]);
+//! assert!((speed - 0.3 * 2.0 * std::f64::consts::PI).abs() < 1e-9);
+//! let mut csv = Vec::new();
+//! trajectory.write_csv(&mut csv)?;
+//! # }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod csv;
+mod diagnose;
+pub mod error;
+#[cfg(feature = "handwritten")]
+pub mod handwritten;
+pub mod kinematics;
+pub mod linalg;
+mod newton;
+pub mod options;
+pub mod solver;
+pub mod state;
+pub mod system;
+pub mod trajectory;
+
+pub use csv::CsvWriter;
+pub use error::{Dependency, Error, Quantity};
+pub use kinematics::{PointKinematics, point_kinematics};
+pub use linalg::{Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, SparseLu};
+pub use options::Options;
+pub use solver::Solver;
+pub use state::{State, StepStats};
+pub use system::System;
+pub use trajectory::Trajectory;

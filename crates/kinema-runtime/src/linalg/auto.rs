@@ -1,0 +1,69 @@
+//! Size-based choice between dense and sparse LU: [`Auto`].
+
+use super::{DynDenseLu, LinalgError, LinearSolver, SparseLu};
+
+/// Dense LU ([`DynDenseLu`]) for n below [`Auto::DEFAULT_THRESHOLD`], sparse
+/// LU ([`SparseLu`]) from there on. The default linear solver of
+/// [`Solver`](crate::Solver).
+///
+/// The threshold was measured on the serial chain (`cargo bench -p
+/// kinema-runtime --bench linalg`, see `BENCHMARKS-runtime.md`): the zero-
+/// skipping dense kernel wins on small Jacobians, the sparse one once the
+/// O(n²) scatter and O(n³) worst case dominate. Override it with
+/// [`Auto::with_threshold`] and
+/// [`Solver::with_linear_solver`](crate::Solver::with_linear_solver), or name
+/// the solver type directly (`Solver<S, SparseLu>`).
+#[derive(Debug)]
+pub enum Auto {
+    /// Dense LU, chosen for small n.
+    Dense(DynDenseLu),
+    /// Sparse LU, chosen for large n.
+    Sparse(SparseLu),
+}
+
+impl Auto {
+    /// Dimension from which [`Auto`] picks the sparse solver.
+    pub const DEFAULT_THRESHOLD: usize = 60;
+
+    /// Analyses the pattern with dense LU if `n < threshold`, else sparse LU.
+    pub fn with_threshold(n: usize, pattern: &[(u32, u32)], threshold: usize) -> Result<Self, LinalgError> {
+        if n < threshold {
+            DynDenseLu::analyze(n, pattern).map(Self::Dense)
+        } else {
+            SparseLu::analyze(n, pattern).map(Self::Sparse)
+        }
+    }
+
+    /// `true` if the sparse solver was chosen.
+    #[must_use]
+    pub fn is_sparse(&self) -> bool {
+        matches!(self, Self::Sparse(_))
+    }
+}
+
+impl LinearSolver for Auto {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        Self::with_threshold(n, pattern, Self::DEFAULT_THRESHOLD)
+    }
+
+    fn dim(&self) -> usize {
+        match self {
+            Self::Dense(lu) => lu.dim(),
+            Self::Sparse(lu) => lu.dim(),
+        }
+    }
+
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+        match self {
+            Self::Dense(lu) => lu.factor(values, singular_tolerance),
+            Self::Sparse(lu) => lu.factor(values, singular_tolerance),
+        }
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        match self {
+            Self::Dense(lu) => lu.solve_in_place(rhs),
+            Self::Sparse(lu) => lu.solve_in_place(rhs),
+        }
+    }
+}

@@ -1,0 +1,297 @@
+//! Dense LU with partial pivoting: [`DenseLu<N>`] (inline storage, size known
+//! at compile time) and [`DynDenseLu`] (one heap buffer sized at analysis).
+//!
+//! Both run the same in-place kernel on a row-major n × n array:
+//!
+//! * row-major, so eliminating a row is one contiguous `row_i -= l · row_k`;
+//! * rows whose entry in the pivot column is exactly zero are skipped. The
+//!   Jacobians of mechanisms are sparse even when stored densely (21 of 81
+//!   entries for the slider-crank), so most of the O(n³) updates vanish;
+//! * the nonzeros are scattered through indices computed once from the
+//!   fixed pattern;
+//! * the reciprocals of the pivots are kept, so back substitution multiplies.
+//!
+//! Measured against nalgebra's `SMatrix::lu` on the slider-crank Jacobian
+//! (`cargo bench -p kinema-runtime --bench linalg`), this kernel is several
+//! times faster; see `BENCHMARKS-runtime.md`.
+
+use super::{LinalgError, LinearSolver, check_len, validate_pattern};
+
+/// Dense LU with partial pivoting of an N × N matrix stored inline
+/// (`[[f64; N]; N]`, no heap) — the solver for generated code of small
+/// mechanisms, e.g. `Solver<SliderCrank, DenseLu<9>>`.
+///
+/// Solves A x = b by PA = LU. The matrix lives inside the struct, so keep N
+/// small (up to a few dozen); use [`DynDenseLu`] or
+/// [`SparseLu`](super::SparseLu) above that.
+#[derive(Debug, Clone)]
+pub struct DenseLu<const N: usize> {
+    /// Row-major matrix, overwritten by L (unit diagonal, below) and U.
+    a: [[f64; N]; N],
+    /// Row interchanges: at step k, row k was swapped with row `piv[k]`.
+    piv: [usize; N],
+    /// 1 / u_kk.
+    inv_diag: [f64; N],
+    /// For each pattern entry, its index row · N + col in the flattened matrix.
+    scatter: Box<[usize]>,
+    factored: bool,
+}
+
+impl<const N: usize> LinearSolver for DenseLu<N> {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        check_len("system dimension for DenseLu<N>", N, n)?;
+        Ok(Self {
+            a: [[0.0; N]; N],
+            piv: [0; N],
+            inv_diag: [0.0; N],
+            scatter: scatter_indices(N, pattern)?,
+            factored: false,
+        })
+    }
+
+    #[inline]
+    fn dim(&self) -> usize {
+        N
+    }
+
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+        self.factored = false;
+        check_len("Jacobian values", self.scatter.len(), values.len())?;
+        let a = self.a.as_flattened_mut();
+        let scale = scatter(a, &self.scatter, values);
+        factor_in_place(a, N, &mut self.piv, &mut self.inv_diag, singular_tolerance * scale, scale)?;
+        self.factored = true;
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        if !self.factored {
+            return Err(LinalgError::NotFactored);
+        }
+        check_len("right-hand side", N, rhs.len())?;
+        solve(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs);
+        Ok(())
+    }
+}
+
+/// Dense LU with partial pivoting of an n × n matrix whose size is known only
+/// at run time; all buffers are allocated once in
+/// [`analyze`](LinearSolver::analyze).
+///
+/// Solves A x = b by PA = LU, with the same kernel as [`DenseLu`].
+#[derive(Debug, Clone)]
+pub struct DynDenseLu {
+    n: usize,
+    a: Box<[f64]>,
+    piv: Box<[usize]>,
+    inv_diag: Box<[f64]>,
+    scatter: Box<[usize]>,
+    factored: bool,
+}
+
+impl LinearSolver for DynDenseLu {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        Ok(Self {
+            n,
+            a: vec![0.0; n * n].into_boxed_slice(),
+            piv: vec![0; n].into_boxed_slice(),
+            inv_diag: vec![0.0; n].into_boxed_slice(),
+            scatter: scatter_indices(n, pattern)?,
+            factored: false,
+        })
+    }
+
+    #[inline]
+    fn dim(&self) -> usize {
+        self.n
+    }
+
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+        self.factored = false;
+        check_len("Jacobian values", self.scatter.len(), values.len())?;
+        let scale = scatter(&mut self.a, &self.scatter, values);
+        factor_in_place(
+            &mut self.a,
+            self.n,
+            &mut self.piv,
+            &mut self.inv_diag,
+            singular_tolerance * scale,
+            scale,
+        )?;
+        self.factored = true;
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        if !self.factored {
+            return Err(LinalgError::NotFactored);
+        }
+        check_len("right-hand side", self.n, rhs.len())?;
+        solve(&self.a, self.n, &self.piv, &self.inv_diag, rhs);
+        Ok(())
+    }
+}
+
+/// Flattened row-major index of each pattern entry (after validating it).
+fn scatter_indices(n: usize, pattern: &[(u32, u32)]) -> Result<Box<[usize]>, LinalgError> {
+    validate_pattern(n, pattern)?;
+    Ok(pattern
+        .iter()
+        .map(|&(r, c)| r as usize * n + c as usize)
+        .collect())
+}
+
+/// Zeroes `a`, writes the nonzeros, returns the scale maxᵢⱼ |aᵢⱼ|.
+#[inline(always)]
+fn scatter(a: &mut [f64], index: &[usize], values: &[f64]) -> f64 {
+    a.fill(0.0);
+    let mut scale = 0.0_f64;
+    for (&k, &v) in index.iter().zip(values) {
+        if let Some(slot) = a.get_mut(k) {
+            *slot = v;
+        }
+        scale = scale.max(v.abs());
+    }
+    scale
+}
+
+/// In-place LU with partial pivoting of the row-major n × n matrix `a`
+/// (PA = LU, L unit lower triangular stored below the diagonal).
+///
+/// Fails when the largest candidate pivot is not above `threshold` (a NaN
+/// pivot fails too). `#[inline(always)]` so that `DenseLu<N>` gets a copy
+/// specialized for its constant n.
+#[inline(always)]
+fn factor_in_place(
+    a: &mut [f64],
+    n: usize,
+    piv: &mut [usize],
+    inv_diag: &mut [f64],
+    threshold: f64,
+    scale: f64,
+) -> Result<(), LinalgError> {
+    for k in 0..n {
+        // Pivot search down column k.
+        let mut p = k;
+        let mut best = a[k * n + k].abs();
+        for i in k + 1..n {
+            let v = a[i * n + k].abs();
+            if v > best {
+                best = v;
+                p = i;
+            }
+        }
+        if !(best > threshold) {
+            return Err(LinalgError::Singular {
+                step: k,
+                pivot: best,
+                scale,
+            });
+        }
+        piv[k] = p;
+        if p != k {
+            let (top, bottom) = a.split_at_mut(p * n);
+            top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
+        }
+        let (top, bottom) = a.split_at_mut((k + 1) * n);
+        let row_k = &top[k * n..];
+        let inv = 1.0 / row_k[k];
+        inv_diag[k] = inv;
+        for row in bottom.chunks_exact_mut(n) {
+            let lik = row[k];
+            if lik != 0.0 {
+                let l = lik * inv;
+                row[k] = l;
+                for (x, &u) in row[k + 1..].iter_mut().zip(&row_k[k + 1..]) {
+                    *x -= l * u;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Solves LU x = P b in place, given the output of [`factor_in_place`].
+#[inline(always)]
+fn solve(a: &[f64], n: usize, piv: &[usize], inv_diag: &[f64], x: &mut [f64]) {
+    for (k, &p) in piv.iter().enumerate().take(n) {
+        x.swap(k, p);
+    }
+    // Forward: L y = P b, L unit lower triangular.
+    for i in 1..n {
+        let row = &a[i * n..i * n + i];
+        let s: f64 = row.iter().zip(&x[..i]).map(|(l, y)| l * y).sum();
+        x[i] -= s;
+    }
+    // Backward: U x = y.
+    for i in (0..n).rev() {
+        let row = &a[i * n + i + 1..(i + 1) * n];
+        let s: f64 = row.iter().zip(&x[i + 1..]).map(|(u, y)| u * y).sum();
+        x[i] = (x[i] - s) * inv_diag[i];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dense_pattern(n: usize) -> Vec<(u32, u32)> {
+        (0..n as u32)
+            .flat_map(|r| (0..n as u32).map(move |c| (r, c)))
+            .collect()
+    }
+
+    #[test]
+    fn solves_a_permuted_system() -> Result<(), LinalgError> {
+        // A needs pivoting: a_00 = 0.
+        let a = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0];
+        let x = [1.0, -2.0, 0.5];
+        let b: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| a[i * 3 + j] * x[j]).sum())
+            .collect();
+        let mut lu = DenseLu::<3>::analyze(3, &dense_pattern(3))?;
+        lu.factor(&a, 1e-14)?;
+        let mut rhs = b.clone();
+        lu.solve_in_place(&mut rhs)?;
+        for (r, e) in rhs.iter().zip(&x) {
+            assert!((r - e).abs() < 1e-14, "{r} vs {e}");
+        }
+        let mut dynlu = DynDenseLu::analyze(3, &dense_pattern(3))?;
+        dynlu.factor(&a, 1e-14)?;
+        let mut rhs2 = b;
+        dynlu.solve_in_place(&mut rhs2)?;
+        assert_eq!(rhs, rhs2);
+        Ok(())
+    }
+
+    #[test]
+    fn reports_singular_matrix() -> Result<(), LinalgError> {
+        let a = [1.0, 2.0, 2.0, 4.0];
+        let mut lu = DenseLu::<2>::analyze(2, &dense_pattern(2))?;
+        let err = lu.factor(&a, 1e-12);
+        assert!(matches!(err, Err(LinalgError::Singular { step: 1, .. })), "{err:?}");
+        let mut rhs = [1.0, 1.0];
+        assert_eq!(lu.solve_in_place(&mut rhs), Err(LinalgError::NotFactored));
+        Ok(())
+    }
+
+    #[test]
+    fn rejects_bad_patterns_and_sizes() {
+        assert!(matches!(
+            DenseLu::<2>::analyze(3, &[]),
+            Err(LinalgError::Dimension { .. })
+        ));
+        assert!(matches!(
+            DynDenseLu::analyze(2, &[(0, 0), (2, 1)]),
+            Err(LinalgError::OutOfRange { index: 1, .. })
+        ));
+        assert!(matches!(
+            DynDenseLu::analyze(2, &[(0, 0), (1, 1), (0, 0)]),
+            Err(LinalgError::Duplicate {
+                first: 0,
+                second: 2,
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,163 @@
+//! Linear solvers for Φ_q x = b with a structure fixed for the system's life.
+//!
+//! Every solver follows the same life cycle, in the manner of sparse direct
+//! solvers: [`LinearSolver::analyze`] once from the pattern (validation,
+//! orderings, buffers), then per Newton iteration [`LinearSolver::factor`]
+//! with new values and one or more [`LinearSolver::solve_in_place`]. Neither
+//! `factor` nor `solve_in_place` allocates.
+//!
+//! | type | storage | for |
+//! |---|---|---|
+//! | [`DenseLu<N>`] | `[[f64; N]; N]` inline, sizes known at compile time | generated solvers of small mechanisms (n ≲ 30) |
+//! | [`DynDenseLu`] | one heap buffer allocated at construction | mid sizes when n is known only at run time |
+//! | [`SparseLu`] | faer's sparse LU, symbolic analysis once | large mechanisms (chains of hundreds of bodies) |
+//! | [`Auto`] | one of the last two, by size | the default |
+//!
+//! # Singularity criterion
+//!
+//! All solvers use LU with partial (row) pivoting. Let s = maxᵢⱼ |aᵢⱼ| be the
+//! matrix scale. The matrix is declared numerically singular when some pivot
+//! u_kk satisfies |u_kk| ≤ τ · s, with τ the `singular_tolerance` passed to
+//! [`LinearSolver::factor`] (see [`Options::singular_tolerance`]). An exactly
+//! singular matrix gives a pivot at roundoff level (≈ 1e-16 · s), so any τ
+//! well above machine precision detects it; a larger τ also flags
+//! near-singular matrices (toggle positions approached within τ).
+//!
+//! [`Options::singular_tolerance`]: crate::Options::singular_tolerance
+
+mod auto;
+mod dense;
+mod sparse;
+
+pub use auto::Auto;
+pub use dense::{DenseLu, DynDenseLu};
+pub use sparse::SparseLu;
+
+/// Why a linear solver could not be built, factor or solve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinalgError {
+    /// A pivot fell below the singularity threshold (see the [module
+    /// docs](self)): |pivot| ≤ τ · scale.
+    #[error(
+        "numerically singular matrix: pivot {pivot:e} at elimination step {step} \
+         (matrix scale {scale:e})"
+    )]
+    Singular {
+        /// Elimination step (0-based) at which the pivot was found too small.
+        step: usize,
+        /// The pivot's absolute value.
+        pivot: f64,
+        /// The matrix scale maxᵢⱼ |aᵢⱼ|.
+        scale: f64,
+    },
+    /// A slice had the wrong length.
+    #[error("{what} has length {found}, expected {expected}")]
+    Dimension {
+        /// Which argument.
+        what: &'static str,
+        /// The length required.
+        expected: usize,
+        /// The length given.
+        found: usize,
+    },
+    /// A pattern entry lies outside the n × n matrix.
+    #[error("Jacobian pattern entry {index} = ({row}, {col}) lies outside the {n} × {n} matrix")]
+    OutOfRange {
+        /// Position of the entry in the pattern.
+        index: usize,
+        /// Its row.
+        row: u32,
+        /// Its column.
+        col: u32,
+        /// Matrix dimension.
+        n: usize,
+    },
+    /// The same (row, column) appears twice in the pattern.
+    #[error("Jacobian pattern lists ({row}, {col}) twice (entries {first} and {second})")]
+    Duplicate {
+        /// Row of the repeated entry.
+        row: u32,
+        /// Column of the repeated entry.
+        col: u32,
+        /// Position of its first occurrence.
+        first: usize,
+        /// Position of its second occurrence.
+        second: usize,
+    },
+    /// `solve_in_place` was called without a successful `factor` before it.
+    #[error("solve requested before a successful factorization")]
+    NotFactored,
+    /// The sparse back end failed for a reason of its own (out of memory,
+    /// index overflow).
+    #[error("sparse LU back end: {0}")]
+    Backend(String),
+}
+
+/// A direct solver for A x = b, A = Φ_q an n × n matrix whose nonzeros come
+/// in the fixed order of a [`System::jacobian_pattern`].
+///
+/// [`System::jacobian_pattern`]: crate::System::jacobian_pattern
+pub trait LinearSolver: Sized {
+    /// Validates the pattern (indices below n, no duplicates) and does all
+    /// the work that depends on the structure only: orderings, symbolic
+    /// factorization, buffers. May allocate; called once.
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError>;
+
+    /// The dimension n.
+    fn dim(&self) -> usize;
+
+    /// Factors A (PA = LU) from `values`, the nonzeros in pattern order.
+    ///
+    /// Fails with [`LinalgError::Singular`] when a pivot is at most
+    /// `singular_tolerance` times the largest |aᵢⱼ| (see the [module
+    /// docs](self)). Does not allocate.
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError>;
+
+    /// Overwrites `rhs` = b with x = A⁻¹ b, using the last successful
+    /// factorization. Does not allocate.
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError>;
+}
+
+/// Checks that every pattern entry lies inside the n × n matrix and that none
+/// repeats. O(nnz log nnz); allocates (analysis time only).
+pub(crate) fn validate_pattern(n: usize, pattern: &[(u32, u32)]) -> Result<(), LinalgError> {
+    for (index, &(row, col)) in pattern.iter().enumerate() {
+        if row as usize >= n || col as usize >= n {
+            return Err(LinalgError::OutOfRange {
+                index,
+                row,
+                col,
+                n,
+            });
+        }
+    }
+    let mut order: Vec<usize> = (0..pattern.len()).collect();
+    order.sort_unstable_by_key(|&k| (pattern[k], k));
+    for w in order.windows(2) {
+        if pattern[w[0]] == pattern[w[1]] {
+            let (row, col) = pattern[w[0]];
+            return Err(LinalgError::Duplicate {
+                row,
+                col,
+                first: w[0],
+                second: w[1],
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Returns an error unless `found == expected`.
+#[inline]
+pub(crate) fn check_len(what: &'static str, expected: usize, found: usize) -> Result<(), LinalgError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(LinalgError::Dimension {
+            what,
+            expected,
+            found,
+        })
+    }
+}

@@ -1,0 +1,215 @@
+//! Position analysis: Newton–Raphson on Φ(q, t) = 0.
+
+use crate::diagnose::dependency;
+use crate::error::{Error, Quantity};
+use crate::linalg::{LinalgError, LinearSolver};
+use crate::options::Options;
+use crate::state::StepStats;
+use crate::system::System;
+
+/// A contraction worse than this (‖Φ‖ after / before an update) makes
+/// modified Newton factor Φ_q afresh.
+const CONTRACTION: f64 = 0.5;
+
+/// Scratch vectors of one solver, allocated once.
+#[derive(Debug, Clone)]
+pub(crate) struct Workspace {
+    /// Φ, then the right-hand side −Φ.
+    pub(crate) phi: Box<[f64]>,
+    /// Nonzeros of Φ_q in pattern order.
+    pub(crate) jac: Box<[f64]>,
+    /// Newton update Δq.
+    pub(crate) dq: Box<[f64]>,
+}
+
+impl Workspace {
+    pub(crate) fn new(n: usize, nnz: usize) -> Self {
+        Self {
+            phi: vec![0.0; n].into_boxed_slice(),
+            jac: vec![0.0; nnz].into_boxed_slice(),
+            dq: vec![0.0; n].into_boxed_slice(),
+        }
+    }
+}
+
+/// The factorization the linear solver holds, as far as Newton cares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Factorization {
+    /// None usable (nothing factored yet, or the last attempt failed).
+    None,
+    /// Φ_q at some earlier q: good enough for modified Newton.
+    Stale,
+}
+
+/// Result of a converged position analysis.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Converged {
+    pub(crate) stats: StepStats,
+    /// `ws.jac` holds Φ_q at the converged q.
+    pub(crate) jacobian_current: bool,
+}
+
+/// Solves Φ(q, t) = 0 by Newton–Raphson from the guess in `q`, as described
+/// in [`Options`]. On success `q` holds the solution.
+pub(crate) fn solve_position<S: System, L: LinearSolver>(
+    system: &mut S,
+    lu: &mut L,
+    factorization: &mut Factorization,
+    q: &mut [f64],
+    t: f64,
+    options: &Options,
+    ws: &mut Workspace,
+) -> Result<Converged, Error> {
+    let full = !options.modified_newton;
+    let mut stats = StepStats::default();
+    let mut have_lu = !full && *factorization == Factorization::Stale;
+    let mut previous_residual = f64::INFINITY;
+    let mut small_update = false;
+    loop {
+        if full {
+            system.phi_and_jacobian(q, t, &mut ws.phi, &mut ws.jac);
+            stats.jacobian_evaluations += 1;
+            check_equations(system, t, Quantity::Phi, &ws.phi)?;
+            check_jacobian(system, t, &ws.jac)?;
+        } else {
+            system.phi(q, t, &mut ws.phi);
+            check_equations(system, t, Quantity::Phi, &ws.phi)?;
+        }
+        let residual = inf_norm(&ws.phi);
+        stats.residual = residual;
+        if residual <= options.residual_tolerance || small_update {
+            return Ok(Converged {
+                stats,
+                jacobian_current: full,
+            });
+        }
+        if stats.iterations >= options.max_iterations {
+            return Err(Error::NoConvergence {
+                t,
+                iterations: stats.iterations,
+                residual,
+                worst_equation: worst_equation(system, &ws.phi),
+            });
+        }
+        if full || !have_lu || residual > CONTRACTION * previous_residual {
+            if !full {
+                system.jacobian(q, t, &mut ws.jac);
+                stats.jacobian_evaluations += 1;
+                check_jacobian(system, t, &ws.jac)?;
+            }
+            *factorization = Factorization::None;
+            factor(system, lu, t, &ws.jac, options.singular_tolerance)?;
+            stats.factorizations += 1;
+            *factorization = Factorization::Stale;
+            have_lu = true;
+        }
+        previous_residual = residual;
+        for (d, p) in ws.dq.iter_mut().zip(ws.phi.iter()) {
+            *d = -p;
+        }
+        lu.solve_in_place(&mut ws.dq)?;
+        check_coordinates(system, t, Quantity::Position, &ws.dq)?;
+        for (x, d) in q.iter_mut().zip(ws.dq.iter()) {
+            *x += d;
+        }
+        stats.iterations += 1;
+        small_update = inf_norm(&ws.dq) <= options.update_tolerance * (1.0 + inf_norm(q));
+    }
+}
+
+/// Factors Φ_q (nonzeros `jac`); a singular matrix becomes
+/// [`Error::Singular`] with the rank-revealing diagnosis.
+pub(crate) fn factor<S: System, L: LinearSolver>(
+    system: &S,
+    lu: &mut L,
+    t: f64,
+    jac: &[f64],
+    singular_tolerance: f64,
+) -> Result<(), Error> {
+    match lu.factor(jac, singular_tolerance) {
+        Ok(()) => Ok(()),
+        Err(LinalgError::Singular { .. }) => Err(Error::Singular {
+            t,
+            dependency: dependency(system, jac, singular_tolerance),
+        }),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// ‖x‖∞ of a vector known to be finite.
+#[inline]
+pub(crate) fn inf_norm(x: &[f64]) -> f64 {
+    x.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
+}
+
+#[inline]
+fn first_non_finite(x: &[f64]) -> Option<usize> {
+    if x.iter().all(|v| v.is_finite()) {
+        None
+    } else {
+        x.iter().position(|v| !v.is_finite())
+    }
+}
+
+/// Fails with [`Error::NonFinite`] naming the equation of the first
+/// non-finite entry of `x` (one entry per equation).
+#[inline]
+pub(crate) fn check_equations<S: System + ?Sized>(system: &S, t: f64, quantity: Quantity, x: &[f64]) -> Result<(), Error> {
+    match first_non_finite(x) {
+        None => Ok(()),
+        Some(i) => Err(Error::NonFinite {
+            t,
+            quantity,
+            name: system.equation_name(i).to_owned(),
+        }),
+    }
+}
+
+/// Fails with [`Error::NonFinite`] naming the coordinate of the first
+/// non-finite entry of `x` (one entry per coordinate).
+#[inline]
+pub(crate) fn check_coordinates<S: System + ?Sized>(system: &S, t: f64, quantity: Quantity, x: &[f64]) -> Result<(), Error> {
+    match first_non_finite(x) {
+        None => Ok(()),
+        Some(i) => Err(Error::NonFinite {
+            t,
+            quantity,
+            name: system.coordinate_name(i).to_owned(),
+        }),
+    }
+}
+
+/// Fails with [`Error::NonFinite`] naming "equation / coordinate" of the
+/// first non-finite Jacobian nonzero.
+#[inline]
+pub(crate) fn check_jacobian<S: System + ?Sized>(system: &S, t: f64, jac: &[f64]) -> Result<(), Error> {
+    match first_non_finite(jac) {
+        None => Ok(()),
+        Some(k) => {
+            let (r, c) = system.jacobian_pattern().get(k).copied().unwrap_or((0, 0));
+            Err(Error::NonFinite {
+                t,
+                quantity: Quantity::Jacobian,
+                name: format!(
+                    "∂{}/∂{}",
+                    system.equation_name(r as usize),
+                    system.coordinate_name(c as usize)
+                ),
+            })
+        }
+    }
+}
+
+fn worst_equation<S: System + ?Sized>(system: &S, phi: &[f64]) -> String {
+    let mut worst = 0;
+    for (i, v) in phi.iter().enumerate() {
+        if v.abs() > phi[worst].abs() {
+            worst = i;
+        }
+    }
+    if phi.is_empty() {
+        String::new()
+    } else {
+        system.equation_name(worst).to_owned()
+    }
+}

@@ -1,0 +1,101 @@
+//! Settings of the analysis: [`Options`].
+
+/// Settings of position, velocity and acceleration analysis.
+///
+/// Position analysis solves Φ(q, t) = 0 by Newton–Raphson,
+/// Φ_q(qᵏ) Δq = −Φ(qᵏ), qᵏ⁺¹ = qᵏ + Δq, from a starting guess q⁰:
+///
+/// * q⁰ is the previous step's q, or with [`predictor`](Self::predictor) the
+///   Taylor predictor q + h q̇ + h²/2 q̈ of the previous step (h the time
+///   step). Assembly (the first step) starts from the system's initial guess.
+/// * Before each update the residual is checked: the iteration has converged
+///   when ‖Φ(qᵏ)‖∞ ≤ [`residual_tolerance`](Self::residual_tolerance), or
+///   when the update just taken was ‖Δq‖∞ ≤
+///   [`update_tolerance`](Self::update_tolerance) · (1 + ‖q‖∞) (the roundoff
+///   floor of models whose residual cannot reach the absolute tolerance). A
+///   guess that already satisfies the test costs no update.
+/// * At most [`max_iterations`](Self::max_iterations) updates, else
+///   [`Error::NoConvergence`](crate::Error::NoConvergence).
+/// * With [`modified_newton`](Self::modified_newton) the last factorization
+///   of Φ_q (from the previous step, or earlier in this one) is reused while
+///   each update reduces ‖Φ‖∞ at least by half; when one does not, Φ_q is
+///   evaluated and factored afresh at the current iterate.
+///
+/// Velocity Φ_q q̇ = ν and acceleration Φ_q q̈ = γ are then solved with one
+/// factorization of Φ_q at the converged q.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    /// Absolute tolerance on ‖Φ(q, t)‖∞.
+    pub residual_tolerance: f64,
+    /// Relative tolerance on the Newton update, ‖Δq‖∞ ≤ tol · (1 + ‖q‖∞);
+    /// `0` disables the test.
+    pub update_tolerance: f64,
+    /// Maximum number of Newton updates per step.
+    pub max_iterations: usize,
+    /// Start Newton from q + h q̇ + h²/2 q̈ of the previous step instead of
+    /// its q.
+    pub predictor: bool,
+    /// Reuse a factorization of Φ_q while it still converges (see above).
+    pub modified_newton: bool,
+    /// τ of the singularity test: Φ_q is declared singular when an LU pivot
+    /// satisfies |u_kk| ≤ τ · maxᵢⱼ |∂Φᵢ/∂qⱼ| (see [`crate::linalg`]).
+    pub singular_tolerance: f64,
+}
+
+impl Default for Options {
+    /// Predictor and modified Newton on; ‖Φ‖∞ ≤ 1e-12 or ‖Δq‖∞ ≤ 1e-14 (1 +
+    /// ‖q‖∞); 20 updates at most; τ = 1e-10.
+    fn default() -> Self {
+        Self {
+            residual_tolerance: 1e-12,
+            update_tolerance: 1e-14,
+            max_iterations: 20,
+            predictor: true,
+            modified_newton: true,
+            singular_tolerance: 1e-10,
+        }
+    }
+}
+
+impl Options {
+    /// Exactly the peers' loop of the project benchmarks (`BENCHMARKS.md`):
+    /// warm start from the previous converged q (no predictor), stop when
+    /// ‖Φ(q, t)‖∞ ≤ 1e-12 checked before each update, at most 20 updates,
+    /// full Newton (a fresh Φ_q at every iterate), then one factorization of
+    /// Φ_q at the converged q reused for velocity and acceleration.
+    #[must_use]
+    pub fn same_algorithm() -> Self {
+        Self {
+            residual_tolerance: 1e-12,
+            update_tolerance: 0.0,
+            max_iterations: 20,
+            predictor: false,
+            modified_newton: false,
+            singular_tolerance: Self::default().singular_tolerance,
+        }
+    }
+
+    /// These options with the predictor switched on or off.
+    #[must_use]
+    pub fn with_predictor(self, predictor: bool) -> Self {
+        Self { predictor, ..self }
+    }
+
+    /// These options with modified Newton switched on or off.
+    #[must_use]
+    pub fn with_modified_newton(self, modified_newton: bool) -> Self {
+        Self {
+            modified_newton,
+            ..self
+        }
+    }
+
+    /// These options with another singularity tolerance τ.
+    #[must_use]
+    pub fn with_singular_tolerance(self, singular_tolerance: f64) -> Self {
+        Self {
+            singular_tolerance,
+            ..self
+        }
+    }
+}

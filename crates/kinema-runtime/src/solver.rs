@@ -1,0 +1,259 @@
+//! Kinematic analysis over time: [`Solver`].
+
+use crate::error::{Error, Quantity};
+use crate::linalg::{Auto, LinalgError, LinearSolver};
+use crate::newton::{Factorization, Workspace, check_coordinates, check_equations, check_jacobian, factor, solve_position};
+use crate::options::Options;
+use crate::state::State;
+use crate::system::System;
+use crate::trajectory::Trajectory;
+
+/// Position, velocity and acceleration analysis of a [`System`], step by
+/// step.
+///
+/// At each time t the solver
+///
+/// 1. solves Φ(q, t) = 0 for q by Newton–Raphson (see [`Options`]);
+/// 2. factors Φ_q(q, t) once at the converged q;
+/// 3. solves Φ_q q̇ = ν(q, t) and Φ_q q̈ = γ(q, q̇, t) with that factorization.
+///
+/// The solver owns the system, the linear solver `L` and every buffer; after
+/// construction [`step`](Self::step) does not allocate on the dense paths
+/// ([`DenseLu`](crate::linalg::DenseLu), [`DynDenseLu`](crate::linalg::DynDenseLu)).
+/// That makes it fit for an application loop:
+///
+/// ```
+/// # #[cfg(feature = "handwritten")] {
+/// use kinema_runtime::{Solver, Options, linalg::DenseLu, handwritten::SliderCrank};
+///
+/// let mut solver = Solver::<SliderCrank, DenseLu<9>>::with_options(SliderCrank::default(), Options::default())?;
+/// for frame in 0..60 {
+///     let state = solver.step(frame as f64 / 60.0)?;
+///     let slider_x = state.q()[6];
+///     let slider_speed = state.qd()[6];
+///     # let _ = (slider_x, slider_speed);
+/// }
+/// # }
+/// # Ok::<(), kinema_runtime::Error>(())
+/// ```
+///
+/// The first [`step`](Self::step) (or [`assemble`](Self::assemble)) starts
+/// Newton from the system's initial guess; later steps start from the
+/// previous state, so times must increase.
+#[derive(Debug)]
+pub struct Solver<S: System, L: LinearSolver = Auto> {
+    system: S,
+    lu: L,
+    options: Options,
+    ws: Workspace,
+    /// The state being computed; swapped with `state` on success, so a
+    /// failed step leaves the last good state intact.
+    next: State,
+    state: State,
+    assembled: bool,
+    factorization: Factorization,
+}
+
+impl<S: System, L: LinearSolver> Solver<S, L> {
+    /// A solver with [`Options::default`], the linear solver analysed from
+    /// the system's Jacobian pattern.
+    pub fn new(system: S) -> Result<Self, Error> {
+        Self::with_options(system, Options::default())
+    }
+
+    /// A solver with the given options, the linear solver analysed from the
+    /// system's Jacobian pattern.
+    pub fn with_options(system: S, options: Options) -> Result<Self, Error> {
+        let lu = L::analyze(system.len(), system.jacobian_pattern())?;
+        Self::with_linear_solver(system, options, lu)
+    }
+
+    /// A solver with the given options and an already analysed linear solver
+    /// (e.g. [`Auto::with_threshold`]), whose dimension must be the
+    /// system's.
+    pub fn with_linear_solver(system: S, options: Options, lu: L) -> Result<Self, Error> {
+        let n = system.len();
+        if lu.dim() != n {
+            return Err(LinalgError::Dimension {
+                what: "linear solver dimension",
+                expected: n,
+                found: lu.dim(),
+            }
+            .into());
+        }
+        let nnz = system.jacobian_pattern().len();
+        Ok(Self {
+            system,
+            lu,
+            options,
+            ws: Workspace::new(n, nnz),
+            next: State::zeros(n),
+            state: State::zeros(n),
+            assembled: false,
+            factorization: Factorization::None,
+        })
+    }
+
+    /// Number of coordinates n.
+    #[must_use]
+    pub fn dim(&self) -> usize {
+        self.state.q.len()
+    }
+
+    /// The system.
+    #[must_use]
+    pub fn system(&self) -> &S {
+        &self.system
+    }
+
+    /// The system, mutably: change its parameters between steps.
+    #[must_use]
+    pub fn system_mut(&mut self) -> &mut S {
+        &mut self.system
+    }
+
+    /// Gives the system back.
+    #[must_use]
+    pub fn into_system(self) -> S {
+        self.system
+    }
+
+    /// The linear solver.
+    #[must_use]
+    pub fn linear_solver(&self) -> &L {
+        &self.lu
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &Options {
+        &self.options
+    }
+
+    /// Replaces the options; takes effect at the next step.
+    pub fn set_options(&mut self, options: Options) {
+        self.options = options;
+    }
+
+    /// The last state computed, if any.
+    #[must_use]
+    pub fn state(&self) -> Option<&State> {
+        self.assembled.then_some(&self.state)
+    }
+
+    /// Forgets the current state: the next [`step`](Self::step) assembles
+    /// from the initial guess again.
+    pub fn reset(&mut self) {
+        self.assembled = false;
+        self.factorization = Factorization::None;
+    }
+
+    /// Assembly: position, velocity and acceleration at `t0`, Newton starting
+    /// from the system's initial guess.
+    pub fn assemble(&mut self, t0: f64) -> Result<&State, Error> {
+        if !t0.is_finite() {
+            return Err(Error::NonFiniteTime { t: t0 });
+        }
+        self.system.initial_guess(&mut self.next.q);
+        check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
+        self.factorization = Factorization::None;
+        self.solve_at(t0)
+    }
+
+    /// Advances to time `t` (> the last state's time): position from the
+    /// previous state (with the predictor q + h q̇ + h²/2 q̈ if enabled),
+    /// then velocity and acceleration. The first call assembles at `t`.
+    ///
+    /// On error the last good state is kept, so the caller may change the
+    /// system's parameters or the options and try again.
+    pub fn step(&mut self, t: f64) -> Result<&State, Error> {
+        if !self.assembled {
+            return self.assemble(t);
+        }
+        if !t.is_finite() {
+            return Err(Error::NonFiniteTime { t });
+        }
+        let previous = self.state.t;
+        if !(t > previous) {
+            return Err(Error::NonIncreasingTime { index: 0, previous, t });
+        }
+        if self.options.predictor {
+            let h = t - previous;
+            let half_h2 = 0.5 * h * h;
+            let guess = self.next.q.iter_mut();
+            for (((x, &q), &qd), &qdd) in guess.zip(&self.state.q).zip(&self.state.qd).zip(&self.state.qdd) {
+                *x = q + h * qd + half_h2 * qdd;
+            }
+        } else {
+            self.next.q.copy_from_slice(&self.state.q);
+        }
+        self.solve_at(t)
+    }
+
+    /// Runs the analysis over a strictly increasing time grid: assembly at
+    /// `times[0]`, then a step at each later time.
+    pub fn run(&mut self, times: &[f64]) -> Result<Trajectory, Error> {
+        let (&t0, _) = times.split_first().ok_or(Error::EmptyTimeGrid)?;
+        for (index, w) in times.windows(2).enumerate() {
+            if !(w[1] > w[0]) {
+                return Err(Error::NonIncreasingTime {
+                    index: index + 1,
+                    previous: w[0],
+                    t: w[1],
+                });
+            }
+        }
+        let mut trajectory = Trajectory::for_system(&self.system, times.len());
+        trajectory.push(self.assemble(t0)?.clone());
+        for &t in &times[1..] {
+            trajectory.push(self.step(t)?.clone());
+        }
+        Ok(trajectory)
+    }
+
+    /// Position analysis from the guess in `self.next.q`, then velocity and
+    /// acceleration; commits the state on success.
+    fn solve_at(&mut self, t: f64) -> Result<&State, Error> {
+        let result = self.solve_inner(t);
+        if result.is_err() {
+            self.factorization = Factorization::None;
+        }
+        result?;
+        std::mem::swap(&mut self.state, &mut self.next);
+        self.assembled = true;
+        Ok(&self.state)
+    }
+
+    fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
+        let State { q, qd, qdd, .. } = &mut self.next;
+        let converged = solve_position(
+            &mut self.system,
+            &mut self.lu,
+            &mut self.factorization,
+            q,
+            t,
+            &self.options,
+            &mut self.ws,
+        )?;
+        if !converged.jacobian_current {
+            self.system.jacobian(q, t, &mut self.ws.jac);
+            check_jacobian(&self.system, t, &self.ws.jac)?;
+        }
+        self.factorization = Factorization::None;
+        factor(&self.system, &mut self.lu, t, &self.ws.jac, self.options.singular_tolerance)?;
+        self.factorization = Factorization::Stale;
+
+        self.system.nu(q, t, qd);
+        check_equations(&self.system, t, Quantity::Nu, qd)?;
+        self.lu.solve_in_place(qd)?;
+        check_coordinates(&self.system, t, Quantity::Velocity, qd)?;
+        self.system.gamma(q, qd, t, qdd);
+        check_equations(&self.system, t, Quantity::Gamma, qdd)?;
+        self.lu.solve_in_place(qdd)?;
+        check_coordinates(&self.system, t, Quantity::Acceleration, qdd)?;
+
+        self.next.t = t;
+        self.next.stats = converged.stats;
+        Ok(())
+    }
+}

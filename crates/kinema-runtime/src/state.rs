@@ -1,0 +1,82 @@
+//! The result of one step: [`State`] and [`StepStats`].
+
+use crate::kinematics::{PointKinematics, point_kinematics};
+
+/// Work done by one step's position analysis.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepStats {
+    /// Newton updates Δq taken (0 when the starting guess already satisfied
+    /// the convergence test).
+    pub iterations: usize,
+    /// Evaluations of Φ_q during the Newton iteration (the one at the
+    /// converged q for velocity and acceleration not counted).
+    pub jacobian_evaluations: usize,
+    /// LU factorizations of Φ_q during the Newton iteration (the one at the
+    /// converged q not counted).
+    pub factorizations: usize,
+    /// ‖Φ(q, t)‖∞ at the converged q.
+    pub residual: f64,
+}
+
+/// The kinematic state at time t: q with Φ(q, t) = 0, q̇ with Φ_q q̇ = ν,
+/// q̈ with Φ_q q̈ = γ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct State {
+    pub(crate) t: f64,
+    pub(crate) q: Vec<f64>,
+    pub(crate) qd: Vec<f64>,
+    pub(crate) qdd: Vec<f64>,
+    pub(crate) stats: StepStats,
+}
+
+impl State {
+    pub(crate) fn zeros(n: usize) -> Self {
+        Self {
+            t: f64::NAN,
+            q: vec![0.0; n],
+            qd: vec![0.0; n],
+            qdd: vec![0.0; n],
+            stats: StepStats::default(),
+        }
+    }
+
+    /// Time t.
+    #[must_use]
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
+    /// Positions q.
+    #[must_use]
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Velocities q̇.
+    #[must_use]
+    pub fn qd(&self) -> &[f64] {
+        &self.qd
+    }
+
+    /// Accelerations q̈.
+    #[must_use]
+    pub fn qdd(&self) -> &[f64] {
+        &self.qdd
+    }
+
+    /// What the step's position analysis cost.
+    #[must_use]
+    pub fn stats(&self) -> &StepStats {
+        &self.stats
+    }
+
+    /// Position, velocity and acceleration of the point with local
+    /// coordinates `s` (s′) on the body whose (x, y, φ) are at `x_index`,
+    /// `x_index + 1`, `x_index + 2` (3i for body i of a system made of
+    /// bodies); `None` if those indices are out of range. See
+    /// [`point_kinematics`].
+    #[must_use]
+    pub fn point(&self, x_index: usize, s: [f64; 2]) -> Option<PointKinematics> {
+        point_kinematics(&self.q, &self.qd, &self.qdd, x_index, s)
+    }
+}
