@@ -182,6 +182,48 @@ impl Names {
     }
 }
 
+/// One row of Φ in the emitted model: its name in kinema and the ADM
+/// constraint it comes from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RowOrigin {
+    /// The row's name in kinema: `name` for a one-row element and for each of
+    /// a rack-pinion's two written equations, `name.x`/`name.y` for a
+    /// revolute joint, `name.1`/`name.2` for a translational joint (kinema's
+    /// naming of library rows).
+    pub row: String,
+    /// 0-based index of the constraint in [`Model::constraints`].
+    pub constraint: usize,
+}
+
+impl Names {
+    /// The rows of Φ in the engine's order (the order of `constraints`, a
+    /// two-row element's rows consecutively), each with its kinema name and
+    /// its ADM constraint; for messages that must name the ADM element
+    /// (a singular Jacobian, a residual that does not converge). kinema may
+    /// order its own rows differently (kinematic rows before drivers): match
+    /// by name.
+    #[must_use]
+    pub fn rows(&self, model: &Model) -> Vec<RowOrigin> {
+        let mut rows = Vec::new();
+        for (k, (c, idents)) in model.constraints.iter().zip(&self.constraints).enumerate() {
+            let mut push = |row: String| rows.push(RowOrigin { row, constraint: k });
+            let first = idents.first().cloned().unwrap_or_default();
+            match c.kind {
+                ConstraintKind::Revolute { .. } => {
+                    push(format!("{first}.x"));
+                    push(format!("{first}.y"));
+                }
+                ConstraintKind::Translational { .. } => {
+                    push(format!("{first}.1"));
+                    push(format!("{first}.2"));
+                }
+                _ => idents.iter().cloned().for_each(push),
+            }
+        }
+        rows
+    }
+}
+
 /// `name` as an identifier: see [`Names`]. `prefix` and `id` make the
 /// fallback for a name with no usable character, and the prefix for a
 /// leading digit.

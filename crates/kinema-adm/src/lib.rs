@@ -56,5 +56,5 @@ pub mod json;
 pub use acf::{Analysis, Simulation};
 pub use adm::{Body, BodyVis, Constraint, ConstraintKind, Force, ForceKind, Model, Rect, SceneVis};
 pub use check::{Counts, Refusal, check_kinematic, ignored_by_kinematics};
-pub use emit::{Names, to_kin};
+pub use emit::{Names, RowOrigin, to_kin};
 pub use error::{Diagnostic, Error, Pos};

@@ -104,6 +104,41 @@ fn names_are_identifiers_and_unique() {
             vec!["g_1_2"]
         ]
     );
+    let rows: Vec<(String, usize)> = names
+        .rows(&m)
+        .into_iter()
+        .map(|r| (r.row, r.constraint))
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            ("driver_".into(), 0),
+            ("Long_Rod_3".into(), 1),
+            ("g_1".into(), 2),
+            ("g_2".into(), 2),
+            ("g_1_2".into(), 3)
+        ]
+    );
+    let crank = model("slider_crank.adm");
+    let rows: Vec<String> = kinema_adm::Names::of(&crank)
+        .rows(&crank)
+        .into_iter()
+        .map(|r| r.row)
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            "pivot_x",
+            "pivot_y",
+            "crank_rod.x",
+            "crank_rod.y",
+            "rod_slider.x",
+            "rod_slider.y",
+            "slider_on_axis",
+            "slider_no_turn",
+            "crank_angle"
+        ]
+    );
 }
 
 #[test]

@@ -11,28 +11,6 @@ use std::path::PathBuf;
 
 use kinema_adm::{ConstraintKind, Counts, Model, Names, to_kin};
 
-/// The names kinema gives the engine's rows, in the engine's order: one-row
-/// elements `name`, revolute `name.x`/`name.y`, translational
-/// `name.1`/`name.2`, and the rack-pinion's two written equations.
-fn engine_row_names(m: &Model) -> Vec<String> {
-    let names = Names::of(m);
-    let mut rows = Vec::new();
-    for (c, idents) in m.constraints.iter().zip(&names.constraints) {
-        match c.kind {
-            ConstraintKind::Revolute { .. } => {
-                rows.push(format!("{}.x", idents[0]));
-                rows.push(format!("{}.y", idents[0]));
-            }
-            ConstraintKind::Translational { .. } => {
-                rows.push(format!("{}.1", idents[0]));
-                rows.push(format!("{}.2", idents[0]));
-            }
-            _ => rows.extend(idents.iter().cloned()),
-        }
-    }
-    rows
-}
-
 /// Φ(q, t) of SIMENGINE2D.md, computed from the ADM model.
 fn engine_phi(m: &Model, q: &[f64], t: f64) -> Vec<f64> {
     let r = |i: usize| [q[3 * i], q[3 * i + 1]];
@@ -131,7 +109,7 @@ fn check(name: &str, m: &Model) {
     let guess: Vec<f64> = d.coordinates.iter().map(|c| c.guess_value).collect();
     assert_eq!(guess, m.q0(), "{name}");
     let scale = m.q0().iter().fold(1.0f64, |acc, x| acc.max(x.abs()));
-    let engine_rows = engine_row_names(m);
+    let engine_rows: Vec<String> = Names::of(m).rows(m).into_iter().map(|r| r.row).collect();
     assert_eq!(engine_rows.len(), d.rows.len(), "{name}");
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     let mut random = move || {
