@@ -19,6 +19,7 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
     let n = system.len();
     let mut dep = Dependency {
         rank: None,
+        condition: None,
         dim: n,
         equations: Vec::new(),
         redundant: Vec::new(),
@@ -41,6 +42,7 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
     };
     let sigma = &svd.singular_values;
     let sigma_max = sigma.max();
+    dep.condition = Some(sigma_max / sigma.min());
     let cutoff = (10.0 * singular_tolerance).max(n as f64 * f64::EPSILON) * sigma_max;
     let smallest = sigma.imin();
     let null: Vec<usize> = (0..n).filter(|&k| sigma[k] <= cutoff || k == smallest).collect();
@@ -57,22 +59,31 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
     dep.equations = names(system, &eq_involved, S::equation_name);
     dep.coordinates = names(system, &coord_involved, S::coordinate_name);
 
-    // Redundant equations: Gaussian elimination with complete pivoting on the
-    // null vectors (rows of W = [u_k]ᵀ). Each pivot names an equation that the
-    // others of its combination can replace; later equations win ties, so the
-    // constraint written last is the one called redundant.
+    // Redundant equations: Gaussian elimination on the null vectors (rows of
+    // W = [u_k]ᵀ). Each step picks, among the entries at least 1e-3 of the
+    // largest remaining one, the last-written equation; it is called
+    // redundant (the others of its combination can replace it), and is
+    // eliminated from the remaining null vectors.
     let mut w: Vec<Vec<f64>> = null.iter().map(|&k| (0..n).map(|i| u[(i, k)]).collect()).collect();
     let mut picked = Vec::with_capacity(w.len());
     for r in 0..w.len() {
-        let mut best = (0.0, None);
+        let largest = w[r..].iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+        if largest == 0.0 {
+            break;
+        }
+        let mut choice = None;
         for (s, row) in w.iter().enumerate().skip(r) {
             for (i, &x) in row.iter().enumerate() {
-                if x.abs() >= best.0 * (1.0 + 1e-9) && x.abs() > 0.0 {
-                    best = (x.abs(), Some((s, i)));
+                let better = match choice {
+                    None => true,
+                    Some((_, j, y)) => i > j || (i == j && x.abs() > f64::abs(y)),
+                };
+                if x.abs() >= 1e-3 * largest && better {
+                    choice = Some((s, i, x));
                 }
             }
         }
-        let Some((s, i)) = best.1 else { break };
+        let Some((s, i, _)) = choice else { break };
         w.swap(r, s);
         let pivot_row = w[r].clone();
         for row in w.iter_mut().skip(r + 1) {

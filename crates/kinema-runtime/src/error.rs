@@ -9,8 +9,14 @@ use crate::linalg::LinalgError;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// Φ_q is singular or nearly so at the converged (or last) q: a lock-up
-    /// or toggle position, a bifurcation, or redundant constraints.
+    /// Φ_q is singular or nearly so: a lock-up or toggle position, a
+    /// bifurcation, or redundant constraints.
+    ///
+    /// Raised when a factorization of Φ_q fails the pivot test (see
+    /// [`crate::linalg`]), or when Newton fails at a step whose solutions end
+    /// at a limit point: bisecting the step finds the last time t* that
+    /// still has a solution, and Φ_q there has σ_min/σ_max ≤ √τ. `t` is then
+    /// t*, the time of the lock-up.
     #[error("lock-up, toggle position or redundant constraints at t = {t}: {dependency}")]
     Singular {
         /// Time of the failing step.
@@ -116,6 +122,9 @@ pub struct Dependency {
     /// Numerical rank of Φ_q (`None` when n was too large for the dense
     /// diagnosis).
     pub rank: Option<usize>,
+    /// 2-norm condition number σ_max/σ_min of Φ_q (∞ if exactly singular;
+    /// `None` when not computed).
+    pub condition: Option<f64>,
     /// n.
     pub dim: usize,
     /// Names of the equations in the dependent combinations.
@@ -137,7 +146,11 @@ impl fmt::Display for Dependency {
             );
         };
         write!(f, "equations {} are dependent", self.equations.join(", "))?;
-        write!(f, " (rank {rank} of {})", self.dim)?;
+        write!(f, " (rank {rank} of {}", self.dim)?;
+        if let Some(condition) = self.condition {
+            write!(f, ", condition number {condition:.1e}")?;
+        }
+        f.write_str(")")?;
         if !self.redundant.is_empty() {
             let s = if self.redundant.len() == 1 { "" } else { "s" };
             write!(f, "; removing equation{s} {} restores full rank", self.redundant.join(", "))?;

@@ -9,7 +9,7 @@ use crate::system::System;
 
 /// A contraction worse than this (‖Φ‖ after / before an update) makes
 /// modified Newton factor Φ_q afresh.
-const CONTRACTION: f64 = 0.5;
+const CONTRACTION: f64 = 0.2;
 
 /// Scratch vectors of one solver, allocated once.
 #[derive(Debug, Clone)]

@@ -18,7 +18,7 @@
 ///   [`Error::NoConvergence`](crate::Error::NoConvergence).
 /// * With [`modified_newton`](Self::modified_newton) the last factorization
 ///   of Φ_q (from the previous step, or earlier in this one) is reused while
-///   each update reduces ‖Φ‖∞ at least by half; when one does not, Φ_q is
+///   each update reduces ‖Φ‖∞ at least fivefold; when one does not, Φ_q is
 ///   evaluated and factored afresh at the current iterate.
 ///
 /// Velocity Φ_q q̇ = ν and acceleration Φ_q q̈ = γ are then solved with one

@@ -8,6 +8,10 @@ use crate::state::State;
 use crate::system::System;
 use crate::trajectory::Trajectory;
 
+/// Bisections of a failed step when looking for a limit point (2⁻⁶⁰ of the
+/// step: below roundoff of t).
+const MAX_BISECTIONS: usize = 60;
+
 /// Position, velocity and acceleration analysis of a [`System`], step by
 /// step.
 ///
@@ -157,7 +161,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.system.initial_guess(&mut self.next.q);
         check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
         self.factorization = Factorization::None;
-        self.solve_at(t0)
+        self.solve_at(t0)?;
+        Ok(&self.state)
     }
 
     /// Advances to time `t` (> the last state's time): position from the
@@ -187,7 +192,11 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         } else {
             self.next.q.copy_from_slice(&self.state.q);
         }
-        self.solve_at(t)
+        match self.solve_at(t) {
+            Ok(()) => Ok(&self.state),
+            Err(e @ Error::NoConvergence { .. }) => Err(self.locate_limit(previous, t, e)),
+            Err(e) => Err(e),
+        }
     }
 
     /// Runs the analysis over a strictly increasing time grid: assembly at
@@ -213,7 +222,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Position analysis from the guess in `self.next.q`, then velocity and
     /// acceleration; commits the state on success.
-    fn solve_at(&mut self, t: f64) -> Result<&State, Error> {
+    fn solve_at(&mut self, t: f64) -> Result<(), Error> {
         let result = self.solve_inner(t);
         if result.is_err() {
             self.factorization = Factorization::None;
@@ -221,7 +230,61 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         result?;
         std::mem::swap(&mut self.state, &mut self.next);
         self.assembled = true;
-        Ok(&self.state)
+        Ok(())
+    }
+
+    /// Newton converged at `t_good` (the current state) but not at `t_bad`:
+    /// bisects [t_good, t_bad] with full Newton, warm-started from the last
+    /// time that converged, down to roundoff. If the solutions end at a time
+    /// t* where Φ_q is nearly singular — σ_min/σ_max ≤ √τ, a limit point of
+    /// the motion — the failure is a lock-up: returns [`Error::Singular`] at
+    /// t* with the dependent equations. Otherwise returns `failure`
+    /// unchanged. Error path only: allocates, leaves the state untouched.
+    fn locate_limit(&mut self, t_good: f64, t_bad: f64, failure: Error) -> Error {
+        let options = Options {
+            predictor: false,
+            modified_newton: false,
+            ..self.options
+        };
+        let tolerance = self.options.singular_tolerance.sqrt();
+        let mut factorization = Factorization::None;
+        let mut q_good = self.state.q.clone();
+        let (mut lo, mut hi) = (t_good, t_bad);
+        let mut q = q_good.clone();
+        for _ in 0..MAX_BISECTIONS {
+            let mid = lo + 0.5 * (hi - lo);
+            if !(lo < mid && mid < hi) {
+                break;
+            }
+            q.copy_from_slice(&q_good);
+            let solved = solve_position(
+                &mut self.system,
+                &mut self.lu,
+                &mut factorization,
+                &mut q,
+                mid,
+                &options,
+                &mut self.ws,
+            );
+            match solved {
+                Ok(_) => {
+                    lo = mid;
+                    q_good.copy_from_slice(&q);
+                }
+                Err(Error::NoConvergence { .. } | Error::Singular { .. }) => hi = mid,
+                Err(other) => return other,
+            }
+        }
+        self.factorization = Factorization::None;
+        self.system.jacobian(&q_good, lo, &mut self.ws.jac);
+        if check_jacobian(&self.system, lo, &self.ws.jac).is_err() {
+            return failure;
+        }
+        let dependency = crate::diagnose::dependency(&self.system, &self.ws.jac, tolerance);
+        match dependency.condition {
+            Some(condition) if condition * tolerance >= 1.0 => Error::Singular { t: lo, dependency },
+            _ => failure,
+        }
     }
 
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {

@@ -1,0 +1,85 @@
+//! The serial chain through the sparse and dense paths, against its exact
+//! forward kinematics; the four-bar's Newton counts.
+
+mod common;
+
+use common::{assert_close, benchmark_grid};
+use kinema_runtime::handwritten::{Chain, FourBar};
+use kinema_runtime::{Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu};
+
+fn run<L: LinearSolver>(links: usize, options: Options, times: &[f64]) -> Result<kinema_runtime::Trajectory, Error> {
+    Solver::<Chain, L>::with_options(Chain::new(links), options)?.run(times)
+}
+
+fn check_exact(links: usize, trajectory: &kinema_runtime::Trajectory, tol: f64) {
+    let chain = Chain::new(links);
+    for state in trajectory {
+        let [q, qd, qdd] = chain.exact(state.t());
+        let at = format!("N = {links}, t = {}", state.t());
+        assert_close(&format!("q at {at}"), state.q(), &q, tol);
+        assert_close(&format!("q̇ at {at}"), state.qd(), &qd, tol);
+        assert_close(&format!("q̈ at {at}"), state.qdd(), &qdd, tol);
+    }
+}
+
+#[test]
+fn chain_10_sparse_equals_dense_and_exact() -> Result<(), Error> {
+    let grid = benchmark_grid();
+    for options in [Options::same_algorithm(), Options::default()] {
+        let sparse = run::<SparseLu>(10, options, &grid)?;
+        let dense = run::<DenseLu<30>>(10, options, &grid)?;
+        let dyn_dense = run::<DynDenseLu>(10, options, &grid)?;
+        for ((s, d), e) in sparse.iter().zip(&dense).zip(&dyn_dense) {
+            let at = format!("t = {}", s.t());
+            for (what, a, b) in [("q", s.q(), d.q()), ("q̇", s.qd(), d.qd()), ("q̈", s.qdd(), d.qdd())] {
+                assert_close(&format!("sparse vs dense {what} at {at}"), a, b, 1e-12);
+            }
+            assert_eq!(d, e, "the two dense solvers run the same kernel");
+        }
+        check_exact(10, &sparse, 1e-10);
+    }
+    Ok(())
+}
+
+#[test]
+fn chain_same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Error> {
+    let trajectory = run::<SparseLu>(10, Options::same_algorithm(), &benchmark_grid())?;
+    assert_eq!(format!("{:.3}", trajectory.mean_iterations()), "1.998");
+    Ok(())
+}
+
+#[test]
+fn chain_1000_sparse_matches_forward_kinematics() -> Result<(), Error> {
+    // The first 21 times of the benchmark grid keep the (debug-build) test
+    // quick; the benchmarks run the whole grid.
+    let grid: Vec<f64> = (0..=20).map(|k| k as f64 / 1000.0).collect();
+    let solver = Solver::<Chain>::new(Chain::new(1000))?;
+    assert!(solver.linear_solver().is_sparse(), "Auto picks the sparse LU at n = 3000");
+    for options in [Options::same_algorithm(), Options::default()] {
+        let trajectory = run::<Auto>(1000, options, &grid)?;
+        // The chain's tip is 1000 links out: positions carry 1000 rounding
+        // errors of the link vectors, accelerations ~(2π)² more.
+        check_exact(1000, &trajectory, 1e-9);
+    }
+    Ok(())
+}
+
+#[test]
+fn four_bar_same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Error> {
+    let mut solver = Solver::<FourBar, DenseLu<9>>::with_options(FourBar::default(), Options::same_algorithm())?;
+    let trajectory = solver.run(&benchmark_grid())?;
+    assert_eq!(format!("{:.3}", trajectory.mean_iterations()), "3.000");
+    // Loop closure: the rocker's pin at B coincides with the coupler's, and
+    // the coupler keeps its length between A and B.
+    for state in &trajectory {
+        let b_coupler = state.point(3, [0.5, 0.0]);
+        let b_rocker = state.point(6, [0.4, 0.0]);
+        let (Some(p), Some(r)) = (b_coupler, b_rocker) else {
+            unreachable!("bodies 1 and 2 exist");
+        };
+        assert_close("B position", &p.position, &r.position, 1e-11);
+        assert_close("B velocity", &p.velocity, &r.velocity, 1e-9);
+        assert_close("B acceleration", &p.acceleration, &r.acceleration, 1e-8);
+    }
+    Ok(())
+}
