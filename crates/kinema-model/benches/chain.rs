@@ -1,1 +1,32 @@
-fn main(){}
+//! Parse + check + derive the serial chain of BENCHMARKS.md from text.
+//! `cargo bench -p kinema-model`
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use kinema_model::{Derivation, Model, chain::chain_kin};
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("chain");
+    group.sample_size(20);
+    for n in [10usize, 200, 1000] {
+        let text = chain_kin(n);
+        group.bench_function(format!("parse_check_derive/{n}"), |b| {
+            b.iter(|| {
+                let model = Model::parse_str(std::hint::black_box(&text));
+                let checked = model.and_then(|m| m.check());
+                checked.map(|c| Derivation::new(&c).phi.len()).unwrap_or(0)
+            });
+        });
+    }
+    let text = chain_kin(1000);
+    group.bench_function("parse_check/1000", |b| {
+        b.iter(|| {
+            Model::parse_str(std::hint::black_box(&text))
+                .and_then(|m| m.check())
+                .is_ok()
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

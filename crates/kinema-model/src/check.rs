@@ -1408,9 +1408,13 @@ fn check_expr(
                 } else {
                     None
                 };
-                let mut typed_args = Vec::with_capacity(args.len());
-                for a in args {
-                    typed_args.push(child!(a));
+                // (`child!` cannot be used in this inner loop: its
+                // `continue` would skip an argument, not the node.)
+                let typed_args: Vec<(u32, Deps)> =
+                    args.iter().filter_map(|a| map.get(a).copied()).collect();
+                if typed_args.len() != args.len() {
+                    failed.insert(i);
+                    continue;
                 }
                 if let Some(body) = body {
                     if args.len() != 2 {

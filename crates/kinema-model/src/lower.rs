@@ -1,10 +1,10 @@
 //! Lowering typed expressions of a [`CheckedModel`] into the engine's arena.
 //! A forward loop over flat expressions: no recursion, whatever the depth.
 
-use kinema_expr::{Arena, ExprId};
+use kinema_expr::{Arena, ExprId, Factor, Term};
 
 use crate::algebra::{Vec2, VecAlgebra};
-use crate::check::{BodyRef, CheckedModel, Comp, Func1, TExpr, TNode};
+use crate::check::{BodyRef, CheckedModel, Comp, Func1, TExpr, TNode, Ty};
 
 /// A lowered value: scalar or vector.
 #[derive(Clone, Copy, Debug)]
@@ -109,9 +109,14 @@ impl<'m> Lowerer<'m> {
     }
 
     /// Lowers a typed expression, forward over its nodes.
+    ///
+    /// Chains of scalar `+`/`-` (and of `*`/`/`) are built as one n-ary sum
+    /// (product) in a single engine call: building `a + b + c + …` pairwise
+    /// would copy the growing sum at every step.
     pub(crate) fn lower(&self, arena: &mut Arena, t: &TExpr) -> Value {
         let mut vals: Vec<Value> = Vec::with_capacity(t.nodes.len());
         let zero = arena.num(0.0);
+        let chains = Chains::new(t);
         let s = |vals: &Vec<Value>, i: u32| match vals.get(i as usize) {
             Some(Value::S(e)) => *e,
             Some(Value::V(v)) => v.x,
@@ -122,8 +127,55 @@ impl<'m> Lowerer<'m> {
             Some(Value::S(e)) => Vec2::new(*e, *e),
             None => Vec2::new(zero, zero),
         };
-        for n in &t.nodes {
+        for (i, n) in t.nodes.iter().enumerate() {
+            if chains.inner[i] {
+                // Built by the root of its chain.
+                vals.push(Value::S(zero));
+                continue;
+            }
             let v = match *n {
+                TNode::Add(..) | TNode::Sub(..) if chains.is_sum(i) => {
+                    let mut terms = Vec::new();
+                    let mut stack = vec![(idx(i), 1.0)];
+                    while let Some((k, sign)) = stack.pop() {
+                        match t.nodes[k as usize] {
+                            TNode::Add(a, b) if k as usize == i || chains.inner[k as usize] => {
+                                stack.push((b, sign));
+                                stack.push((a, sign));
+                            }
+                            TNode::Sub(a, b) if k as usize == i || chains.inner[k as usize] => {
+                                stack.push((b, -sign));
+                                stack.push((a, sign));
+                            }
+                            _ => terms.push(Term {
+                                coeff: sign,
+                                expr: s(&vals, k),
+                            }),
+                        }
+                    }
+                    Value::S(arena.linear(0.0, &terms))
+                }
+                TNode::Mul(..) | TNode::Div(..) if chains.is_product(i) => {
+                    let mut factors = Vec::new();
+                    let mut stack = vec![(idx(i), 1.0)];
+                    while let Some((k, exp)) = stack.pop() {
+                        match t.nodes[k as usize] {
+                            TNode::Mul(a, b) if k as usize == i || chains.inner[k as usize] => {
+                                stack.push((b, exp));
+                                stack.push((a, exp));
+                            }
+                            TNode::Div(a, b) if k as usize == i || chains.inner[k as usize] => {
+                                stack.push((b, -exp));
+                                stack.push((a, exp));
+                            }
+                            _ => factors.push(Factor {
+                                base: s(&vals, k),
+                                exp,
+                            }),
+                        }
+                    }
+                    Value::S(arena.product_of(1.0, &factors))
+                }
                 TNode::Num(x) => Value::S(arena.num(x)),
                 TNode::Pi => Value::S(arena.num(std::f64::consts::PI)),
                 TNode::Time => Value::S(self.time),
@@ -210,6 +262,58 @@ impl<'m> Lowerer<'m> {
             vals.push(v);
         }
         vals.last().copied().unwrap_or(Value::S(zero))
+    }
+}
+
+/// Which nodes are inside a chain of scalar sums (or products) and are
+/// built by the chain's root.
+struct Chains<'t> {
+    t: &'t TExpr,
+    inner: Vec<bool>,
+}
+
+impl<'t> Chains<'t> {
+    fn new(t: &'t TExpr) -> Self {
+        let n = t.nodes.len();
+        let mut inner = vec![false; n];
+        let scalar = |k: u32| t.types.get(k as usize) == Some(&Ty::Scalar);
+        for (i, node) in t.nodes.iter().enumerate() {
+            if !scalar(idx(i)) {
+                continue;
+            }
+            match *node {
+                TNode::Add(a, b) | TNode::Sub(a, b) => {
+                    for c in [a, b] {
+                        if scalar(c)
+                            && matches!(t.nodes[c as usize], TNode::Add(..) | TNode::Sub(..))
+                        {
+                            inner[c as usize] = true;
+                        }
+                    }
+                }
+                TNode::Mul(a, b) | TNode::Div(a, b) => {
+                    for c in [a, b] {
+                        if scalar(c)
+                            && matches!(t.nodes[c as usize], TNode::Mul(..) | TNode::Div(..))
+                        {
+                            inner[c as usize] = true;
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        Chains { t, inner }
+    }
+
+    /// A scalar sum that is the root of its chain.
+    fn is_sum(&self, i: usize) -> bool {
+        self.t.types[i] == Ty::Scalar && !self.inner[i]
+    }
+
+    /// A scalar product that is the root of its chain.
+    fn is_product(&self, i: usize) -> bool {
+        self.t.types[i] == Ty::Scalar && !self.inner[i]
     }
 }
 
