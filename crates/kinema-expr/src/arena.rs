@@ -33,6 +33,11 @@ pub struct Arena {
     pub(crate) shash: Vec<u64>,
     /// Bloom mask of the symbols each node depends on (bit = symbol index mod 64).
     pub(crate) mask: Vec<u64>,
+    /// Sort keys of the first symbol each node depends on (`u64::MAX` for
+    /// constants): `[in sums, in products]`. In sums coordinates come first so
+    /// that terms group by body; in products parameters come first, as
+    /// coefficients are written.
+    lead: Vec<[u64; 2]>,
     pub(crate) terms: Vec<Term>,
     pub(crate) factors: Vec<Factor>,
     /// Structural hash → first node with that hash; collisions chain via `next`.
@@ -44,6 +49,10 @@ pub struct Arena {
     pub(crate) zero: ExprId,
     pub(crate) one: ExprId,
     pub(crate) calc: crate::calculus::Memo,
+    /// Reusable buffers of the constructors (taken and put back, so nested
+    /// calls simply get a fresh one).
+    pub(crate) scratch_terms: Vec<Term>,
+    pub(crate) scratch_factors: Vec<Factor>,
 }
 
 impl Default for Arena {
@@ -109,20 +118,29 @@ impl Arena {
     /// An empty arena (holding only the numbers 0 and 1).
     #[must_use]
     pub fn new() -> Self {
+        Self::with_capacity(0)
+    }
+
+    /// An empty arena with room for about `nodes` nodes before it reallocates.
+    #[must_use]
+    pub fn with_capacity(nodes: usize) -> Self {
         let mut arena = Arena {
-            nodes: Vec::new(),
-            shash: Vec::new(),
-            mask: Vec::new(),
-            terms: Vec::new(),
-            factors: Vec::new(),
-            intern: FxHashMap::default(),
-            next: Vec::new(),
+            nodes: Vec::with_capacity(nodes),
+            shash: Vec::with_capacity(nodes),
+            mask: Vec::with_capacity(nodes),
+            lead: Vec::with_capacity(nodes),
+            terms: Vec::with_capacity(nodes),
+            factors: Vec::with_capacity(nodes),
+            intern: FxHashMap::with_capacity_and_hasher(nodes, Default::default()),
+            next: Vec::with_capacity(nodes),
             symbols: Vec::new(),
             sym_node: Vec::new(),
             sym_lookup: FxHashMap::default(),
             zero: ExprId(0),
             one: ExprId(0),
             calc: crate::calculus::Memo::default(),
+            scratch_terms: Vec::new(),
+            scratch_factors: Vec::new(),
         };
         arena.zero = arena.num(0.0);
         arena.one = arena.num(1.0);
@@ -285,8 +303,13 @@ impl Arena {
 
     /// Calls `f` on each child of `e`.
     #[inline]
-    pub(crate) fn for_each_child(&self, e: ExprId, mut f: impl FnMut(ExprId)) {
-        match self.nodes[e.index()] {
+    pub(crate) fn for_each_child(&self, e: ExprId, f: impl FnMut(ExprId)) {
+        self.for_each_child_of(&self.nodes[e.index()], f);
+    }
+
+    #[inline]
+    fn for_each_child_of(&self, node: &Node, mut f: impl FnMut(ExprId)) {
+        match *node {
             Node::Num(_) | Node::Sym(_) => {}
             Node::Add { start, len, .. } => {
                 for t in &self.terms[start as usize..(start + len) as usize] {
@@ -308,31 +331,49 @@ impl Arena {
 
     // ------------------------------------------------------------ order
 
-    /// The canonical order of operands: by node kind (numbers, symbols,
-    /// functions, powers, products, sums), numbers by value, symbols by kind
-    /// and index, compound nodes by structural hash. It depends only on the
+    /// The canonical order of the terms of a sum: numbers first (by value);
+    /// then by the first symbol each term depends on, in the order
+    /// coordinates, velocities, time, parameters (each by index), so that
+    /// printed sums group their terms by coordinate; then by node kind
+    /// (symbols, functions, powers, products, sums); then symbols by name and
+    /// compound nodes by structural hash.
+    ///
+    /// Like [`factor_cmp`](Self::factor_cmp), it depends only on the
     /// expressions compared, never on how or in which order they were built.
     #[must_use]
-    pub fn canonical_cmp(&self, a: ExprId, b: ExprId) -> Ordering {
+    pub fn term_cmp(&self, a: ExprId, b: ExprId) -> Ordering {
+        self.canonical_cmp(a, b, 0)
+    }
+
+    /// The canonical order of the factors of a product: as
+    /// [`term_cmp`](Self::term_cmp) but with parameters first among symbols
+    /// (`l1*cos(phi1)`, as coefficients are written).
+    #[must_use]
+    pub fn factor_cmp(&self, a: ExprId, b: ExprId) -> Ordering {
+        self.canonical_cmp(a, b, 1)
+    }
+
+    fn canonical_cmp(&self, a: ExprId, b: ExprId, which: usize) -> Ordering {
         if a == b {
             return Ordering::Equal;
         }
         let (na, nb) = (&self.nodes[a.index()], &self.nodes[b.index()]);
-        na.rank().cmp(&nb.rank()).then_with(|| match (na, nb) {
-            (Node::Num(x), Node::Num(y)) => x.total_cmp(y),
-            (Node::Sym(x), Node::Sym(y)) => {
-                let (sx, sy) = (&self.symbols[x.index()], &self.symbols[y.index()]);
-                sx.kind
-                    .rank()
-                    .cmp(&sy.kind.rank())
-                    .then_with(|| sx.name.cmp(&sy.name))
-            }
-            // Equal structural hashes of distinct nodes (a 64-bit collision) fall
-            // back to the id: the only place construction order could show.
-            _ => self.shash[a.index()]
-                .cmp(&self.shash[b.index()])
-                .then(a.cmp(&b)),
-        })
+        let num = |n: &Node| !matches!(n, Node::Num(_));
+        num(na)
+            .cmp(&num(nb))
+            .then_with(|| self.lead[a.index()][which].cmp(&self.lead[b.index()][which]))
+            .then_with(|| na.rank().cmp(&nb.rank()))
+            .then_with(|| match (na, nb) {
+                (Node::Num(x), Node::Num(y)) => x.total_cmp(y),
+                (Node::Sym(x), Node::Sym(y)) => self.symbols[x.index()]
+                    .name
+                    .cmp(&self.symbols[y.index()].name),
+                // Equal structural hashes of distinct nodes (a 64-bit collision)
+                // fall back to the id: the only place construction order could show.
+                _ => self.shash[a.index()]
+                    .cmp(&self.shash[b.index()])
+                    .then(a.cmp(&b)),
+            })
     }
 
     // ------------------------------------------------------------ interning
@@ -359,11 +400,33 @@ impl Arena {
     }
 
     fn insert(&mut self, node: Node, h: u64, m: u64) -> ExprId {
+        let lead = match node {
+            Node::Num(_) => [u64::MAX; 2],
+            Node::Sym(s) => {
+                let kind = self.symbols[s.index()].kind;
+                let (rank, index) = kind.rank();
+                let in_sums = match kind {
+                    SymKind::Parameter(_) => 3,
+                    _ => rank - 1,
+                };
+                let key = |r: u8| (u64::from(r) << 32) | u64::from(index);
+                [key(in_sums), key(rank)]
+            }
+            _ => {
+                let mut lead = [u64::MAX; 2];
+                self.for_each_child_of(&node, |c| {
+                    let l = self.lead[c.index()];
+                    lead = [lead[0].min(l[0]), lead[1].min(l[1])];
+                });
+                lead
+            }
+        };
         let id = u32::try_from(self.nodes.len()).unwrap_or(NONE);
         let prev = self.intern.insert(h, id).unwrap_or(NONE);
         self.nodes.push(node);
         self.shash.push(h);
         self.mask.push(m);
+        self.lead.push(lead);
         self.next.push(prev);
         ExprId(id)
     }

@@ -4,10 +4,10 @@
 //! - numbers are finite where folding keeps them so; `-0.0` is `0.0`;
 //! - a sum is `constant + Σ cᵢ·eᵢ` with each `eᵢ` distinct, not a number, not a
 //!   sum and not a product with a coefficient ≠ 1; `cᵢ ≠ 0`; terms sorted by
-//!   [`Arena::canonical_cmp`]; a sum of one term and no constant is that term;
+//!   [`Arena::term_cmp`]; a sum of one term and no constant is that term;
 //! - a product is `c · Π bᵢ^pᵢ` with each `bᵢ` distinct, not a number (unless
 //!   folding it would not be finite), not a product raised to an integer power
-//!   (it is flattened), `pᵢ ≠ 0`, `c ≠ 0`; factors sorted; `c·x` is the product
+//!   (it is flattened), `pᵢ ≠ 0`, `c ≠ 0`; factors sorted by [`Arena::factor_cmp`]; `c·x` is the product
 //!   `c · x^1`, and `1 · x^1` is `x`.
 //!
 //! Simplification never changes a value where the original expression is
@@ -104,78 +104,105 @@ impl Arena {
 
     /// `constant + Σ coeff·expr`, canonicalized.
     pub fn linear(&mut self, constant: f64, terms: &[Term]) -> ExprId {
+        let mut buf = std::mem::take(&mut self.scratch_terms);
+        buf.clear();
+        buf.extend_from_slice(terms);
         let mut constant = constant;
-        let mut flat: Vec<Term> = Vec::with_capacity(terms.len());
-        for &Term { coeff, expr } in terms {
+        // Expand in place: numbers go to the constant, sums are flattened,
+        // scaled products become a coefficient on their unit product.
+        let mut i = 0;
+        while i < buf.len() {
+            let Term { coeff, expr } = buf[i];
             if coeff == 0.0 {
+                i += 1;
                 continue;
             }
             match self.node(expr) {
-                NodeRef::Num(v) => constant += coeff * v,
+                NodeRef::Num(v) => {
+                    constant += coeff * v;
+                    buf[i].coeff = 0.0;
+                }
                 NodeRef::Add {
                     constant: c,
                     terms: inner,
                 } => {
+                    // Inner sums are canonical: their terms need no further expansion.
                     constant += coeff * c;
-                    flat.extend(inner.iter().map(|t| Term {
+                    buf[i].coeff = 0.0;
+                    buf.extend(inner.iter().map(|t| Term {
                         coeff: coeff * t.coeff,
                         expr: t.expr,
                     }));
                 }
-                NodeRef::Mul { coeff: c, factors } if c != 1.0 => {
-                    let factors = factors.to_vec();
-                    let unit = self.product_of(1.0, factors);
-                    flat.push(Term {
+                NodeRef::Mul { coeff: c, .. } if c != 1.0 => {
+                    // c·X: the unit product X may itself be a sum (c·(a + b)),
+                    // so the slot is examined again.
+                    let unit = self.unit_product(expr);
+                    buf[i] = Term {
                         coeff: coeff * c,
                         expr: unit,
-                    });
+                    };
+                    continue;
                 }
-                _ => flat.push(Term { coeff, expr }),
+                _ => {}
             }
+            i += 1;
         }
-        flat.sort_by(|a, b| self.canonical_cmp(a.expr, b.expr));
+        buf.retain(|t| t.coeff != 0.0);
+        buf.sort_by(|a, b| self.term_cmp(a.expr, b.expr));
         // Merge like terms (now adjacent) and drop zeros.
-        let mut merged: Vec<Term> = Vec::with_capacity(flat.len());
-        for t in flat {
-            match merged.last_mut() {
-                Some(last) if last.expr == t.expr => last.coeff += t.coeff,
-                _ => merged.push(t),
+        let mut w = 0;
+        for r in 0..buf.len() {
+            if w > 0 && buf[w - 1].expr == buf[r].expr {
+                buf[w - 1].coeff += buf[r].coeff;
+            } else {
+                buf[w] = buf[r];
+                w += 1;
             }
         }
-        merged.retain(|t| t.coeff != 0.0);
+        buf.truncate(w);
+        buf.retain(|t| t.coeff != 0.0);
         let constant = if constant == 0.0 { 0.0 } else { constant };
-        match (merged.as_slice(), constant == 0.0) {
+        let result = match (buf.as_slice(), constant == 0.0) {
             ([], _) => self.num(constant),
             ([t], true) if t.coeff == 1.0 => t.expr,
             ([t], true) => {
                 // c·e is a product.
                 let (c, e) = (t.coeff, t.expr);
-                match self.node(e) {
-                    NodeRef::Mul { factors, .. } => {
-                        let factors = factors.to_vec();
-                        self.product_of(c, factors)
-                    }
-                    _ => self.product_of(c, vec![Factor { base: e, exp: 1.0 }]),
-                }
+                self.product_of(c, &[Factor { base: e, exp: 1.0 }])
             }
             _ => {
                 let start = self.terms.len() as u32;
-                let len = merged.len() as u32;
-                self.terms.extend_from_slice(&merged);
+                let len = buf.len() as u32;
+                self.terms.extend_from_slice(&buf);
                 self.intern(Node::Add {
                     constant,
                     start,
                     len,
                 })
             }
+        };
+        self.scratch_terms = buf;
+        result
+    }
+
+    /// The product `X` of a product `c·X`.
+    fn unit_product(&mut self, e: ExprId) -> ExprId {
+        let mut buf = std::mem::take(&mut self.scratch_factors);
+        buf.clear();
+        if let NodeRef::Mul { factors, .. } = self.node(e) {
+            buf.extend_from_slice(factors);
         }
+        let unit = self.product_from(1.0, &mut buf);
+        self.scratch_factors = buf;
+        unit
     }
 
     /// `a · b`.
     pub fn mul(&mut self, a: ExprId, b: ExprId) -> ExprId {
         self.product_of(
             1.0,
-            vec![Factor { base: a, exp: 1.0 }, Factor { base: b, exp: 1.0 }],
+            &[Factor { base: a, exp: 1.0 }, Factor { base: b, exp: 1.0 }],
         )
     }
 
@@ -183,17 +210,17 @@ impl Arena {
     pub fn div(&mut self, a: ExprId, b: ExprId) -> ExprId {
         self.product_of(
             1.0,
-            vec![Factor { base: a, exp: 1.0 }, Factor { base: b, exp: -1.0 }],
+            &[Factor { base: a, exp: 1.0 }, Factor { base: b, exp: -1.0 }],
         )
     }
 
     /// `Π items` in one canonicalization pass.
     pub fn product(&mut self, items: &[ExprId]) -> ExprId {
-        let factors = items
+        let factors: Vec<Factor> = items
             .iter()
             .map(|&base| Factor { base, exp: 1.0 })
             .collect();
-        self.product_of(1.0, factors)
+        self.product_of(1.0, &factors)
     }
 
     /// `a^n` for an integer `n`.
@@ -206,7 +233,7 @@ impl Arena {
         if p == 0.0 {
             return self.one;
         }
-        self.product_of(1.0, vec![Factor { base: a, exp: p }])
+        self.product_of(1.0, &[Factor { base: a, exp: p }])
     }
 
     /// `√a`.
@@ -226,25 +253,40 @@ impl Arena {
     }
 
     /// `coeff · Π base^exp`, canonicalized.
-    pub fn product_of(&mut self, coeff: f64, factors: Vec<Factor>) -> ExprId {
+    pub fn product_of(&mut self, coeff: f64, factors: &[Factor]) -> ExprId {
+        let mut buf = std::mem::take(&mut self.scratch_factors);
+        buf.clear();
+        buf.extend_from_slice(factors);
+        let e = self.product_from(coeff, &mut buf);
+        self.scratch_factors = buf;
+        e
+    }
+
+    /// [`product_of`](Self::product_of) working in (and clobbering) `buf`.
+    fn product_from(&mut self, coeff: f64, buf: &mut Vec<Factor>) -> ExprId {
         let mut coeff = coeff;
-        let mut flat: Vec<Factor> = Vec::with_capacity(factors.len());
-        let mut work = factors;
-        work.reverse();
-        while let Some(Factor { base, exp }) = work.pop() {
+        // Expand in place: numbers fold into the coefficient, products raised
+        // to integer powers are flattened (their factors are examined again).
+        let mut i = 0;
+        while i < buf.len() {
+            let Factor { base, exp } = buf[i];
             if exp == 0.0 {
+                i += 1;
                 continue;
             }
             match self.node(base) {
-                NodeRef::Num(v) => match finite_or(powv(v, exp)) {
-                    Some(r) => coeff *= r,
-                    None => flat.push(Factor { base, exp }),
-                },
+                NodeRef::Num(v) => {
+                    if let Some(r) = finite_or(powv(v, exp)) {
+                        coeff *= r;
+                        buf[i].exp = 0.0;
+                    }
+                }
                 NodeRef::Mul {
                     coeff: c,
                     factors: inner,
                 } if is_int(exp) => {
-                    flat.extend(inner.iter().map(|f| Factor {
+                    buf[i].exp = 0.0;
+                    buf.extend(inner.iter().map(|f| Factor {
                         base: f.base,
                         exp: f.exp * exp,
                     }));
@@ -252,48 +294,48 @@ impl Arena {
                         Some(r) => coeff *= r,
                         None => {
                             let cb = self.intern(Node::Num(c));
-                            flat.push(Factor { base: cb, exp });
+                            buf.push(Factor { base: cb, exp });
                         }
                     }
                 }
-                NodeRef::Mul {
-                    coeff: c,
-                    factors: inner,
-                } if c > 0.0 && c != 1.0 => {
+                NodeRef::Mul { coeff: c, .. } if c > 0.0 && c != 1.0 => {
                     // (c·X)^p = c^p · X^p for c > 0.
-                    let inner = inner.to_vec();
                     coeff *= powv(c, exp);
-                    let unit = self.product_of(1.0, inner);
-                    flat.push(Factor { base: unit, exp });
+                    buf[i].base = self.unit_product(base);
                 }
-                _ => flat.push(Factor { base, exp }),
+                _ => {}
             }
+            i += 1;
         }
         if coeff == 0.0 {
             return self.zero;
         }
-        flat.sort_by(|a, b| self.canonical_cmp(a.base, b.base));
-        let mut merged: Vec<Factor> = Vec::with_capacity(flat.len());
-        for f in flat {
-            match merged.last_mut() {
-                Some(last) if last.base == f.base => last.exp += f.exp,
-                _ => merged.push(f),
+        buf.retain(|f| f.exp != 0.0);
+        buf.sort_by(|a, b| self.factor_cmp(a.base, b.base));
+        let mut w = 0;
+        for r in 0..buf.len() {
+            if w > 0 && buf[w - 1].base == buf[r].base {
+                buf[w - 1].exp += buf[r].exp;
+            } else {
+                buf[w] = buf[r];
+                w += 1;
             }
         }
-        merged.retain(|f| f.exp != 0.0);
+        buf.truncate(w);
+        buf.retain(|f| f.exp != 0.0);
         if !coeff.is_finite() {
             // Overflowed coefficient: keep it visible as a factor instead of folding.
             let c = self.intern(Node::Num(coeff));
-            merged.insert(0, Factor { base: c, exp: 1.0 });
+            buf.insert(0, Factor { base: c, exp: 1.0 });
             coeff = 1.0;
         }
-        match merged.as_slice() {
+        match buf.as_slice() {
             [] => self.num(coeff),
             [f] if coeff == 1.0 && f.exp == 1.0 => f.base,
             _ => {
                 let start = self.factors.len() as u32;
-                let len = merged.len() as u32;
-                self.factors.extend_from_slice(&merged);
+                let len = buf.len() as u32;
+                self.factors.extend_from_slice(buf);
                 self.intern(Node::Mul { coeff, start, len })
             }
         }

@@ -169,7 +169,8 @@ impl Arena {
             }
             NodeRef::Mul { coeff, factors } => {
                 let factors = factors.to_vec();
-                let mut parts: Vec<ExprId> = Vec::new();
+                let mut parts: Vec<ExprId> = Vec::with_capacity(factors.len());
+                let mut fs: Vec<Factor> = Vec::with_capacity(factors.len() + 1);
                 for (i, fi) in factors.iter().enumerate() {
                     let dfi = self.tan_of(fi.base, seeds);
                     if self.is_zero(dfi) {
@@ -177,22 +178,14 @@ impl Arena {
                     }
                     // c·pᵢ·ḟᵢ·fᵢ^(pᵢ−1)·Π_{j≠i} fⱼ^pⱼ — no division by fᵢ, so the
                     // result stays defined wherever the product is.
-                    let mut fs: Vec<Factor> = Vec::with_capacity(factors.len() + 1);
-                    for (j, fj) in factors.iter().enumerate() {
-                        if j == i {
-                            fs.push(Factor {
-                                base: fj.base,
-                                exp: fj.exp - 1.0,
-                            });
-                        } else {
-                            fs.push(*fj);
-                        }
-                    }
+                    fs.clear();
+                    fs.extend_from_slice(&factors);
+                    fs[i].exp -= 1.0;
                     fs.push(Factor {
                         base: dfi,
                         exp: 1.0,
                     });
-                    parts.push(self.product_of(coeff * fi.exp, fs));
+                    parts.push(self.product_of(coeff * fi.exp, &fs));
                 }
                 self.sum(&parts)
             }
@@ -211,7 +204,7 @@ impl Arena {
                 let t1 = self.mul(db, ln_a);
                 let t2 = self.product_of(
                     1.0,
-                    vec![
+                    &[
                         Factor { base: b, exp: 1.0 },
                         Factor { base: da, exp: 1.0 },
                         Factor { base: a, exp: -1.0 },

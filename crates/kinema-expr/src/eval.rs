@@ -10,8 +10,6 @@
 //!
 //! So the tape and the tree give bit-identical results.
 
-use rustc_hash::FxHashMap;
-
 use crate::arena::Arena;
 use crate::build::powv;
 use crate::node::{ExprId, NodeRef, SymId};
@@ -54,30 +52,20 @@ impl Arena {
 
     /// Evaluates several expressions, sharing common subexpressions.
     pub fn eval_many(&self, outputs: &[ExprId], value: impl Fn(SymId) -> f64) -> Vec<f64> {
-        let mut memo: FxHashMap<ExprId, f64> = FxHashMap::default();
-        let mut stack: Vec<(ExprId, bool)> = Vec::new();
-        for &root in outputs {
-            stack.push((root, false));
-            while let Some((n, expanded)) = stack.pop() {
-                if memo.contains_key(&n) {
-                    continue;
-                }
-                if expanded {
-                    let v = self.eval_node(n, |c| memo.get(&c).copied().unwrap_or(f64::NAN), &value);
-                    memo.insert(n, v);
-                } else {
-                    stack.push((n, true));
-                    self.for_each_child(n, |c| {
-                        if !memo.contains_key(&c) {
-                            stack.push((c, false));
-                        }
-                    });
-                }
-            }
+        // Values indexed by schedule position: children always come first.
+        let schedule = self.schedule(outputs);
+        let mut values: Vec<f64> = Vec::with_capacity(schedule.len());
+        for &n in schedule.nodes() {
+            let v = self.eval_node(
+                n,
+                |c| schedule.position(c).map_or(f64::NAN, |p| values[p]),
+                &value,
+            );
+            values.push(v);
         }
         outputs
             .iter()
-            .map(|o| memo.get(o).copied().unwrap_or(f64::NAN))
+            .map(|&o| schedule.position(o).map_or(f64::NAN, |p| values[p]))
             .collect()
     }
 

@@ -1,9 +1,9 @@
 //! Schedules: the nodes a set of outputs needs, children before parents.
 
-use rustc_hash::FxHashMap;
-
 use crate::arena::Arena;
 use crate::node::ExprId;
+
+const ABSENT: u32 = u32::MAX;
 
 /// The nodes needed by a set of outputs in evaluation (topological) order,
 /// each exactly once, with use counts — what a code generator walks to
@@ -17,7 +17,8 @@ pub struct Schedule {
     parent_uses: Vec<u32>,
     output_uses: Vec<u32>,
     last_use: Vec<u32>,
-    position: FxHashMap<ExprId, u32>,
+    /// Position of each arena node in the schedule (`u32::MAX` if absent).
+    position: Vec<u32>,
 }
 
 impl Schedule {
@@ -49,7 +50,10 @@ impl Schedule {
     /// The position of `e` in the schedule, if it is scheduled.
     #[must_use]
     pub fn position(&self, e: ExprId) -> Option<usize> {
-        self.position.get(&e).map(|&p| p as usize)
+        match self.position.get(e.index()) {
+            Some(&p) if p != ABSENT => Some(p as usize),
+            _ => None,
+        }
     }
 
     /// Number of scheduled nodes.
@@ -69,18 +73,18 @@ impl Arena {
     /// The schedule of the nodes that `outputs` need.
     #[must_use]
     pub fn schedule(&self, outputs: &[ExprId]) -> Schedule {
-        let mut position: FxHashMap<ExprId, u32> = FxHashMap::default();
+        let mut position: Vec<u32> = vec![ABSENT; self.len()];
         let mut nodes: Vec<ExprId> = Vec::new();
         let mut stack: Vec<(ExprId, bool)> = Vec::new();
         let mut kids: Vec<ExprId> = Vec::new();
         for &root in outputs {
             stack.push((root, false));
             while let Some((n, expanded)) = stack.pop() {
-                if position.contains_key(&n) {
+                if position[n.index()] != ABSENT {
                     continue;
                 }
                 if expanded {
-                    position.insert(n, nodes.len() as u32);
+                    position[n.index()] = nodes.len() as u32;
                     nodes.push(n);
                 } else {
                     stack.push((n, true));
@@ -88,7 +92,7 @@ impl Arena {
                     self.children(n, &mut kids);
                     // Reversed so that the first child is evaluated first.
                     for &c in kids.iter().rev() {
-                        if !position.contains_key(&c) {
+                        if position[c.index()] == ABSENT {
                             stack.push((c, false));
                         }
                     }
@@ -103,17 +107,14 @@ impl Arena {
             kids.sort_unstable();
             kids.dedup();
             for c in &kids {
-                if let Some(&p) = position.get(c) {
-                    parent_uses[p as usize] += 1;
-                    last_use[p as usize] = i as u32;
-                }
+                let p = position[c.index()] as usize;
+                parent_uses[p] += 1;
+                last_use[p] = i as u32;
             }
         }
         let mut output_uses = vec![0u32; nodes.len()];
         for o in outputs {
-            if let Some(&p) = position.get(o) {
-                output_uses[p as usize] += 1;
-            }
+            output_uses[position[o.index()] as usize] += 1;
         }
         Schedule {
             nodes,

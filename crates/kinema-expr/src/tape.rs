@@ -132,11 +132,7 @@ impl Tape {
         };
         let mut kids: Vec<ExprId> = Vec::new();
         for (i, &n) in nodes.iter().enumerate() {
-            let reg = |e: ExprId| -> Reg {
-                schedule
-                    .position(e)
-                    .map_or(0, |p| reg_of[p])
-            };
+            let reg = |e: ExprId| -> Reg { schedule.position(e).map_or(0, |p| reg_of[p]) };
             // The destination is taken before any operand is freed, so it never
             // aliases a live operand.
             let dst = regs.take();
@@ -414,7 +410,11 @@ fn power(dst: Reg, a: Reg, p: f64) -> Instr {
     } else if p == 0.5 {
         Instr::Sqrt { dst, a }
     } else if is_int(p) {
-        Instr::PowI { dst, a, n: p as i32 }
+        Instr::PowI {
+            dst,
+            a,
+            n: p as i32,
+        }
     } else {
         Instr::PowF { dst, a, p }
     }
