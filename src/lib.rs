@@ -1,4 +1,51 @@
 //! kinema: planar kinematic analysis of mechanisms in absolute coordinates.
 //!
-//! This is the facade crate. It re-exports the pieces a user needs; see
-//! `ARCHITECTURE.md` for how the crates fit together.
+//! Describe a mechanism once — bodies with q = (x, y, φ), joints from the
+//! constraint library, your own constraint equations, drivers as functions of
+//! time — and kinema differentiates the constraints symbolically (Φ_q, ν, γ),
+//! then solves position (Newton–Raphson), velocity (Φ_q q̇ = ν) and
+//! acceleration (Φ_q q̈ = γ) over time.
+//!
+//! Two back ends run the same derivation:
+//! - [`mechanism!`] generates specialized, allocation-free Rust at compile
+//!   time (also available from a build script through `kinema-codegen` and
+//!   on the command line as `kinema codegen`);
+//! - [`Model`] reads a model from text or a file at run time and evaluates it
+//!   through compiled tapes: no compiler needed.
+//!
+//! ```
+//! kinema::mechanism! {
+//!     mechanism Pendulum {
+//!         /// bar half-length [m]
+//!         param l = 1.0;
+//!         body bar { guess: (0.5, 0.8, 1.0) }
+//!         joint pin: revolute(ground(0, 0), bar(-l, 0));
+//!         driver swing: bar.phi == 4 * t * t;
+//!     }
+//! }
+//!
+//! let mut solver = Pendulum::default().solver(kinema::Options::default())?;
+//! let state = solver.step(0.5)?;
+//! assert!((state.q()[2] - 1.0).abs() < 1e-12); // φ = 4t² at t = 0.5
+//! # Ok::<(), kinema::Error>(())
+//! ```
+//!
+//! See `ARCHITECTURE.md` for how the crates fit together.
+
+
+pub use kinema_macros::mechanism;
+pub use kinema_runtime::{
+    Auto, CsvWriter, DenseLu, DynDenseLu, Error, LinearSolver, Options, PointKinematics, Solver,
+    SparseLu, State, StepStats, System, Trajectory, point_kinematics,
+};
+
+#[cfg(feature = "model")]
+mod model;
+#[cfg(feature = "model")]
+pub use model::{Model, ModelError, TapeSystem};
+
+/// What generated code refers to. Not public API: paths may change.
+#[doc(hidden)]
+pub mod __private {
+    pub use kinema_runtime::{Auto, DenseLu, Error, Options, Solver, SparseLu, System};
+}

@@ -1,0 +1,125 @@
+//! The build-script path: a `.kin` file in, a formatted `.rs` file out.
+//!
+//! ```no_run
+//! // build.rs
+//! fn main() {
+//!     if let Err(e) = kinema_codegen::build::generate("models/slider_crank.kin", "slider_crank.rs") {
+//!         eprintln!("{e}");
+//!         std::process::exit(1);
+//!     }
+//! }
+//! // src/main.rs
+//! // include!(concat!(env!("OUT_DIR"), "/slider_crank.rs"));
+//! ```
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use kinema_model::Derivation;
+
+use crate::{Options, generate_source};
+
+/// Why a model file could not be turned into Rust.
+#[derive(Debug)]
+pub enum Error {
+    /// The model file or the output could not be read or written.
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// What went wrong.
+        source: std::io::Error,
+    },
+    /// The model has errors; `rendered` shows each with `file:line:col`.
+    Model {
+        /// The diagnostics, rendered with source snippets.
+        rendered: String,
+    },
+    /// `OUT_DIR` is not set: not running inside a build script.
+    NoOutDir,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Error::Model { rendered } => f.write_str(rendered),
+            Error::NoOutDir => f.write_str("OUT_DIR is not set (call this from a build script)"),
+        }
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+/// Parses, checks and derives the model in `source`; `file` names it in
+/// rendered diagnostics.
+///
+/// # Errors
+/// [`Error::Model`] with every diagnostic rendered.
+pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
+    let checked = kinema_model::Model::parse_str(source).and_then(|m| m.check());
+    match checked {
+        Ok(checked) => Ok(Derivation::new(&checked)),
+        Err(diagnostics) => Err(Error::Model {
+            rendered: diagnostics
+                .iter()
+                .map(|d| d.render(source, file))
+                .collect::<Vec<_>>()
+                .join("\n"),
+        }),
+    }
+}
+
+/// Generates the Rust source for the model file at `model`.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read, [`Error::Model`] if the model
+/// has errors.
+pub fn source_for_file(model: impl AsRef<Path>, options: &Options) -> Result<String, Error> {
+    let path = model.as_ref();
+    let source = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let derivation = derive_source(&source, &path.display().to_string())?;
+    Ok(generate_source(&derivation, options))
+}
+
+/// From a build script: generates `OUT_DIR/<output>` from the model file at
+/// `model` (relative to the crate root) and tells Cargo to rerun when the
+/// model changes. Include the result with
+/// `include!(concat!(env!("OUT_DIR"), "/<output>"))`.
+///
+/// # Errors
+/// [`Error::NoOutDir`] outside a build script, else as
+/// [`source_for_file`], or [`Error::Io`] if the output cannot be written.
+pub fn generate(model: impl AsRef<Path>, output: impl AsRef<Path>) -> Result<PathBuf, Error> {
+    generate_with(model, output, &Options::default())
+}
+
+/// [`generate`] with explicit [`Options`] (e.g. a different runtime path).
+///
+/// # Errors
+/// As [`generate`].
+pub fn generate_with(
+    model: impl AsRef<Path>,
+    output: impl AsRef<Path>,
+    options: &Options,
+) -> Result<PathBuf, Error> {
+    let out_dir = std::env::var_os("OUT_DIR").ok_or(Error::NoOutDir)?;
+    let model = model.as_ref();
+    println!("cargo::rerun-if-changed={}", model.display());
+    let source = source_for_file(model, options)?;
+    let path = Path::new(&out_dir).join(output);
+    std::fs::write(&path, source).map_err(|source| Error::Io {
+        path: path.clone(),
+        source,
+    })?;
+    Ok(path)
+}

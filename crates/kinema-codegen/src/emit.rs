@@ -1,0 +1,404 @@
+//! Straight-line Rust from a schedule: every shared subexpression is bound
+//! once with `let`, single-use ones are inlined up to a depth limit.
+
+use kinema_expr::{Arena, ExprId, Factor, NodeRef, SymKind, UnaryOp};
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::{format_ident, quote};
+
+/// `name[k]` as tokens.
+pub(crate) fn index(name: &Ident, k: usize) -> TokenStream {
+    let k = Literal::usize_unsuffixed(k);
+    quote!(#name[#k])
+}
+
+/// Inlined expressions deeper than this are bound to a `let` instead, so that
+/// the token trees handed to rustc stay shallow however deep the model.
+const MAX_INLINE_DEPTH: u32 = 8;
+
+/// Operator precedence of an emitted expression, for minimal parentheses.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug)]
+enum Prec {
+    /// `a + b`, `a - b`
+    Add,
+    /// `a * b`, `a / b`, `-a`
+    Mul,
+    /// literals, names, indexing, method calls: usable as a method receiver
+    Atom,
+}
+
+#[derive(Clone)]
+pub(crate) struct Code {
+    pub(crate) tokens: TokenStream,
+    prec: Prec,
+    depth: u32,
+}
+
+impl Code {
+    fn atom(tokens: TokenStream) -> Code {
+        Code {
+            tokens,
+            prec: Prec::Atom,
+            depth: 0,
+        }
+    }
+
+    /// The tokens, parenthesized unless their precedence is at least `min`.
+    fn at(&self, min: Prec) -> TokenStream {
+        let t = &self.tokens;
+        if self.prec >= min {
+            t.clone()
+        } else {
+            quote!((#t))
+        }
+    }
+}
+
+/// Where the inputs of the function being generated come from.
+pub(crate) struct Inputs<'a> {
+    /// Names of the parameters (read as `self.name`).
+    pub params: &'a [Ident],
+}
+
+/// Which inputs a generated body reads: decides whether a function argument
+/// is named `q` or `_q`.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct Used {
+    pub q: bool,
+    pub qd: bool,
+    pub t: bool,
+}
+
+/// Emits statements computing `outputs` and writing each into the place
+/// `target(k)` names (e.g. `out[k]`). Returns the statements and the inputs
+/// they read.
+pub(crate) fn body(
+    arena: &Arena,
+    outputs: &[ExprId],
+    target: &dyn Fn(usize) -> TokenStream,
+    inputs: &Inputs<'_>,
+) -> (TokenStream, Used) {
+    let schedule = arena.schedule(outputs);
+    let nodes = schedule.nodes();
+    let mut code: Vec<Code> = Vec::with_capacity(nodes.len());
+    let mut stmts = TokenStream::new();
+    let mut used = Used::default();
+    let mut names = 0usize;
+    for (i, &n) in nodes.iter().enumerate() {
+        let child = |e: ExprId| -> &Code {
+            // Children always precede their parents in a schedule.
+            let p = schedule.position(e).unwrap_or(0);
+            &code[p]
+        };
+        let c = node(arena, n, &child, inputs, &mut used);
+        let uses = schedule.parent_uses()[i] + schedule.output_uses()[i];
+        let leaf = matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_));
+        let bind = !leaf && (uses > 1 || c.depth > MAX_INLINE_DEPTH);
+        if bind {
+            let name = format_ident!("v{}", names);
+            names += 1;
+            let value = &c.tokens;
+            stmts.extend(quote! { let #name = #value; });
+            code.push(Code::atom(quote!(#name)));
+        } else {
+            code.push(c);
+        }
+    }
+    for (k, &o) in outputs.iter().enumerate() {
+        let value = match schedule.position(o) {
+            Some(p) => code[p].tokens.clone(),
+            None => quote!(0.0),
+        };
+        let place = target(k);
+        stmts.extend(quote! { #place = #value; });
+    }
+    (stmts, used)
+}
+
+/// A finite number as a literal (negation emitted separately), or a named
+/// constant of `core::f64::consts` when it is exactly one.
+pub(crate) fn number(v: f64) -> Code {
+    if !v.is_finite() {
+        let t = if v.is_nan() {
+            quote!(f64::NAN)
+        } else if v > 0.0 {
+            quote!(f64::INFINITY)
+        } else {
+            quote!(f64::NEG_INFINITY)
+        };
+        return Code::atom(t);
+    }
+    let magnitude = match named_constant(v.abs()) {
+        Some(name) => {
+            let name = Ident::new(name, Span::call_site());
+            quote!(::core::f64::consts::#name)
+        }
+        None => {
+            let lit = Literal::f64_unsuffixed(v.abs());
+            quote!(#lit)
+        }
+    };
+    if v < 0.0 {
+        Code {
+            tokens: quote!(-#magnitude),
+            prec: Prec::Mul,
+            depth: 0,
+        }
+    } else {
+        Code::atom(magnitude)
+    }
+}
+
+/// The name of `v` in `core::f64::consts`, if it is exactly one of them.
+fn named_constant(v: f64) -> Option<&'static str> {
+    use std::f64::consts as c;
+    [
+        (c::PI, "PI"),
+        (c::TAU, "TAU"),
+        (c::FRAC_PI_2, "FRAC_PI_2"),
+        (c::FRAC_PI_3, "FRAC_PI_3"),
+        (c::FRAC_PI_4, "FRAC_PI_4"),
+        (c::FRAC_PI_6, "FRAC_PI_6"),
+        (c::FRAC_PI_8, "FRAC_PI_8"),
+        (c::FRAC_1_PI, "FRAC_1_PI"),
+        (c::FRAC_2_PI, "FRAC_2_PI"),
+        (c::FRAC_2_SQRT_PI, "FRAC_2_SQRT_PI"),
+        (c::SQRT_2, "SQRT_2"),
+        (c::FRAC_1_SQRT_2, "FRAC_1_SQRT_2"),
+        (c::E, "E"),
+        (c::LN_2, "LN_2"),
+        (c::LN_10, "LN_10"),
+        (c::LOG2_E, "LOG2_E"),
+        (c::LOG10_E, "LOG10_E"),
+    ]
+    .into_iter()
+    .find(|&(k, _)| k == v)
+    .map(|(_, name)| name)
+}
+
+fn depth_of<'c>(children: impl IntoIterator<Item = &'c Code>) -> u32 {
+    1 + children.into_iter().map(|c| c.depth).max().unwrap_or(0)
+}
+
+fn node<'c>(
+    arena: &Arena,
+    n: ExprId,
+    child: &dyn Fn(ExprId) -> &'c Code,
+    inputs: &Inputs<'_>,
+    used: &mut Used,
+) -> Code {
+    match arena.node(n) {
+        NodeRef::Num(v) => number(v),
+        NodeRef::Sym(s) => Code::atom(match arena.symbol(s).kind {
+            SymKind::Coordinate(i) => {
+                used.q = true;
+                let i = Literal::usize_unsuffixed(i as usize);
+                quote!(q[#i])
+            }
+            SymKind::Velocity(i) => {
+                used.qd = true;
+                let i = Literal::usize_unsuffixed(i as usize);
+                quote!(qd[#i])
+            }
+            SymKind::Parameter(i) => match inputs.params.get(i as usize) {
+                Some(name) => quote!(self.#name),
+                None => quote!(f64::NAN),
+            },
+            SymKind::Time => {
+                used.t = true;
+                quote!(t)
+            }
+        }),
+        NodeRef::Add { constant, terms } => {
+            let mut tokens = TokenStream::new();
+            let depth = depth_of(terms.iter().map(|t| child(t.expr)));
+            for (i, term) in terms.iter().enumerate() {
+                let c = child(term.expr);
+                let (neg, k) = (term.coeff < 0.0, term.coeff.abs());
+                let value = if k == 1.0 {
+                    // The right operand of `-` must bind tighter than `+`.
+                    c.at(if neg && i > 0 { Prec::Mul } else { Prec::Add })
+                } else {
+                    let k = number(k).tokens;
+                    let v = c.at(Prec::Mul);
+                    quote!(#k * #v)
+                };
+                tokens.extend(match (i, neg) {
+                    (0, false) => value,
+                    (0, true) => {
+                        if k == 1.0 {
+                            let v = c.at(Prec::Mul);
+                            quote!(-#v)
+                        } else {
+                            quote!(-#value)
+                        }
+                    }
+                    (_, false) => quote!(+ #value),
+                    (_, true) => quote!(- #value),
+                });
+            }
+            if constant != 0.0 {
+                let k = number(constant.abs()).tokens;
+                tokens.extend(if constant < 0.0 { quote!(- #k) } else { quote!(+ #k) });
+            }
+            Code {
+                tokens,
+                prec: Prec::Add,
+                depth,
+            }
+        }
+        NodeRef::Mul { coeff, factors } => {
+            let depth = depth_of(factors.iter().map(|f| child(f.base)));
+            let power = |f: &Factor, p: f64| -> Code { raise(child(f.base), p) };
+            let num: Vec<Code> = factors
+                .iter()
+                .filter(|f| f.exp > 0.0)
+                .map(|f| power(f, f.exp))
+                .collect();
+            let den: Vec<Code> = factors
+                .iter()
+                .filter(|f| f.exp < 0.0)
+                .map(|f| power(f, -f.exp))
+                .collect();
+            let mut tokens = TokenStream::new();
+            let k = coeff.abs();
+            let mut wrote = false;
+            if k != 1.0 || num.is_empty() {
+                tokens.extend(number(k).tokens);
+                wrote = true;
+            }
+            for c in &num {
+                let v = c.at(Prec::Mul);
+                tokens.extend(if wrote { quote!(* #v) } else { v });
+                wrote = true;
+            }
+            match den.as_slice() {
+                [] => {}
+                [d] => {
+                    let v = d.at(Prec::Atom);
+                    tokens.extend(quote!(/ #v));
+                }
+                _ => {
+                    let mut group = TokenStream::new();
+                    for (i, d) in den.iter().enumerate() {
+                        let v = d.at(Prec::Mul);
+                        group.extend(if i == 0 { v } else { quote!(* #v) });
+                    }
+                    tokens.extend(quote!(/ (#group)));
+                }
+            }
+            let single = num.len() == 1 && den.is_empty() && k == 1.0;
+            let prec = if single { num[0].prec } else { Prec::Mul };
+            if coeff < 0.0 {
+                let inner = Code {
+                    tokens,
+                    prec,
+                    depth,
+                };
+                let v = inner.at(Prec::Mul);
+                Code {
+                    tokens: quote!(-#v),
+                    prec: Prec::Mul,
+                    depth,
+                }
+            } else {
+                Code {
+                    tokens,
+                    prec,
+                    depth,
+                }
+            }
+        }
+        NodeRef::Unary(op, a) => {
+            let c = child(a);
+            let depth = c.depth + 1;
+            let x = c.at(Prec::Atom);
+            let tokens = match op {
+                UnaryOp::Smooth(k) => smooth(k, &c.tokens),
+                _ => {
+                    let method = Ident::new(method_name(op), Span::call_site());
+                    quote!(#x.#method())
+                }
+            };
+            Code {
+                tokens,
+                prec: Prec::Atom,
+                depth,
+            }
+        }
+        NodeRef::Pow(a, b) => {
+            let (ca, cb) = (child(a), child(b));
+            let x = ca.at(Prec::Atom);
+            let y = &cb.tokens;
+            Code {
+                tokens: quote!(#x.powf(#y)),
+                prec: Prec::Atom,
+                depth: depth_of([ca, cb]),
+            }
+        }
+        NodeRef::Atan2(y, x) => {
+            let (cy, cx) = (child(y), child(x));
+            let yt = cy.at(Prec::Atom);
+            let xt = &cx.tokens;
+            Code {
+                tokens: quote!(#yt.atan2(#xt)),
+                prec: Prec::Atom,
+                depth: depth_of([cy, cx]),
+            }
+        }
+    }
+}
+
+/// `base^p` for a constant `p > 0`.
+fn raise(base: &Code, p: f64) -> Code {
+    if p == 1.0 {
+        return base.clone();
+    }
+    let x = base.at(Prec::Atom);
+    let tokens = if p == 0.5 {
+        quote!(#x.sqrt())
+    } else if p.fract() == 0.0 && p <= f64::from(i32::MAX) {
+        let n = Literal::i32_unsuffixed(p as i32);
+        quote!(#x.powi(#n))
+    } else {
+        let p = Literal::f64_unsuffixed(p);
+        quote!(#x.powf(#p))
+    };
+    Code {
+        tokens,
+        prec: Prec::Atom,
+        depth: base.depth + 1,
+    }
+}
+
+fn method_name(op: UnaryOp) -> &'static str {
+    match op {
+        UnaryOp::Sin => "sin",
+        UnaryOp::Cos => "cos",
+        UnaryOp::Tan => "tan",
+        UnaryOp::Asin => "asin",
+        UnaryOp::Acos => "acos",
+        UnaryOp::Atan => "atan",
+        UnaryOp::Sinh => "sinh",
+        UnaryOp::Cosh => "cosh",
+        UnaryOp::Tanh => "tanh",
+        UnaryOp::Exp => "exp",
+        UnaryOp::Ln => "ln",
+        UnaryOp::Abs | UnaryOp::Smooth(_) => "abs",
+    }
+}
+
+/// The k-th derivative of the unit cubic step at `u`, inline (no runtime
+/// dependency): 0 before 0, 1 (k = 0) or 0 after 1, the cubic in between.
+fn smooth(k: u8, u: &TokenStream) -> TokenStream {
+    let inside = match k {
+        0 => quote!(u * u * (3.0 - 2.0 * u)),
+        1 => quote!(6.0 * u * (1.0 - u)),
+        2 => quote!(6.0 - 12.0 * u),
+        _ => quote!(-12.0),
+    };
+    let after = if k == 0 { quote!(1.0) } else { quote!(0.0) };
+    quote! {{
+        let u: f64 = #u;
+        if u <= 0.0 { 0.0 } else if u >= 1.0 { #after } else { #inside }
+    }}
+}

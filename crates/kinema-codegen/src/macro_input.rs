@@ -1,0 +1,148 @@
+//! What `kinema::mechanism!` does, as ordinary functions on `proc_macro2`
+//! tokens (the proc-macro crate only forwards here, so all of it is testable
+//! without rustc).
+//!
+//! Two forms:
+//! ```text
+//! mechanism! { mechanism SliderCrank { … } }      // the model inline
+//! mechanism!(file = "models/slider_crank.kin")     // a model file, relative to the crate
+//! ```
+//! Errors become `compile_error!`s — all of them, each at its span (inline
+//! form) or at the file literal with the rendered `file:line:col` snippet
+//! (file form) — followed by a stub of the mechanism's type so that the
+//! user's code that names it does not add follow-on errors.
+
+use std::path::PathBuf;
+
+use kinema_model::{Derivation, Model, Severity};
+use proc_macro2::{Span, TokenStream, TokenTree};
+use quote::quote;
+
+use crate::{Options, expand};
+
+/// Expands the macro input. Never fails: errors are returned as
+/// `compile_error!` tokens.
+#[must_use]
+pub fn expand_macro(input: TokenStream) -> TokenStream {
+    expand_macro_with(input, &Options::default())
+}
+
+/// [`expand_macro`] with explicit [`Options`].
+#[must_use]
+pub fn expand_macro_with(input: TokenStream, options: &Options) -> TokenStream {
+    match file_form(&input) {
+        Some(Ok((path, span))) => expand_file(&path, span, options),
+        Some(Err(e)) => e.to_compile_error(),
+        None => expand_inline(input, options),
+    }
+}
+
+/// `file = "…"` if that is the input's form.
+fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
+    let mut it = input.clone().into_iter();
+    match (it.next(), it.next()) {
+        (Some(TokenTree::Ident(i)), Some(TokenTree::Punct(p))) if i == "file" && p.as_char() == '=' => {}
+        _ => return None,
+    }
+    let rest: TokenStream = it.collect();
+    Some(syn::parse2::<syn::LitStr>(rest.clone()).map(|lit| (lit.value(), lit.span())).map_err(|_| {
+        syn::Error::new_spanned(
+            rest,
+            "expected a string literal: `mechanism!(file = \"models/my_model.kin\")`",
+        )
+    }))
+}
+
+fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
+    let model = Model::parse_tokens(input.clone());
+    let checked = model.and_then(|m| m.check());
+    match checked {
+        Ok(checked) => expand(&Derivation::new(&checked), options),
+        Err(diagnostics) => {
+            let errors: TokenStream = diagnostics
+                .iter()
+                .filter(|d| d.severity == Severity::Error)
+                .map(|d| d.to_syn_error().to_compile_error())
+                .collect();
+            let stub = stub(mechanism_name(&input), options);
+            quote! { #errors #stub }
+        }
+    }
+}
+
+fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
+    let root = std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(|| PathBuf::from("."), PathBuf::from);
+    let full = root.join(path);
+    let source = match std::fs::read_to_string(&full) {
+        Ok(s) => s,
+        Err(e) => {
+            let msg = format!("cannot read model file `{}`: {e}", full.display());
+            return syn::Error::new(span, msg).to_compile_error();
+        }
+    };
+    // Rebuild whenever the model file changes.
+    let full_str = full.display().to_string();
+    let track = quote! { const _: &[u8] = ::core::include_bytes!(#full_str); };
+    let checked = Model::parse_str(&source).and_then(|m| m.check());
+    match checked {
+        Ok(checked) => {
+            let items = expand(&Derivation::new(&checked), options);
+            quote! { #track #items }
+        }
+        Err(diagnostics) => {
+            let errors: TokenStream = diagnostics
+                .iter()
+                .filter(|d| d.severity == Severity::Error)
+                .map(|d| {
+                    let rendered = d.render(&source, path);
+                    syn::Error::new(span, rendered).to_compile_error()
+                })
+                .collect();
+            let name = syn::parse_str::<TokenStream>(&source).ok().and_then(|t| mechanism_name(&t));
+            let stub = stub(name, options);
+            quote! { #track #errors #stub }
+        }
+    }
+}
+
+/// The identifier after the leading `mechanism` keyword, if any.
+fn mechanism_name(input: &TokenStream) -> Option<syn::Ident> {
+    let mut it = input.clone().into_iter().skip_while(|t| !matches!(t, TokenTree::Ident(i) if i == "mechanism"));
+    it.next()?;
+    match it.next() {
+        Some(TokenTree::Ident(i)) => Some(i),
+        _ => None,
+    }
+}
+
+/// A stand-in for the mechanism's type when the model has errors: it has the
+/// generated type's API, so the user sees the model's errors and not a
+/// cascade of "cannot find type" errors.
+fn stub(name: Option<syn::Ident>, options: &Options) -> TokenStream {
+    let Some(name) = name else {
+        return TokenStream::new();
+    };
+    let rt = &options.runtime;
+    quote! {
+        #[derive(Clone, Debug, Default, PartialEq)]
+        pub struct #name {}
+        impl #name {
+            pub const DERIVATION: &'static str = "";
+            pub fn derivation() -> &'static str { "" }
+            pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #rt::Auto>, #rt::Error> {
+                #rt::Solver::with_options(self, options)
+            }
+        }
+        impl #rt::System for #name {
+            fn len(&self) -> usize { 0 }
+            fn coordinate_name(&self, _i: usize) -> &str { "" }
+            fn equation_name(&self, _i: usize) -> &str { "" }
+            fn initial_guess(&self, _q: &mut [f64]) {}
+            fn jacobian_pattern(&self) -> &[(u32, u32)] { &[] }
+            fn phi(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn jacobian(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn nu(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn gamma(&mut self, _q: &[f64], _qd: &[f64], _t: f64, _out: &mut [f64]) {}
+        }
+    }
+}

@@ -1,0 +1,316 @@
+//! The tape back end: a model read at run time, derived, compiled to tapes,
+//! and run through the same runtime as generated code.
+
+use std::fmt;
+use std::path::Path;
+
+use kinema_expr::{ExprId, Tape, TapeInputs};
+use kinema_model::{Derivation, Diagnostics, Severity};
+use kinema_runtime::System;
+
+/// A mechanism read from model text and derived, ready to run without a
+/// compile step.
+///
+/// ```
+/// let model = kinema::Model::from_source(
+///     "mechanism Pendulum {
+///         param l = 1.0;
+///         body bar { guess: (0.5, 0.8, 1.0) }
+///         joint pin: revolute(ground(0, 0), bar(-l, 0));
+///         driver swing: bar.phi == 4 * t * t;
+///     }",
+///     "pendulum.kin",
+/// )?;
+/// let mut solver = kinema::Solver::<_, kinema::Auto>::new(model.system())?;
+/// let state = solver.step(0.5)?;
+/// assert!((state.q()[0] - 1f64.cos()).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Model {
+    derivation: Derivation,
+    warnings: Vec<String>,
+}
+
+/// A model that could not be read: every diagnostic, rendered with
+/// `file:line:col`, the source line and a caret.
+#[derive(Clone, Debug)]
+pub struct ModelError {
+    /// The rendered diagnostics (errors and warnings), in order.
+    pub rendered: String,
+    /// How many of them are errors.
+    pub errors: usize,
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.rendered)
+    }
+}
+
+impl std::error::Error for ModelError {}
+
+fn render(diagnostics: &Diagnostics, source: &str, file: &str) -> ModelError {
+    let rendered = diagnostics
+        .iter()
+        .map(|d| d.render(source, file))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let errors = diagnostics
+        .iter()
+        .filter(|d| d.severity == Severity::Error)
+        .count();
+    ModelError { rendered, errors }
+}
+
+impl Model {
+    /// Parses, checks and derives model text; `file` names it in messages.
+    ///
+    /// # Errors
+    /// [`ModelError`] with every error found (and the warnings).
+    pub fn from_source(source: &str, file: &str) -> Result<Model, ModelError> {
+        let model = kinema_model::Model::parse_str(source).map_err(|d| render(&d, source, file))?;
+        let checked = model.check().map_err(|d| render(&d, source, file))?;
+        let warnings = checked
+            .warnings
+            .iter()
+            .map(|d| d.render(source, file))
+            .collect();
+        Ok(Model {
+            derivation: Derivation::new(&checked),
+            warnings,
+        })
+    }
+
+    /// Reads a `.kin` file and derives it.
+    ///
+    /// # Errors
+    /// [`ModelError`] if the file cannot be read or the model has errors.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Model, ModelError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let source = std::fs::read_to_string(path).map_err(|e| ModelError {
+            rendered: format!("error: cannot read model file `{file}`: {e}"),
+            errors: 1,
+        })?;
+        Model::from_source(&source, &file)
+    }
+
+    /// A model from a derivation made elsewhere.
+    #[must_use]
+    pub fn from_derivation(derivation: Derivation) -> Model {
+        Model {
+            derivation,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The derivation: Φ, Φ_q, ν, γ and the rest, as expressions.
+    #[must_use]
+    pub fn derivation(&self) -> &Derivation {
+        &self.derivation
+    }
+
+    /// Warnings found while checking the model, rendered.
+    #[must_use]
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The derivation as stable text (what `kinema derive` prints).
+    #[must_use]
+    pub fn derivation_text(&self) -> String {
+        self.derivation.render()
+    }
+
+    /// The generated Rust source for this model (what `kinema codegen` prints).
+    #[must_use]
+    pub fn rust_source(&self) -> String {
+        kinema_codegen::generate_source(&self.derivation, &kinema_codegen::Options::default())
+    }
+
+    /// Compiles the derivation to tapes: a [`System`] for the runtime, with
+    /// the parameters at their declared values.
+    #[must_use]
+    pub fn system(&self) -> TapeSystem {
+        TapeSystem::new(&self.derivation)
+    }
+}
+
+/// A [`System`] evaluated by tapes: compiled once, evaluated with no
+/// allocation.
+#[derive(Clone, Debug)]
+pub struct TapeSystem {
+    coordinate_names: Vec<String>,
+    equation_names: Vec<String>,
+    param_names: Vec<String>,
+    params: Vec<f64>,
+    pattern: Vec<(u32, u32)>,
+    guess: Tape,
+    phi: Tape,
+    jacobian: Tape,
+    both: Tape,
+    nu: Tape,
+    gamma: Tape,
+    registers: Vec<f64>,
+    both_out: Vec<f64>,
+    zeros: Vec<f64>,
+}
+
+impl TapeSystem {
+    /// Compiles the tapes of a derivation.
+    #[must_use]
+    pub fn new(d: &Derivation) -> TapeSystem {
+        let a = &d.arena;
+        let jac: Vec<ExprId> = d.phi_q.entries.iter().map(|e| e.expr).collect();
+        let guess: Vec<ExprId> = d.coordinates.iter().map(|c| c.guess).collect();
+        let both: Vec<ExprId> = d.phi.iter().chain(&jac).copied().collect();
+        let tapes = [
+            Tape::compile(a, &guess),
+            Tape::compile(a, &d.phi),
+            Tape::compile(a, &jac),
+            Tape::compile(a, &both),
+            Tape::compile(a, &d.nu),
+            Tape::compile(a, &d.gamma),
+        ];
+        let registers = tapes.iter().map(Tape::registers).max().unwrap_or(0);
+        let [guess, phi, jacobian, both, nu, gamma] = tapes;
+        let n = d.nc();
+        TapeSystem {
+            coordinate_names: d.coordinates.iter().map(|c| c.name.clone()).collect(),
+            equation_names: d.rows.iter().map(|r| r.name.clone()).collect(),
+            param_names: d.params.iter().map(|p| p.name.clone()).collect(),
+            params: d.param_values(),
+            pattern: d.phi_q.entries.iter().map(|e| (e.row, e.col)).collect(),
+            both_out: vec![0.0; n + jac.len()],
+            zeros: vec![0.0; n],
+            guess,
+            phi,
+            jacobian,
+            both,
+            nu,
+            gamma,
+            registers: vec![0.0; registers],
+        }
+    }
+
+    /// The parameters' names, in declaration order.
+    #[must_use]
+    pub fn param_names(&self) -> &[String] {
+        &self.param_names
+    }
+
+    /// The parameters' current values.
+    #[must_use]
+    pub fn params(&self) -> &[f64] {
+        &self.params
+    }
+
+    /// Sets a parameter by name; returns `false` if there is no such parameter.
+    pub fn set_param(&mut self, name: &str, value: f64) -> bool {
+        match self.param_names.iter().position(|p| p == name) {
+            Some(i) => {
+                self.params[i] = value;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Runs `tape` and writes its outputs to `out`; on the (impossible for a
+    /// consistent system) size mismatch, writes NaN so the runtime reports
+    /// non-finite values instead of going on silently.
+    fn run(tape: &Tape, registers: &mut [f64], inputs: &TapeInputs<'_>, out: &mut [f64]) {
+        if tape.eval(inputs, registers, out).is_err() {
+            out.fill(f64::NAN);
+        }
+    }
+}
+
+impl System for TapeSystem {
+    fn len(&self) -> usize {
+        self.coordinate_names.len()
+    }
+
+    fn coordinate_name(&self, i: usize) -> &str {
+        self.coordinate_names.get(i).map_or("", String::as_str)
+    }
+
+    fn equation_name(&self, i: usize) -> &str {
+        self.equation_names.get(i).map_or("", String::as_str)
+    }
+
+    fn initial_guess(&self, q: &mut [f64]) {
+        // Guesses are rarely evaluated: a scratch register file is fine here.
+        let mut registers = vec![0.0; self.guess.registers()];
+        let inputs = TapeInputs {
+            q: &[],
+            qd: &[],
+            params: &self.params,
+            t: 0.0,
+        };
+        Self::run(&self.guess, &mut registers, &inputs, q);
+    }
+
+    fn jacobian_pattern(&self) -> &[(u32, u32)] {
+        &self.pattern
+    }
+
+    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        Self::run(&self.phi, &mut self.registers, &inputs, phi);
+    }
+
+    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        Self::run(&self.jacobian, &mut self.registers, &inputs, values);
+    }
+
+    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        Self::run(&self.both, &mut self.registers, &inputs, &mut self.both_out);
+        let (p, j) = self.both_out.split_at(phi.len().min(self.both_out.len()));
+        if p.len() == phi.len() && j.len() == values.len() {
+            phi.copy_from_slice(p);
+            values.copy_from_slice(j);
+        } else {
+            phi.fill(f64::NAN);
+            values.fill(f64::NAN);
+        }
+    }
+
+    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        Self::run(&self.nu, &mut self.registers, &inputs, nu);
+    }
+
+    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        };
+        Self::run(&self.gamma, &mut self.registers, &inputs, gamma);
+    }
+}
