@@ -3,7 +3,7 @@
 //! [`CheckedModel`]: names resolved, expressions typed (scalar or vector),
 //! spans kept; everything the derivation needs so that it cannot fail.
 //!
-//! All independent errors are collected (see [`Ctxt`]); an error inside an
+//! All independent errors are collected (in a `Ctxt`); an error inside an
 //! expression does not cascade into its parents.
 
 use std::collections::HashMap;
@@ -1103,7 +1103,8 @@ fn uses_bad_param(t: &TExpr, params: &[f64]) -> bool {
 /// Rule: constant vectors are finite (unless a bad param, already reported,
 /// is the cause).
 fn finite_vector(cx: &mut Ctxt, v: [f64; 2], span: Span, t: &TExpr, params: &[f64]) {
-    if !(v[0].is_finite() && v[1].is_finite()) && !uses_bad_param(t, params) {
+    let finite = v[0].is_finite() && v[1].is_finite();
+    if !finite && !uses_bad_param(t, params) {
         cx.error(span, "this vector is not finite: expected finite numbers");
     }
 }
@@ -1603,8 +1604,8 @@ fn check_call(
         }
         _ => {
             let mut ok = true;
-            for k in 0..arity {
-                ok &= scalar_arg(cx, expr, out, args[k], a(k));
+            for (k, &arg) in args.iter().enumerate() {
+                ok &= scalar_arg(cx, expr, out, arg, a(k));
             }
             if !ok {
                 return None;

@@ -186,7 +186,6 @@ impl Diagnostics {
     }
 
     /// Every diagnostic.
-    #[must_use]
     pub fn iter(&self) -> std::slice::Iter<'_, Diagnostic> {
         self.items.iter()
     }

@@ -172,7 +172,7 @@ fn run(
         .map(|(i, _)| i)
         .collect();
     assert_eq!(idx.len(), rows, "{name}");
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ name.len() as u64 * 7919);
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ (name.len() as u64 * 7919));
     for _ in 0..100 {
         let mut s = State {
             q: [0.0; 6],

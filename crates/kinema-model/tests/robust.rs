@@ -70,10 +70,10 @@ fn mutations_never_panic() {
     for dir in [root.join("../../models"), root.join("tests/ui")] {
         if let Ok(rd) = std::fs::read_dir(dir) {
             for e in rd.filter_map(Result::ok) {
-                if let Ok(s) = std::fs::read_to_string(e.path()) {
-                    if s.len() < 20_000 {
-                        sources.push(s);
-                    }
+                if let Ok(s) = std::fs::read_to_string(e.path())
+                    && s.len() < 20_000
+                {
+                    sources.push(s);
                 }
             }
         }

@@ -1,0 +1,28 @@
+//! Times the phases on the N-body chain: `cargo run --release -p kinema-model --example timing -- 1000`.
+use std::time::Instant;
+
+fn main() {
+    let n = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1000);
+    let text = kinema_model::chain::chain_kin(n);
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let model = kinema_model::Model::parse_str(&text);
+        let t1 = Instant::now();
+        let checked = model.and_then(|m| m.check());
+        let t2 = Instant::now();
+        let rows = checked
+            .map(|c| kinema_model::Derivation::new(&c).phi.len())
+            .unwrap_or(0);
+        let t3 = Instant::now();
+        println!(
+            "n = {n}: parse {:?}, check {:?}, derive {:?}, total {:?} ({rows} rows)",
+            t1 - t0,
+            t2 - t1,
+            t3 - t2,
+            t3 - t0
+        );
+    }
+}
