@@ -15,15 +15,24 @@
 //! (`cargo bench -p kinema-runtime --bench linalg`), this kernel is several
 //! times faster; see `BENCHMARKS-runtime.md`.
 
+use super::schedule::{DenseStructure, Schedule, SlotIndex};
 use super::{LinalgError, LinearSolver, check_len, validate_pattern};
 
-/// Dense LU with partial pivoting of an N × N matrix stored inline
-/// (`[[f64; N]; N]`, no heap) — the solver for generated code of small
-/// mechanisms, e.g. `Solver<SliderCrank, DenseLu<9>>`.
+/// LU with partial pivoting of an N × N matrix, sized at compile time — the
+/// solver for generated code of small mechanisms, e.g.
+/// `Solver<SliderCrank, DenseLu<9>>`.
 ///
-/// Solves A x = b by PA = LU. The matrix lives inside the struct, so keep N
-/// small (up to a few dozen); use [`DynDenseLu`] or
-/// [`SparseLu`](super::SparseLu) above that.
+/// Solves A x = b by PA = LU. Pivots are chosen by the dense kernel (partial
+/// pivoting on an inline row-major `[[f64; N]; N]`); the elimination for that
+/// pivot order is then recorded once over the structural nonzeros (see
+/// [the module docs](super#refactorization)) and replayed at every later
+/// factorization, so a step costs only the structural multiply-adds. When a
+/// replayed pivot fails the threshold test the kernel repivots. All storage
+/// is reserved at analysis for the worst case; nothing allocates afterwards.
+///
+/// Keep N small (up to a few dozen): the kernel's matrix lives inside the
+/// struct and the reserved schedule grows as N³. Use
+/// [`SparseLu`](super::SparseLu) for large systems.
 #[derive(Debug, Clone)]
 pub struct DenseLu<const N: usize> {
     /// Row-major matrix, overwritten by L (unit diagonal, below) and U.
@@ -34,18 +43,36 @@ pub struct DenseLu<const N: usize> {
     inv_diag: [f64; N],
     /// For each pattern entry, its index row · N + col in the flattened matrix.
     scatter: Box<[usize]>,
-    factored: bool,
+    pattern: Box<[(u32, u32)]>,
+    schedule: Schedule,
+    /// Scratch for rebuilding the schedule without allocating.
+    mask: Box<[bool]>,
+    slot_table: Box<[u32]>,
+    active: Active,
+}
+
+/// Which factorization the next solve uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Active {
+    None,
+    Kernel,
+    Schedule,
 }
 
 impl<const N: usize> LinearSolver for DenseLu<N> {
     fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
         check_len("system dimension for DenseLu<N>", N, n)?;
+        let updates = N * N.saturating_sub(1) * (2 * N).saturating_sub(1) / 6;
         Ok(Self {
             a: [[0.0; N]; N],
             piv: [0; N],
             inv_diag: [0.0; N],
             scatter: scatter_indices(N, pattern)?,
-            factored: false,
+            pattern: pattern.into(),
+            schedule: Schedule::with_capacity(N, pattern.len(), N * N, updates),
+            mask: vec![false; N * N].into_boxed_slice(),
+            slot_table: vec![0; N * N].into_boxed_slice(),
+            active: Active::None,
         })
     }
 
@@ -55,21 +82,53 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
     }
 
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
-        self.factored = false;
+        self.active = Active::None;
         check_len("Jacobian values", self.scatter.len(), values.len())?;
+        if self.schedule.is_ready() && self.schedule.refactor(values, singular_tolerance).is_ok() {
+            self.active = Active::Schedule;
+            return Ok(());
+        }
+        // Repivot with the dense kernel, then record the new order.
         let a = self.a.as_flattened_mut();
         let scale = scatter(a, &self.scatter, values);
         factor_in_place(a, N, &mut self.piv, &mut self.inv_diag, singular_tolerance * scale, scale)?;
-        self.factored = true;
+        self.active = Active::Kernel;
+        let mut order = [0u32; N];
+        for (k, o) in order.iter_mut().enumerate() {
+            *o = k as u32;
+        }
+        for (k, &p) in self.piv.iter().enumerate() {
+            order.swap(k, p);
+        }
+        self.mask.fill(false);
+        let mut structure = DenseStructure {
+            n: N,
+            mask: &mut self.mask,
+        };
+        let mut slots = SlotIndex::Dense {
+            n: N,
+            table: &mut self.slot_table,
+        };
+        self.schedule.build(
+            &self.pattern,
+            order.iter().copied(),
+            0..N as u32,
+            &mut structure,
+            &mut slots,
+        );
+        if self.schedule.refactor(values, singular_tolerance).is_ok() {
+            self.active = Active::Schedule;
+        }
         Ok(())
     }
 
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
-        if !self.factored {
-            return Err(LinalgError::NotFactored);
-        }
         check_len("right-hand side", N, rhs.len())?;
-        solve(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs);
+        match self.active {
+            Active::None => return Err(LinalgError::NotFactored),
+            Active::Kernel => solve(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs),
+            Active::Schedule => self.schedule.solve(rhs),
+        }
         Ok(())
     }
 }
@@ -272,6 +331,13 @@ mod tests {
         assert!(matches!(err, Err(LinalgError::Singular { step: 1, .. })), "{err:?}");
         let mut rhs = [1.0, 1.0];
         assert_eq!(lu.solve_in_place(&mut rhs), Err(LinalgError::NotFactored));
+        // A regular matrix afterwards factors, then replays its schedule.
+        for a in [[1.0, 2.0, 3.0, 4.0], [1.0, 2.0, 3.0, 5.0], [3.0, 2.0, 1.0, 4.0]] {
+            lu.factor(&a, 1e-12)?;
+            let mut x = [a[0] + a[1], a[2] + a[3]];
+            lu.solve_in_place(&mut x)?;
+            assert!((x[0] - 1.0).abs() < 1e-14 && (x[1] - 1.0).abs() < 1e-14, "{x:?}");
+        }
         Ok(())
     }
 

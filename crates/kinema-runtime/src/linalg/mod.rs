@@ -27,6 +27,7 @@
 
 mod auto;
 mod dense;
+mod schedule;
 mod sparse;
 
 pub use auto::Auto;

@@ -31,6 +31,9 @@ use faer::sparse::linalg::lu::simplicial::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
+use std::collections::BTreeMap;
+
+use super::schedule::{Schedule, SlotIndex, SparseStructure};
 use super::{LinalgError, LinearSolver, check_len, validate_pattern};
 
 /// Sparse LU with partial pivoting (faer, simplicial), the structure analysed
@@ -57,7 +60,17 @@ pub struct SparseLu {
     row_perm_inv: Box<[usize]>,
     lu: SimplicialLu<usize, f64>,
     scratch: MemBuffer,
-    factored: bool,
+    pattern: Box<[(u32, u32)]>,
+    schedule: Schedule,
+    active: Active,
+}
+
+/// Which factorization the next solve uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Active {
+    None,
+    Faer,
+    Schedule,
 }
 
 impl std::fmt::Debug for SparseLu {
@@ -65,7 +78,7 @@ impl std::fmt::Debug for SparseLu {
         f.debug_struct("SparseLu")
             .field("n", &self.n)
             .field("nnz", &self.values.len())
-            .field("factored", &self.factored)
+            .field("active", &self.active)
             .finish_non_exhaustive()
     }
 }
@@ -123,7 +136,9 @@ impl LinearSolver for SparseLu {
             row_perm_inv: vec![0; n].into_boxed_slice(),
             lu: SimplicialLu::new(),
             scratch,
-            factored: false,
+            pattern: pattern.into(),
+            schedule: Schedule::with_capacity(n, nnz, 0, 0),
+            active: Active::None,
         })
     }
 
@@ -133,8 +148,51 @@ impl LinearSolver for SparseLu {
     }
 
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
-        self.factored = false;
+        self.active = Active::None;
         check_len("Jacobian values", self.slot.len(), values.len())?;
+        if self.schedule.is_ready() && self.schedule.refactor(values, singular_tolerance).is_ok() {
+            self.active = Active::Schedule;
+            return Ok(());
+        }
+        self.factor_with_faer(values, singular_tolerance)?;
+        self.active = Active::Faer;
+        // Record the elimination for faer's pivot order (allocates; only when
+        // the pivot order changes).
+        let mut structure = SparseStructure::new(self.n);
+        let mut slots = SlotIndex::Sparse(BTreeMap::new());
+        self.schedule.build(
+            &self.pattern,
+            self.row_perm.iter().map(|&r| r as u32),
+            self.col_perm.iter().map(|&c| c as u32),
+            &mut structure,
+            &mut slots,
+        );
+        if self.schedule.refactor(values, singular_tolerance).is_ok() {
+            self.active = Active::Schedule;
+        }
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", self.n, rhs.len())?;
+        match self.active {
+            Active::None => Err(LinalgError::NotFactored),
+            Active::Schedule => {
+                self.schedule.solve(rhs);
+                Ok(())
+            }
+            Active::Faer => {
+                self.solve_with_faer(rhs);
+                Ok(())
+            }
+        }
+    }
+}
+
+impl SparseLu {
+    /// Numeric LU by faer with partial pivoting, reusing the symbolic
+    /// analysis; checks the pivots.
+    fn factor_with_faer(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
         let mut scale = 0.0_f64;
         for (&pos, &v) in self.slot.iter().zip(values) {
             if let Some(dst) = self.values.get_mut(pos) {
@@ -182,15 +240,10 @@ impl LinearSolver for SparseLu {
                 });
             }
         }
-        self.factored = true;
         Ok(())
     }
 
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
-        if !self.factored {
-            return Err(LinalgError::NotFactored);
-        }
-        check_len("right-hand side", self.n, rhs.len())?;
+    fn solve_with_faer(&mut self, rhs: &mut [f64]) {
         let n = self.n;
         let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, n);
         let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
@@ -202,7 +255,6 @@ impl LinearSolver for SparseLu {
             Par::Seq,
             MemStack::new(&mut self.scratch),
         );
-        Ok(())
     }
 }
 
