@@ -2129,7 +2129,7 @@ fn eval_scalar(t: &TExpr, params: &[f64]) -> f64 {
     }
 }
 
-fn eval_vector(t: &TExpr, params: &[f64]) -> [f64; 2] {
+pub(crate) fn eval_vector(t: &TExpr, params: &[f64]) -> [f64; 2] {
     match eval(t, params) {
         Val::V(x, y) => [x, y],
         Val::S(_) => [f64::NAN, f64::NAN],

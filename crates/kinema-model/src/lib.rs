@@ -116,6 +116,7 @@ pub mod derive;
 pub mod diagnostic;
 mod library;
 mod lower;
+mod points;
 mod render;
 pub mod span;
 pub mod syntax;
@@ -123,6 +124,7 @@ pub mod syntax;
 pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind};
 pub use derive::{Coordinate, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Severity};
+pub use points::EquationPoint;
 pub use span::Span;
 pub use syntax::EquationKeyword;
 
