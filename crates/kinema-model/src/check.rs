@@ -915,6 +915,18 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
             rows_known = false;
             continue;
         };
+        // Rule: an equation constrains at least one body (a row without
+        // coordinates makes Φ_q singular).
+        //   error: constraint `c` does not depend on any coordinate
+        if deps.coord.is_none() {
+            cx.push(
+                Diagnostic::error(
+                    span,
+                    format!("{} `{name}` does not depend on any coordinate", e.keyword.as_str()),
+                )
+                .with_help("expected an equation in coordinates (`B.x`, `B.y`, `B.phi`) or points of a moving body; it would make Φ_q singular"),
+            );
+        }
         // Rule: kinematic constraints do not depend on time.
         //   error: kinematic constraint `on_axis` depends on time `t`
         //   = help: declare it with `driver` if it drives the mechanism
@@ -1866,6 +1878,9 @@ fn check_library(
         return None;
     }
     // A library constraint depends on coordinates through its points and bodies.
+    if bodies.iter().any(|b| matches!(b, Some(BodyRef::Body(_)))) {
+        deps.coord = Some(expr.span());
+    }
     Some((
         Form::Library(spec.kind, out),
         deps,

@@ -421,38 +421,59 @@ fn parse_args(
     Ok(args)
 }
 
+/// Parses `#![doc = "…"]` attributes (what `//!` comments become).
+fn parse_inner_docs(input: ParseStream<'_>) -> syn::Result<Vec<String>> {
+    let mut docs = Vec::new();
+    while input.peek(Token![#]) && input.peek2(Token![!]) {
+        input.parse::<Token![#]>()?;
+        input.parse::<Token![!]>()?;
+        let content;
+        bracketed!(content in input);
+        docs.push(doc_value(&content)?);
+    }
+    Ok(docs)
+}
+
+/// `doc = "…"` inside an attribute's brackets.
+fn doc_value(content: ParseStream<'_>) -> syn::Result<String> {
+    if !content.peek(kw::doc) {
+        // error: expected a doc comment: only `///` doc comments are allowed as attributes
+        return Err(syn::Error::new(
+            content.span(),
+            "expected a doc comment: only `///` and `//!` doc comments are allowed as attributes",
+        ));
+    }
+    content.parse::<kw::doc>()?;
+    content.parse::<Token![=]>()?;
+    let text: syn::LitStr = content.parse()?;
+    let value = text.value();
+    Ok(value.strip_prefix(' ').unwrap_or(&value).to_string())
+}
+
 /// Parses `#[doc = "…"]` attributes (what `///` comments become).
 fn parse_docs(input: ParseStream<'_>) -> syn::Result<Vec<String>> {
     let mut docs = Vec::new();
-    while input.peek(Token![#]) {
+    while input.peek(Token![#]) && !input.peek2(Token![!]) {
         input.parse::<Token![#]>()?;
         let content;
         bracketed!(content in input);
-        let lookahead = content.lookahead1();
-        if !lookahead.peek(kw::doc) {
-            // error: expected `doc` (only `///` doc comments are allowed here)
-            return Err(syn::Error::new(
-                content.span(),
-                "expected a doc comment: only `///` doc comments are allowed as attributes",
-            ));
-        }
-        content.parse::<kw::doc>()?;
-        content.parse::<Token![=]>()?;
-        let text: syn::LitStr = content.parse()?;
-        let value = text.value();
-        docs.push(value.strip_prefix(' ').unwrap_or(&value).to_string());
+        docs.push(doc_value(&content)?);
     }
     Ok(docs)
 }
 
 impl Parse for Mechanism {
     fn parse(input: ParseStream<'_>) -> syn::Result<Self> {
-        let docs = parse_docs(input)?;
+        // `//!` comments at the top of a file, then `///` comments.
+        let mut docs = parse_inner_docs(input)?;
+        docs.extend(parse_docs(input)?);
         // error: expected `mechanism`
         input.parse::<kw::mechanism>()?;
         let name: Ident = input.parse()?;
         let content;
         braced!(content in input);
+        // `//!` comments at the start of the mechanism's body.
+        docs.extend(parse_inner_docs(&content)?);
         let body: TokenStream = content.parse()?;
         let close = body
             .clone()

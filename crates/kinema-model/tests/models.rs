@@ -263,3 +263,18 @@ fn parabola_follower_moves() {
         assert!((py - (0.2 * px * px - 0.5)).abs() < 1e-12);
     }
 }
+
+/// Doc comments are kept: `//!` at the top of a file and `///` on items.
+#[test]
+fn doc_comments() {
+    let src = "//! A file-level comment.\n/// The mechanism.\nmechanism M {\n    //! Inside.\n    /// length\n    param L = 1;\n    /// the bar\n    body bar { guess: (1, 0, 0) }\n    /// pin\n    joint pin: revolute(bar(-L, 0), ground(0, 0));\n    /// motion\n    driver swing: bar.phi == t;\n}\n";
+    let d = derive_str(src).unwrap_or_else(|e| panic!("{}", e.render(src, "m.kin")));
+    assert_eq!(
+        d.docs,
+        ["A file-level comment.", "The mechanism.", "Inside."]
+    );
+    assert_eq!(d.params[0].docs, ["length"]);
+    assert_eq!(d.body_docs[0], ["the bar"]);
+    assert_eq!(d.rows[0].docs, ["pin"]);
+    assert_eq!(d.rows[2].docs, ["motion"]);
+}
