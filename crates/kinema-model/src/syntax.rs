@@ -395,7 +395,7 @@ fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
             [single] => Ok(*single),
             _ => Ok(b.push(ExprKind::Tuple(args), span)),
         }
-    } else if input.is_empty() {
+    } else if input.is_empty() || input.peek(Token![$]) || input.peek(Token![;]) {
         // error: expected an expression
         Err(input.error("expected an expression"))
     } else {
@@ -485,20 +485,17 @@ impl Parse for Mechanism {
         // Each item is parsed on its own, so that an error in one item
         // neither stops nor disturbs the others: independent mistakes are
         // all reported.
-        for chunk in split_items(body) {
+        for mut chunk in split_items(body) {
             let last = chunk.clone().into_iter().last().map_or(close, |t| t.span());
+            // A `$` sentinel carrying the span of the item's last token ends
+            // every item: "expected `;`" then points at the item instead of
+            // at nowhere (the end of a token stream has no location).
+            let mut end = proc_macro2::Punct::new('$', proc_macro2::Spacing::Alone);
+            end.set_span(last);
+            chunk.extend([proc_macro2::TokenTree::Punct(end)]);
             match syn::parse::Parser::parse2(parse_item, chunk) {
                 Ok(item) => items.push(item),
-                Err(e) => {
-                    for mut d in Diagnostics::from(e) {
-                        // "unexpected end of input" has no location of its
-                        // own: point at the item's last token.
-                        if d.span.start().line == 0 && last.start().line != 0 {
-                            d.span = Span::new(last);
-                        }
-                        errors.push(d);
-                    }
-                }
+                Err(e) => errors.extend(Diagnostics::from(e)),
             }
         }
         if !input.is_empty() {
@@ -538,10 +535,11 @@ fn split_items(body: TokenStream) -> Vec<TokenStream> {
 
 fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
     let item = parse_item_inner(input)?;
-    if !input.is_empty() {
-        // error: expected the end of the item
+    if !input.peek(Token![$]) {
+        // error: unexpected tokens after the end of this item
         return Err(input.error("unexpected tokens after the end of this item"));
     }
+    input.parse::<Token![$]>()?;
     Ok(item)
 }
 
@@ -676,7 +674,7 @@ pub fn parse_str(source: &str) -> Result<Mechanism, Diagnostics> {
         let mut d = Diagnostics::new();
         d.push(crate::diagnostic::Diagnostic::error(
             Span::new(e.span()),
-            format!("cannot read the model text: {e}"),
+            format!("cannot read the model text: unclosed delimiter or unterminated literal ({e})"),
         ));
         d
     })?;
