@@ -157,6 +157,31 @@ impl System for Chain {
         }
     }
 
+    /// Φ and Φ_q sharing each link's sine and cosine.
+    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
+        let w = 2.0 * PI;
+        let (mut tip_x, mut tip_y) = (0.0, 0.0);
+        let (mut prev_hs, mut prev_hc) = (0.0, 0.0);
+        for (k, (qk, out)) in q.chunks_exact(3).zip(phi.chunks_exact_mut(3)).enumerate() {
+            let (s, c) = qk[2].sin_cos();
+            let (hs, hc) = (0.5 * s, 0.5 * c);
+            if k == 0 {
+                out[0] = qk[0] - hc;
+                out[1] = qk[1] - hs;
+                values[..5].copy_from_slice(&[1.0, hs, 1.0, -hc, 1.0]);
+            } else {
+                out[0] = tip_x - (qk[0] - hc);
+                out[1] = tip_y - (qk[1] - hs);
+                let at = 9 * k - 4;
+                values[at..at + 9].copy_from_slice(&[1.0, -prev_hs, -1.0, -hs, 1.0, prev_hc, -1.0, hc, 1.0]);
+            }
+            out[2] = qk[2] - (FRAC_PI_4 + self.amplitude * (w * t + (k + 1) as f64).sin());
+            tip_x = qk[0] + hc;
+            tip_y = qk[1] + hs;
+            (prev_hs, prev_hc) = (hs, hc);
+        }
+    }
+
     fn jacobian(&mut self, q: &[f64], _t: f64, values: &mut [f64]) {
         let mut at = 0;
         let (mut prev_s, mut prev_c) = (0.0, 0.0);

@@ -41,14 +41,104 @@ pub struct DenseLu<const N: usize> {
     piv: [usize; N],
     /// 1 / u_kk.
     inv_diag: [f64; N],
-    /// For each pattern entry, its index row · N + col in the flattened matrix.
-    scatter: Box<[usize]>,
-    pattern: Box<[(u32, u32)]>,
-    schedule: Schedule,
-    /// Scratch for rebuilding the schedule without allocating.
-    mask: Box<[bool]>,
-    slot_table: Box<[u32]>,
-    active: Active,
+    replay: DenseReplay,
+}
+
+impl<const N: usize> LinearSolver for DenseLu<N> {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        check_len("system dimension for DenseLu<N>", N, n)?;
+        Ok(Self {
+            a: [[0.0; N]; N],
+            piv: [0; N],
+            inv_diag: [0.0; N],
+            replay: DenseReplay::new(N, pattern)?,
+        })
+    }
+
+    #[inline]
+    fn dim(&self) -> usize {
+        N
+    }
+
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+        if self.replay.try_replay(values, singular_tolerance)? {
+            return Ok(());
+        }
+        let a = self.a.as_flattened_mut();
+        let scale = scatter(a, &self.replay.scatter, values);
+        factor_in_place(a, N, &mut self.piv, &mut self.inv_diag, singular_tolerance * scale, scale)?;
+        self.replay.record(&self.piv, values, singular_tolerance);
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", N, rhs.len())?;
+        match self.replay.active {
+            Active::None => return Err(LinalgError::NotFactored),
+            Active::Kernel => solve(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs),
+            Active::Schedule => self.replay.schedule.solve(rhs),
+        }
+        Ok(())
+    }
+}
+
+/// LU with partial pivoting of an n × n matrix whose size is known only at
+/// run time — [`DenseLu`] with its matrix on the heap. All buffers are
+/// allocated once in [`analyze`](LinearSolver::analyze), including room for
+/// the worst-case schedule (O(n³) indices), so keep n moderate.
+///
+/// Solves A x = b by PA = LU, exactly as [`DenseLu`] does.
+#[derive(Debug, Clone)]
+pub struct DynDenseLu {
+    n: usize,
+    a: Box<[f64]>,
+    piv: Box<[usize]>,
+    inv_diag: Box<[f64]>,
+    replay: DenseReplay,
+}
+
+impl LinearSolver for DynDenseLu {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        Ok(Self {
+            n,
+            a: vec![0.0; n * n].into_boxed_slice(),
+            piv: vec![0; n].into_boxed_slice(),
+            inv_diag: vec![0.0; n].into_boxed_slice(),
+            replay: DenseReplay::new(n, pattern)?,
+        })
+    }
+
+    #[inline]
+    fn dim(&self) -> usize {
+        self.n
+    }
+
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+        if self.replay.try_replay(values, singular_tolerance)? {
+            return Ok(());
+        }
+        let scale = scatter(&mut self.a, &self.replay.scatter, values);
+        factor_in_place(
+            &mut self.a,
+            self.n,
+            &mut self.piv,
+            &mut self.inv_diag,
+            singular_tolerance * scale,
+            scale,
+        )?;
+        self.replay.record(&self.piv, values, singular_tolerance);
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", self.n, rhs.len())?;
+        match self.replay.active {
+            Active::None => return Err(LinalgError::NotFactored),
+            Active::Kernel => solve(&self.a, self.n, &self.piv, &self.inv_diag, rhs),
+            Active::Schedule => self.replay.schedule.solve(rhs),
+        }
+        Ok(())
+    }
 }
 
 /// Which factorization the next solve uses.
@@ -59,135 +149,78 @@ enum Active {
     Schedule,
 }
 
-impl<const N: usize> LinearSolver for DenseLu<N> {
-    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
-        check_len("system dimension for DenseLu<N>", N, n)?;
-        let updates = N * N.saturating_sub(1) * (2 * N).saturating_sub(1) / 6;
+/// The replay part shared by the dense solvers: the schedule and the scratch
+/// to rebuild it without allocating.
+#[derive(Debug, Clone)]
+struct DenseReplay {
+    n: usize,
+    /// For each pattern entry, its index row · n + col in the dense matrix.
+    scatter: Box<[usize]>,
+    pattern: Box<[(u32, u32)]>,
+    schedule: Schedule,
+    mask: Box<[bool]>,
+    slot_table: Box<[u32]>,
+    order: Box<[u32]>,
+    active: Active,
+}
+
+impl DenseReplay {
+    fn new(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        let updates = n * n.saturating_sub(1) * (2 * n).saturating_sub(1) / 6;
         Ok(Self {
-            a: [[0.0; N]; N],
-            piv: [0; N],
-            inv_diag: [0.0; N],
-            scatter: scatter_indices(N, pattern)?,
+            n,
+            scatter: scatter_indices(n, pattern)?,
             pattern: pattern.into(),
-            schedule: Schedule::with_capacity(N, pattern.len(), N * N, updates),
-            mask: vec![false; N * N].into_boxed_slice(),
-            slot_table: vec![0; N * N].into_boxed_slice(),
+            schedule: Schedule::with_capacity(n, pattern.len(), n * n, updates),
+            mask: vec![false; n * n].into_boxed_slice(),
+            slot_table: vec![0; n * n].into_boxed_slice(),
+            order: vec![0; n].into_boxed_slice(),
             active: Active::None,
         })
     }
 
-    #[inline]
-    fn dim(&self) -> usize {
-        N
-    }
-
-    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+    /// Checks the length, then replays the recorded elimination if there is
+    /// one; `Ok(true)` if that factored A.
+    fn try_replay(&mut self, values: &[f64], singular_tolerance: f64) -> Result<bool, LinalgError> {
         self.active = Active::None;
         check_len("Jacobian values", self.scatter.len(), values.len())?;
         if self.schedule.is_ready() && self.schedule.refactor(values, singular_tolerance).is_ok() {
             self.active = Active::Schedule;
-            return Ok(());
+            return Ok(true);
         }
-        // Repivot with the dense kernel, then record the new order.
-        let a = self.a.as_flattened_mut();
-        let scale = scatter(a, &self.scatter, values);
-        factor_in_place(a, N, &mut self.piv, &mut self.inv_diag, singular_tolerance * scale, scale)?;
+        Ok(false)
+    }
+
+    /// After the kernel factored A with row interchanges `piv`: records the
+    /// elimination for that order and replays it (falling back to the
+    /// kernel's factors in the rare case the replay disagrees).
+    fn record(&mut self, piv: &[usize], values: &[f64], singular_tolerance: f64) {
         self.active = Active::Kernel;
-        let mut order = [0u32; N];
-        for (k, o) in order.iter_mut().enumerate() {
+        for (k, o) in self.order.iter_mut().enumerate() {
             *o = k as u32;
         }
-        for (k, &p) in self.piv.iter().enumerate() {
-            order.swap(k, p);
+        for (k, &p) in piv.iter().enumerate() {
+            self.order.swap(k, p);
         }
         self.mask.fill(false);
         let mut structure = DenseStructure {
-            n: N,
+            n: self.n,
             mask: &mut self.mask,
         };
         let mut slots = SlotIndex::Dense {
-            n: N,
+            n: self.n,
             table: &mut self.slot_table,
         };
         self.schedule.build(
             &self.pattern,
-            order.iter().copied(),
-            0..N as u32,
+            self.order.iter().copied(),
+            0..self.n as u32,
             &mut structure,
             &mut slots,
         );
         if self.schedule.refactor(values, singular_tolerance).is_ok() {
             self.active = Active::Schedule;
         }
-        Ok(())
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
-        check_len("right-hand side", N, rhs.len())?;
-        match self.active {
-            Active::None => return Err(LinalgError::NotFactored),
-            Active::Kernel => solve(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs),
-            Active::Schedule => self.schedule.solve(rhs),
-        }
-        Ok(())
-    }
-}
-
-/// Dense LU with partial pivoting of an n × n matrix whose size is known only
-/// at run time; all buffers are allocated once in
-/// [`analyze`](LinearSolver::analyze).
-///
-/// Solves A x = b by PA = LU, with the same kernel as [`DenseLu`].
-#[derive(Debug, Clone)]
-pub struct DynDenseLu {
-    n: usize,
-    a: Box<[f64]>,
-    piv: Box<[usize]>,
-    inv_diag: Box<[f64]>,
-    scatter: Box<[usize]>,
-    factored: bool,
-}
-
-impl LinearSolver for DynDenseLu {
-    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
-        Ok(Self {
-            n,
-            a: vec![0.0; n * n].into_boxed_slice(),
-            piv: vec![0; n].into_boxed_slice(),
-            inv_diag: vec![0.0; n].into_boxed_slice(),
-            scatter: scatter_indices(n, pattern)?,
-            factored: false,
-        })
-    }
-
-    #[inline]
-    fn dim(&self) -> usize {
-        self.n
-    }
-
-    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
-        self.factored = false;
-        check_len("Jacobian values", self.scatter.len(), values.len())?;
-        let scale = scatter(&mut self.a, &self.scatter, values);
-        factor_in_place(
-            &mut self.a,
-            self.n,
-            &mut self.piv,
-            &mut self.inv_diag,
-            singular_tolerance * scale,
-            scale,
-        )?;
-        self.factored = true;
-        Ok(())
-    }
-
-    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
-        if !self.factored {
-            return Err(LinalgError::NotFactored);
-        }
-        check_len("right-hand side", self.n, rhs.len())?;
-        solve(&self.a, self.n, &self.piv, &self.inv_diag, rhs);
-        Ok(())
     }
 }
 

@@ -102,6 +102,19 @@ impl Structure for SparseStructure {
     }
 }
 
+/// Elimination step k: where its pivot, L column and U row live.
+#[derive(Debug, Clone, Copy, Default)]
+struct Step {
+    /// Slot of u_kk.
+    diag: u32,
+    /// L entries l_ptr[k]..l_ptr[k+1].
+    l0: u32,
+    l1: u32,
+    /// U entries u_ptr[k]..u_ptr[k+1].
+    u0: u32,
+    u1: u32,
+}
+
 /// A recorded elimination for a fixed pivot order, and the factors it
 /// computes. All indices are slots into `values`.
 #[derive(Debug, Clone, Default)]
@@ -128,6 +141,10 @@ pub(crate) struct Schedule {
     /// For each step k, each L entry of column k, each U entry of row k (in
     /// that nesting): the slot of a_ij to update.
     update: Vec<u32>,
+    /// Per-step ranges, derived from the above.
+    steps: Vec<Step>,
+    /// Slots of fill-ins (not in A's pattern), zeroed before each replay.
+    fill: Vec<u32>,
     /// Scratch vector for solves.
     work: Vec<f64>,
     /// Scratch lists for building.
@@ -156,6 +173,8 @@ impl Schedule {
             u_col: Vec::with_capacity(slots),
             u_slot: Vec::with_capacity(slots),
             update: Vec::with_capacity(updates),
+            steps: Vec::with_capacity(n),
+            fill: Vec::with_capacity(slots),
             work: Vec::with_capacity(n),
             list_a: Vec::with_capacity(n),
             list_b: Vec::with_capacity(n),
@@ -280,6 +299,27 @@ impl Schedule {
         }
         self.list_a = below;
         self.list_b = right;
+        self.steps.clear();
+        for k in 0..n {
+            self.steps.push(Step {
+                diag: self.diag_slot[k],
+                l0: self.l_ptr[k],
+                l1: self.l_ptr[k + 1],
+                u0: self.u_ptr[k],
+                u1: self.u_ptr[k + 1],
+            });
+        }
+        // Fill-ins: slots no pattern entry writes.
+        let mut written = std::mem::take(&mut self.work);
+        written.clear();
+        written.resize(self.values.len(), 0.0);
+        for &s in &self.entry_slot {
+            written[s as usize] = 1.0;
+        }
+        self.fill.clear();
+        self.fill
+            .extend((0..self.values.len() as u32).filter(|&s| written[s as usize] == 0.0));
+        self.work = written;
         self.work.clear();
         self.work.resize(n, 0.0);
         self.ready = true;
@@ -287,42 +327,48 @@ impl Schedule {
 
     /// Replays the elimination on new values of A (pattern order). The
     /// caller has checked the length of `values`.
+    ///
+    /// The threshold test |u_kk| ≥ θ |a_ik| is checked as |l_ik| ≤ 1/θ on the
+    /// multipliers, and the singularity test on the smallest pivot, both once
+    /// at the end: a failed replay is thrown away anyway.
     pub(crate) fn refactor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), Replay> {
+        let (scale, finite) = scale_and_finite(values);
         let lu = &mut self.values[..];
-        lu.fill(0.0);
-        let mut scale = 0.0_f64;
-        for (&slot, &v) in self.entry_slot.iter().zip(values) {
-            if let Some(x) = lu.get_mut(slot as usize) {
-                *x = v;
-            }
-            scale = scale.max(v.abs());
+        for &s in &self.fill {
+            lu[s as usize] = 0.0;
         }
-        let threshold = singular_tolerance * scale;
-        let mut next_update = 0usize;
-        for k in 0..self.n {
-            let pivot = lu[self.diag_slot[k] as usize];
-            let (l0, l1) = (self.l_ptr[k] as usize, self.l_ptr[k + 1] as usize);
-            let (u0, u1) = (self.u_ptr[k] as usize, self.u_ptr[k + 1] as usize);
-            let l_slots = &self.l_slot[l0..l1];
-            let column_max = l_slots.iter().fold(0.0_f64, |m, &s| m.max(lu[s as usize].abs()));
-            if !(pivot.abs() > threshold && pivot.abs() >= PIVOT_THRESHOLD * column_max) {
-                return Err(Replay::Repivot);
+        for (&slot, &v) in self.entry_slot.iter().zip(values) {
+            lu[slot as usize] = v;
+        }
+        let (mut min_pivot, mut max_multiplier) = (f64::INFINITY, 0.0_f64);
+        let mut update = self.update.iter();
+        for (step, inv_diag) in self.steps.iter().zip(self.inv_diag.iter_mut()) {
+            let pivot = lu[step.diag as usize];
+            if pivot.abs() < min_pivot {
+                min_pivot = pivot.abs();
             }
             let inv = 1.0 / pivot;
-            self.inv_diag[k] = inv;
-            let u_slots = &self.u_slot[u0..u1];
-            let width = u_slots.len();
-            for &ls in l_slots {
+            *inv_diag = inv;
+            let u_slots = &self.u_slot[step.u0 as usize..step.u1 as usize];
+            for &ls in &self.l_slot[step.l0 as usize..step.l1 as usize] {
                 let l = lu[ls as usize] * inv;
                 lu[ls as usize] = l;
-                let dst = &self.update[next_update..next_update + width];
-                for (&d, &us) in dst.iter().zip(u_slots) {
-                    lu[d as usize] -= l * lu[us as usize];
+                if l.abs() > max_multiplier {
+                    max_multiplier = l.abs();
                 }
-                next_update += width;
+                for (&us, &dst) in u_slots.iter().zip(update.by_ref()) {
+                    lu[dst as usize] -= l * lu[us as usize];
+                }
             }
         }
-        Ok(())
+        // With finite inputs, a zero pivot makes `min_pivot` 0 before any ∞
+        // or NaN can spread; an overflow shows in the multipliers.
+        let stable = max_multiplier <= 1.0 / PIVOT_THRESHOLD && finite;
+        if stable && min_pivot > singular_tolerance * scale {
+            Ok(())
+        } else {
+            Err(Replay::Repivot)
+        }
     }
 
     /// Overwrites b with A⁻¹ b using the last successful replay. The caller
@@ -333,27 +379,49 @@ impl Schedule {
         for (yk, &r) in y.iter_mut().zip(&self.row_order) {
             *yk = b[r as usize];
         }
-        for k in 0..self.n {
+        for (k, step) in self.steps.iter().enumerate() {
             let yk = y[k];
-            if yk != 0.0 {
-                let (l0, l1) = (self.l_ptr[k] as usize, self.l_ptr[k + 1] as usize);
-                for (&i, &s) in self.l_row[l0..l1].iter().zip(&self.l_slot[l0..l1]) {
-                    y[i as usize] -= lu[s as usize] * yk;
-                }
+            let (l0, l1) = (step.l0 as usize, step.l1 as usize);
+            for (&i, &s) in self.l_row[l0..l1].iter().zip(&self.l_slot[l0..l1]) {
+                y[i as usize] -= lu[s as usize] * yk;
             }
         }
-        for k in (0..self.n).rev() {
-            let (u0, u1) = (self.u_ptr[k] as usize, self.u_ptr[k + 1] as usize);
+        for (k, (step, &inv)) in self.steps.iter().zip(&self.inv_diag).enumerate().rev() {
+            let (u0, u1) = (step.u0 as usize, step.u1 as usize);
             let mut s = y[k];
             for (&j, &us) in self.u_col[u0..u1].iter().zip(&self.u_slot[u0..u1]) {
                 s -= lu[us as usize] * y[j as usize];
             }
-            y[k] = s * self.inv_diag[k];
+            y[k] = s * inv;
         }
         for (&yk, &c) in y.iter().zip(&self.col_order) {
             b[c as usize] = yk;
         }
     }
+}
+
+/// max |v| over `values`, and whether all are finite; four independent
+/// lanes so that the comparisons do not form one long dependency chain.
+#[inline]
+pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
+    let mut lanes = [0.0_f64; 4];
+    let mut finite = true;
+    let chunks = values.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (m, &v) in lanes.iter_mut().zip(c) {
+            let a = v.abs();
+            finite &= a <= f64::MAX;
+            *m = if a > *m { a } else { *m };
+        }
+    }
+    for (m, &v) in lanes.iter_mut().zip(rest) {
+        let a = v.abs();
+        finite &= a <= f64::MAX;
+        *m = if a > *m { a } else { *m };
+    }
+    let scale = lanes.iter().fold(0.0_f64, |m, &a| if a > m { a } else { m });
+    (scale, finite)
 }
 
 /// Map from a filled position (i, j) to its slot while building.
