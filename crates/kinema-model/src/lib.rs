@@ -38,7 +38,9 @@
 //! # The language
 //!
 //! Tokens are Rust tokens: `//` comments are skipped, `///` doc comments are
-//! kept (on the mechanism, params, bodies, points and equations).
+//! kept (on the mechanism, params, bodies, points and equations), and so are
+//! `//!` comments at the top of a file or of the mechanism's body (they
+//! document the mechanism).
 //!
 //! ```text
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
@@ -74,7 +76,12 @@
 //! - `joint` and `constraint` are kinematic: they may not depend on `t`.
 //!   `driver` rows are driving equations, normally functions of `t` (a driver
 //!   that does not mention `t` is accepted with a warning).
+//! - Every equation depends on at least one coordinate.
 //! - The mechanism must have NDOF = 3·bodies − kinematic rows − driving rows = 0.
+//!
+//! In the derivation, coordinates are `B.x`, `B.y`, `B.phi` for each body in
+//! declaration order (velocities `B.x_dot`, …); rows of Φ are the kinematic
+//! equations in declaration order, then the driving ones.
 //!
 //! Library constraints (CONSTRAINTS.md; P is a point `B(sx, sy)`, `B.name`
 //! or `ground(x, y)`; B a body or `ground`; v, a body-fixed vectors `(vx, vy)`
