@@ -2,7 +2,7 @@
 
 use crate::diagnose::dependency;
 use crate::error::{Error, Quantity};
-use crate::linalg::{LinalgError, LinearSolver};
+use crate::linalg::{LinalgError, LinearSolver, scale_and_finite};
 use crate::options::Options;
 use crate::state::StepStats;
 use crate::system::System;
@@ -139,12 +139,12 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
 /// ‖x‖∞ of a vector known to be finite.
 #[inline]
 pub(crate) fn inf_norm(x: &[f64]) -> f64 {
-    x.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
+    scale_and_finite(x).0
 }
 
 #[inline]
 fn first_non_finite(x: &[f64]) -> Option<usize> {
-    if x.iter().all(|v| v.is_finite()) {
+    if scale_and_finite(x).1 {
         None
     } else {
         x.iter().position(|v| !v.is_finite())

@@ -6,10 +6,13 @@ use super::{DynDenseLu, LinalgError, LinearSolver, SparseLu};
 /// LU ([`SparseLu`]) from there on. The default linear solver of
 /// [`Solver`](crate::Solver).
 ///
-/// The threshold was measured on the serial chain (`cargo bench -p
-/// kinema-runtime --bench linalg`, see `BENCHMARKS-runtime.md`): the zero-
-/// skipping dense kernel wins on small Jacobians, the sparse one once the
-/// O(n²) scatter and O(n³) worst case dominate. Override it with
+/// Both replay a recorded elimination at every step (see the [module
+/// docs](super#refactorization)); they differ in who chooses the pivot order
+/// (dense partial pivoting, or faer's COLAMD column ordering with partial
+/// pivoting) and in the memory reserved. Measured per step on the
+/// benchmark mechanisms (`BENCHMARKS-runtime.md`), dense wins on the
+/// slider-crank (n = 9), sparse from the chain of 5 links (n = 15) on —
+/// COLAMD's ordering gives less fill — hence the threshold 12. Override it with
 /// [`Auto::with_threshold`] and
 /// [`Solver::with_linear_solver`](crate::Solver::with_linear_solver), or name
 /// the solver type directly (`Solver<S, SparseLu>`).
@@ -23,7 +26,7 @@ pub enum Auto {
 
 impl Auto {
     /// Dimension from which [`Auto`] picks the sparse solver.
-    pub const DEFAULT_THRESHOLD: usize = 60;
+    pub const DEFAULT_THRESHOLD: usize = 12;
 
     /// Analyses the pattern with dense LU if `n < threshold`, else sparse LU.
     pub fn with_threshold(n: usize, pattern: &[(u32, u32)], threshold: usize) -> Result<Self, LinalgError> {

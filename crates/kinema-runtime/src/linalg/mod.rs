@@ -34,6 +34,8 @@ pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
 pub use sparse::SparseLu;
 
+pub(crate) use schedule::scale_and_finite;
+
 /// Why a linear solver could not be built, factor or solve.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]

@@ -102,17 +102,16 @@ impl Structure for SparseStructure {
     }
 }
 
-/// Elimination step k: where its pivot, L column and U row live.
+/// Elimination step k: its pivot's slot and how many L and U entries it
+/// owns (the entry streams are consumed in step order).
 #[derive(Debug, Clone, Copy, Default)]
 struct Step {
     /// Slot of u_kk.
     diag: u32,
-    /// L entries l_ptr[k]..l_ptr[k+1].
-    l0: u32,
-    l1: u32,
-    /// U entries u_ptr[k]..u_ptr[k+1].
-    u0: u32,
-    u1: u32,
+    /// Entries in column k of L.
+    l_len: u32,
+    /// Entries in row k of strict U.
+    u_len: u32,
 }
 
 /// A recorded elimination for a fixed pivot order, and the factors it
@@ -141,6 +140,13 @@ pub(crate) struct Schedule {
     /// For each step k, each L entry of column k, each U entry of row k (in
     /// that nesting): the slot of a_ij to update.
     update: Vec<u32>,
+    /// Column k of each L entry, row k of each U entry (for the solves).
+    l_col: Vec<u32>,
+    u_row: Vec<u32>,
+    /// Values of L (by columns) and of strict U scaled by its pivot,
+    /// u_kj / u_kk (by rows), packed in the order the solves read them.
+    l_val: Vec<f64>,
+    u_val: Vec<f64>,
     /// Per-step ranges, derived from the above.
     steps: Vec<Step>,
     /// Slots of fill-ins (not in A's pattern), zeroed before each replay.
@@ -173,6 +179,10 @@ impl Schedule {
             u_col: Vec::with_capacity(slots),
             u_slot: Vec::with_capacity(slots),
             update: Vec::with_capacity(updates),
+            l_col: Vec::with_capacity(slots),
+            u_row: Vec::with_capacity(slots),
+            l_val: Vec::with_capacity(slots),
+            u_val: Vec::with_capacity(slots),
             steps: Vec::with_capacity(n),
             fill: Vec::with_capacity(slots),
             work: Vec::with_capacity(n),
@@ -299,15 +309,22 @@ impl Schedule {
         }
         self.list_a = below;
         self.list_b = right;
+        self.l_val.clear();
+        self.l_val.resize(self.l_row.len(), 0.0);
+        self.u_val.clear();
+        self.u_val.resize(self.u_col.len(), 0.0);
         self.steps.clear();
+        self.l_col.clear();
+        self.u_row.clear();
         for k in 0..n {
+            let (l_len, u_len) = (self.l_ptr[k + 1] - self.l_ptr[k], self.u_ptr[k + 1] - self.u_ptr[k]);
             self.steps.push(Step {
                 diag: self.diag_slot[k],
-                l0: self.l_ptr[k],
-                l1: self.l_ptr[k + 1],
-                u0: self.u_ptr[k],
-                u1: self.u_ptr[k + 1],
+                l_len,
+                u_len,
             });
+            self.l_col.extend(std::iter::repeat_n(k as u32, l_len as usize));
+            self.u_row.extend(std::iter::repeat_n(k as u32, u_len as usize));
         }
         // Fill-ins: slots no pattern entry writes.
         let mut written = std::mem::take(&mut self.work);
@@ -342,6 +359,7 @@ impl Schedule {
         }
         let (mut min_pivot, mut max_multiplier) = (f64::INFINITY, 0.0_f64);
         let mut update = self.update.iter();
+        let (mut l_at, mut u_at) = (0usize, 0usize);
         for (step, inv_diag) in self.steps.iter().zip(self.inv_diag.iter_mut()) {
             let pivot = lu[step.diag as usize];
             if pivot.abs() < min_pivot {
@@ -349,17 +367,27 @@ impl Schedule {
             }
             let inv = 1.0 / pivot;
             *inv_diag = inv;
-            let u_slots = &self.u_slot[step.u0 as usize..step.u1 as usize];
-            for &ls in &self.l_slot[step.l0 as usize..step.l1 as usize] {
-                let l = lu[ls as usize] * inv;
-                lu[ls as usize] = l;
+            // Row k of U is final: pack it, scaled by 1/u_kk.
+            let u_end = u_at + step.u_len as usize;
+            let u_row = &mut self.u_val[u_at..u_end];
+            for (u, &us) in u_row.iter_mut().zip(&self.u_slot[u_at..u_end]) {
+                *u = lu[us as usize] * inv;
+            }
+            let u_row = &*u_row;
+            // Column k of L: l_ik = a_ik / u_kk; a_ij −= l_ik u_kj = a_ik (u_kj / u_kk).
+            let l_end = l_at + step.l_len as usize;
+            for (lv, &ls) in self.l_val[l_at..l_end].iter_mut().zip(&self.l_slot[l_at..l_end]) {
+                let a = lu[ls as usize];
+                let l = a * inv;
+                *lv = l;
                 if l.abs() > max_multiplier {
                     max_multiplier = l.abs();
                 }
-                for (&us, &dst) in u_slots.iter().zip(update.by_ref()) {
-                    lu[dst as usize] -= l * lu[us as usize];
+                for (&u, &dst) in u_row.iter().zip(update.by_ref()) {
+                    lu[dst as usize] -= a * u;
                 }
             }
+            (l_at, u_at) = (l_end, u_end);
         }
         // With finite inputs, a zero pivot makes `min_pivot` 0 before any ∞
         // or NaN can spread; an overflow shows in the multipliers.
@@ -375,24 +403,21 @@ impl Schedule {
     /// has checked the length.
     pub(crate) fn solve(&mut self, b: &mut [f64]) {
         let y = &mut self.work[..];
-        let lu = &self.values[..];
         for (yk, &r) in y.iter_mut().zip(&self.row_order) {
             *yk = b[r as usize];
         }
-        for (k, step) in self.steps.iter().enumerate() {
-            let yk = y[k];
-            let (l0, l1) = (step.l0 as usize, step.l1 as usize);
-            for (&i, &s) in self.l_row[l0..l1].iter().zip(&self.l_slot[l0..l1]) {
-                y[i as usize] -= lu[s as usize] * yk;
-            }
+        // Forward, L y = P b: entries in column order, so y_k is final when
+        // column k's entries are reached.
+        for ((&i, &k), &l) in self.l_row.iter().zip(&self.l_col).zip(&self.l_val) {
+            y[i as usize] -= l * y[k as usize];
         }
-        for (k, (step, &inv)) in self.steps.iter().zip(&self.inv_diag).enumerate().rev() {
-            let (u0, u1) = (step.u0 as usize, step.u1 as usize);
-            let mut s = y[k];
-            for (&j, &us) in self.u_col[u0..u1].iter().zip(&self.u_slot[u0..u1]) {
-                s -= lu[us as usize] * y[j as usize];
-            }
-            y[k] = s * inv;
+        // Backward, U x = y with U's rows scaled by 1/u_kk: rows from the
+        // last up, so x_j (j > k) is final when row k's entries are reached.
+        for (yk, &inv) in y.iter_mut().zip(&self.inv_diag) {
+            *yk *= inv;
+        }
+        for ((&k, &j), &u) in self.u_row.iter().zip(&self.u_col).zip(&self.u_val).rev() {
+            y[k as usize] -= u * y[j as usize];
         }
         for (&yk, &c) in y.iter().zip(&self.col_order) {
             b[c as usize] = yk;
@@ -400,28 +425,29 @@ impl Schedule {
     }
 }
 
-/// max |v| over `values`, and whether all are finite; four independent
-/// lanes so that the comparisons do not form one long dependency chain.
+/// max |v| over `values`, and whether all are finite, in one branch-free
+/// pass over the bit patterns: for IEEE doubles with the sign cleared, the
+/// integer order is the order of |v|, and every infinity or NaN lies at or
+/// above the bits of +∞. (The scale is meaningless when not all are finite.)
 #[inline]
 pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
-    let mut lanes = [0.0_f64; 4];
-    let mut finite = true;
+    const ABS: u64 = !(1 << 63);
+    const INFINITY: u64 = 0x7FF0_0000_0000_0000;
+    let mut lanes = [0u64; 4];
     let chunks = values.chunks_exact(4);
     let rest = chunks.remainder();
     for c in chunks {
-        for (m, &v) in lanes.iter_mut().zip(c) {
-            let a = v.abs();
-            finite &= a <= f64::MAX;
-            *m = if a > *m { a } else { *m };
+        for (m, v) in lanes.iter_mut().zip(c) {
+            let b = v.to_bits() & ABS;
+            *m = if b > *m { b } else { *m };
         }
     }
-    for (m, &v) in lanes.iter_mut().zip(rest) {
-        let a = v.abs();
-        finite &= a <= f64::MAX;
-        *m = if a > *m { a } else { *m };
+    for (m, v) in lanes.iter_mut().zip(rest) {
+        let b = v.to_bits() & ABS;
+        *m = if b > *m { b } else { *m };
     }
-    let scale = lanes.iter().fold(0.0_f64, |m, &a| if a > m { a } else { m });
-    (scale, finite)
+    let max_bits = lanes.iter().fold(0u64, |m, &b| if b > m { b } else { m });
+    (f64::from_bits(max_bits), max_bits < INFINITY)
 }
 
 /// Map from a filled position (i, j) to its slot while building.
@@ -459,5 +485,46 @@ impl SlotIndex<'_> {
             Self::Dense { n, table } => table.get(i * n + j).copied().unwrap_or(0),
             Self::Sparse(map) => map.get(&(i as u32, j as u32)).copied().unwrap_or(0),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::{DenseLu, DynDenseLu, LinalgError, LinearSolver, SparseLu};
+
+    #[test]
+    fn scale_and_finite_sees_every_non_finite() {
+        assert_eq!(scale_and_finite(&[]), (0.0, true));
+        assert_eq!(scale_and_finite(&[1.0, -3.5, 2.0, 0.0, -0.0, 1e-300]), (3.5, true));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for at in 0..6 {
+                let mut v = [1.0; 6];
+                v[at] = bad;
+                assert!(!scale_and_finite(&v).1, "{bad} at {at}");
+            }
+        }
+    }
+
+    /// A factorization whose recorded pivot order stops being acceptable
+    /// (a₀₀ shrinks to 1e-3 ≪ a₁₀) must repivot and still solve exactly.
+    fn repivots<L: LinearSolver>() -> Result<(), LinalgError> {
+        let pattern = [(0, 0), (0, 1), (1, 0), (1, 1)];
+        let mut lu = L::analyze(2, &pattern)?;
+        for a in [[2.0, 1.0, 1.0, 2.0], [1e-3, 1.0, 1.0, 1.0], [2.0, 1.0, 1.0, 2.0], [1.0, 1.0, 1e-3, 1.0]] {
+            lu.factor(&a, 1e-12)?;
+            let x = [0.25, -4.0];
+            let mut b = [a[0] * x[0] + a[1] * x[1], a[2] * x[0] + a[3] * x[1]];
+            lu.solve_in_place(&mut b)?;
+            assert!((b[0] - x[0]).abs() < 1e-13 && (b[1] - x[1]).abs() < 1e-13, "{a:?}: {b:?}");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn every_solver_repivots_when_the_recorded_order_fails() -> Result<(), LinalgError> {
+        repivots::<DenseLu<2>>()?;
+        repivots::<DynDenseLu>()?;
+        repivots::<SparseLu>()
     }
 }
