@@ -1,0 +1,131 @@
+//! The command line's grammar (clap): [`Cli`] and its subcommands.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Examples shown at the end of `kinema --help`.
+const EXAMPLES: &str = "\
+Examples:
+  kinema check models/slider_crank.kin
+  kinema run models/slider_crank.kin --t-end 2 --steps 200 --out results.csv --plot motion.svg
+  kinema derive models/four_bar.kin
+  kinema run sliderCrankKIN.adm --acf kinematics.acf --out results.csv
+  kinema import sliderCrankKIN.adm > slider_crank.kin
+
+Exit status: 0 success; 1 the analysis failed (no convergence, lock-up, results not written);
+2 bad arguments, or a model that cannot be read.";
+
+/// Planar kinematic analysis of mechanisms in absolute coordinates.
+///
+/// MODEL is a `.kin` file in kinema's model language, or a simEngine2D `.adm`
+/// file (JSON), which is imported on the fly.
+#[derive(Debug, Parser)]
+#[command(name = "kinema", version, about, long_about = None, after_help = EXAMPLES)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Parse and validate a model, report its degrees of freedom, assemble it
+    /// at t = 0 from the guess and report the rank of Φ_q there.
+    #[command(after_help = "Example:\n  kinema check models/four_bar.kin")]
+    Check(ModelArg),
+    /// Kinematic analysis over time: positions, velocities and accelerations
+    /// as CSV, a summary, and optionally an SVG plot.
+    #[command(after_help = RUN_EXAMPLES)]
+    Run(RunArgs),
+    /// Print the symbolic derivation: Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ.
+    #[command(after_help = "Example:\n  kinema derive models/pendulum.kin")]
+    Derive(ModelArg),
+    /// Print the generated Rust source of the model's solver.
+    #[command(
+        after_help = "Example:\n  kinema codegen models/slider_crank.kin > src/slider_crank.rs"
+    )]
+    Codegen(ModelArg),
+    /// Print a simEngine2D model (`.adm`) as kinema model text (`.kin`).
+    #[command(after_help = "Example:\n  kinema import sliderCrankKIN.adm > slider_crank.kin")]
+    Import(ImportArgs),
+}
+
+const RUN_EXAMPLES: &str = "\
+Examples:
+  kinema run models/slider_crank.kin --plot slider_crank.svg
+  kinema run models/four_bar.kin --t-end 2 --steps 400 --out four_bar.csv
+  kinema run models/pendulum.kin --out - | head
+  kinema run rack_pinion.adm --acf kinematics.acf --plot rack.svg
+
+The CSV has the columns t; every body's B.x, B.y, B.phi in declaration order; the same
+names suffixed _dot (velocities); then suffixed _ddot (accelerations).";
+
+/// A model file.
+#[derive(Debug, Args)]
+pub struct ModelArg {
+    /// The model: a `.kin` file, or a simEngine2D `.adm` file.
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+}
+
+/// Arguments of `kinema run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The model: a `.kin` file, or a simEngine2D `.adm` file.
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+    /// Final time [s]; the analysis runs from t = 0. Default 1 for `.kin`
+    /// models; for `.adm` models the ACF's `tend`.
+    #[arg(long, value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Number of equal time steps from 0 to the final time: N + 1 rows.
+    /// Default 100 for `.kin` models; for `.adm` models the ACF's
+    /// `outputSteps`.
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+    /// simEngine2D analysis file for an `.adm` model (default: the engine's
+    /// kinematics.acf — Kinematics, tend 5, stepSize 0.01, 500 output steps).
+    #[arg(long, value_name = "ANALYSIS.acf")]
+    pub acf: Option<PathBuf>,
+    /// Where to write the CSV results; `-` for standard output (the summary
+    /// then goes to standard error).
+    #[arg(long, value_name = "FILE", default_value = "results.csv")]
+    pub out: PathBuf,
+    /// Write an SVG figure: the mechanism at several instants, the paths of
+    /// its joint points, and position, velocity and acceleration against time.
+    #[arg(long, value_name = "FILE.svg")]
+    pub plot: Option<PathBuf>,
+    /// How the equations are evaluated.
+    #[arg(long, value_enum, default_value_t = Backend::Tape)]
+    pub backend: Backend,
+}
+
+/// Evaluation back ends available at run time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// The derivation compiled to flat instruction tapes, interpreted: no
+    /// compiler needed. (Generated Rust is the other back end: `kinema
+    /// codegen`, or the `mechanism!` macro.)
+    Tape,
+}
+
+/// Arguments of `kinema import`.
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// The simEngine2D model file (`.adm`, JSON).
+    #[arg(value_name = "MODEL.adm")]
+    pub model: PathBuf,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn grammar_is_consistent() {
+        Cli::command().debug_assert();
+    }
+}

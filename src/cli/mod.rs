@@ -1,0 +1,128 @@
+//! The `kinema` command line: one module per job.
+//!
+//! | module | job |
+//! |---|---|
+//! | [`args`] | the grammar (clap) |
+//! | [`load`] | reading a `.kin` or `.adm` model into a checked, derived model |
+//! | [`adm`] | simEngine2D specifics: the analysis, ignored forces, ADM names in messages |
+//! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
+//! | [`run`] | `kinema run`: the time loop and its summary |
+//! | [`output`] | CSV sink and number formatting |
+//! | [`progress`] | the progress bar on standard error |
+//! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
+//! | [`plot`] | the SVG figure |
+//!
+//! Exit status: 0 success, 1 the analysis failed (or its results could not
+//! be written), 2 bad arguments or a model that cannot be read.
+
+pub mod adm;
+pub mod args;
+pub mod check;
+pub mod load;
+pub mod output;
+pub mod plot;
+pub mod progress;
+pub mod run;
+pub mod scene;
+
+use std::fmt;
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use args::{Cli, Command};
+
+/// Why a command failed; decides the exit status.
+#[derive(Debug)]
+pub enum Failure {
+    /// Bad arguments, an unreadable or invalid model, an output file that
+    /// cannot be created: exit status 2. The message is complete (rendered
+    /// diagnostics start with `error:` already).
+    Input(String),
+    /// The analysis failed, or its results could not be written: exit
+    /// status 1.
+    Analysis(String),
+}
+
+impl Failure {
+    /// A usage error with an `error: ` prefix.
+    pub fn usage(message: impl fmt::Display) -> Failure {
+        Failure::Input(format!("error: {message}"))
+    }
+
+    /// An analysis failure with an `error: ` prefix.
+    pub fn analysis(message: impl fmt::Display) -> Failure {
+        Failure::Analysis(format!("error: {message}"))
+    }
+
+    fn exit_code(&self) -> u8 {
+        match self {
+            Failure::Input(_) => 2,
+            Failure::Analysis(_) => 1,
+        }
+    }
+
+    fn message(&self) -> &str {
+        match self {
+            Failure::Input(m) | Failure::Analysis(m) => m,
+        }
+    }
+}
+
+/// Parses the arguments, runs the command, prints any failure on standard
+/// error and returns the exit status.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Help and version go to stdout with status 0; usage errors to
+            // stderr with status 2 (clap's convention, and ours).
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let result = match &cli.command {
+        Command::Check(a) => check::check(&a.model),
+        Command::Run(a) => run::run(a),
+        Command::Derive(a) => load::load(&a.model, None).and_then(|m| {
+            m.print_warnings();
+            print_stdout(&m.model.derivation_text())
+        }),
+        Command::Codegen(a) => load::load(&a.model, None).and_then(|m| {
+            m.print_warnings();
+            print_stdout(&m.model.rust_source())
+        }),
+        Command::Import(a) => adm::import(&a.model),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            let message = failure.message().trim_end();
+            let _ = writeln!(std::io::stderr().lock(), "{message}");
+            ExitCode::from(failure.exit_code())
+        }
+    }
+}
+
+/// Writes `text` to standard output, ending with a newline; a closed pipe
+/// (`kinema derive m.kin | head`) is not an error.
+pub fn print_stdout(text: &str) -> Result<(), Failure> {
+    let mut out = std::io::stdout().lock();
+    let result = out
+        .write_all(text.as_bytes())
+        .and_then(|()| {
+            if text.ends_with('\n') {
+                Ok(())
+            } else {
+                out.write_all(b"\n")
+            }
+        })
+        .and_then(|()| out.flush());
+    match result {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::analysis(
+            format_args!("cannot write to standard output: {e}"),
+        )),
+        _ => Ok(()),
+    }
+}

@@ -1,0 +1,379 @@
+//! The SVG figure of `kinema run --plot`: the mechanism at several instants
+//! with the paths of its joint points (equal aspect), the driven
+//! coordinates against time, and position, velocity and acceleration of the
+//! joint points against time.
+//!
+//! Layout (1400 × 1560 px): a title block; the mechanism view on the left
+//! with its legend beside it and the driven coordinates on the right; below,
+//! the joint points' x and y components (columns) as position, velocity and
+//! acceleration (rows). Legends are drawn in their own strips so they never
+//! hide a curve.
+
+use std::error::Error;
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use kinema::{PointKinematics, State, System, point_kinematics};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+mod charts;
+mod legend;
+mod mechanism;
+
+use super::Failure;
+use super::load::Loaded;
+use super::scene::Scene;
+
+use charts::{draw_driven, draw_points};
+use mechanism::{Mechanism, classify, mechanism_bounds};
+
+/// Figure width [px].
+const WIDTH: u32 = 1400;
+/// Height of the title block [px].
+const HEAD: u32 = 64;
+/// Height of the joint points' panels [px].
+const POINTS: u32 = 780;
+/// Instants at which the mechanism is drawn.
+const INSTANTS: usize = 6;
+/// At most this many joint-point paths in the mechanism view (one colour
+/// each).
+const MAX_PATHS: usize = PALETTE.len();
+/// At most this many joint points in the time plots.
+const MAX_SERIES: usize = 6;
+/// At most this many driven quantities in the time plots.
+const MAX_DRIVEN: usize = 4;
+/// Longest polyline drawn (samples are thinned beyond).
+const MAX_POINTS: usize = 1200;
+/// Font family of every text.
+const FONT: &str = "sans-serif";
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+type Drawn = Result<(), Box<dyn Error>>;
+
+/// Colours of paths and series (Tableau 10 without its blue and grey: the
+/// mechanism is drawn in greys).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0xf2, 0x8e, 0x2b),
+    RGBColor(0x4e, 0x79, 0xa7),
+    RGBColor(0xe1, 0x57, 0x59),
+    RGBColor(0x59, 0xa1, 0x4f),
+    RGBColor(0xb0, 0x7a, 0xa1),
+    RGBColor(0x76, 0xb7, 0xb2),
+    RGBColor(0x9c, 0x75, 0x5f),
+    RGBColor(0xed, 0xc9, 0x48),
+];
+
+/// The output states of a run, kept for plotting.
+#[derive(Debug, Clone, Default)]
+pub struct Samples {
+    n: usize,
+    t: Vec<f64>,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+}
+
+impl Samples {
+    /// Room for states of `n` coordinates.
+    pub fn new(n: usize) -> Samples {
+        Samples {
+            n,
+            ..Samples::default()
+        }
+    }
+
+    /// Keeps a state.
+    pub fn push(&mut self, state: &State) {
+        self.t.push(state.t());
+        self.q.extend_from_slice(state.q());
+        self.qd.extend_from_slice(state.qd());
+        self.qdd.extend_from_slice(state.qdd());
+    }
+
+    /// Number of states.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether there is no state.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    fn range(&self, k: usize) -> std::ops::Range<usize> {
+        k * self.n..(k + 1) * self.n
+    }
+
+    /// Coordinate `i` of q (order 0), q̇ (1) or q̈ (2) at state `k`.
+    fn coordinate(&self, order: usize, k: usize, i: usize) -> f64 {
+        let v = [&self.q, &self.qd, &self.qdd][order.min(2)];
+        v.get(k * self.n + i).copied().unwrap_or(f64::NAN)
+    }
+
+    /// Kinematics of a body point at state `k`.
+    fn point(&self, k: usize, body: usize, local: [f64; 2]) -> Option<PointKinematics> {
+        let r = self.range(k);
+        point_kinematics(
+            self.q.get(r.clone())?,
+            self.qd.get(r.clone())?,
+            self.qdd.get(r)?,
+            3 * body,
+            local,
+        )
+    }
+
+    /// Global position of a body point at state `k`, NaN if out of range.
+    fn position(&self, k: usize, body: usize, local: [f64; 2]) -> [f64; 2] {
+        self.point(k, body, local)
+            .map_or([f64::NAN; 2], |p| p.position)
+    }
+}
+
+/// The plot file, created before the run so that a bad path fails early.
+#[derive(Debug)]
+pub struct Target {
+    path: PathBuf,
+    file: File,
+}
+
+impl Target {
+    /// Creates the file.
+    ///
+    /// # Errors
+    /// [`Failure::Input`] if it cannot be created.
+    pub fn create(path: &Path) -> Result<Target, Failure> {
+        let file = File::create(path)
+            .map_err(|e| Failure::usage(format_args!("cannot create `{}`: {e}", path.display())))?;
+        Ok(Target {
+            path: path.to_path_buf(),
+            file,
+        })
+    }
+
+    /// Draws the figure and writes it.
+    ///
+    /// # Errors
+    /// [`Failure::Analysis`] if drawing or writing fails.
+    pub fn write<S: System>(
+        mut self,
+        loaded: &Loaded,
+        system: &S,
+        samples: &Samples,
+        title: &str,
+    ) -> Result<(), Failure> {
+        let scene = Scene::of(loaded, system);
+        let svg = render(&scene, samples, title, &subtitle(loaded, samples)).map_err(|e| {
+            Failure::analysis(format_args!("cannot draw `{}`: {e}", self.path.display()))
+        })?;
+        self.file
+            .write_all(svg.as_bytes())
+            .and_then(|()| self.file.flush())
+            .map_err(|e| {
+                Failure::analysis(format_args!("cannot write `{}`: {e}", self.path.display()))
+            })
+    }
+}
+
+fn subtitle(loaded: &Loaded, samples: &Samples) -> String {
+    let nb = loaded.checked.bodies.len();
+    let dof = loaded.checked.dof();
+    let source = match &loaded.adm {
+        Some(_) => format!("simEngine2D model {}", file_name(&loaded.file)),
+        None => format!("model {}", file_name(&loaded.file)),
+    };
+    format!(
+        "{source} · {nb} bod{} · {} kinematic equations, {} driving · {} states",
+        if nb == 1 { "y" } else { "ies" },
+        dof.kinematic,
+        dof.driving,
+        samples.len()
+    )
+}
+
+fn file_name(path: &str) -> String {
+    Path::new(path)
+        .file_name()
+        .map_or_else(|| path.to_string(), |f| f.to_string_lossy().into_owned())
+}
+
+/// A plotted joint point: which traced point, its colour, its label.
+struct Series {
+    body: usize,
+    local: [f64; 2],
+    label: String,
+    color: RGBColor,
+}
+
+/// Draws the whole figure as SVG text.
+///
+/// A wide mechanism gets the full width with the driven coordinates in a
+/// row below it; a compact one sits beside them.
+///
+/// # Errors
+/// Drawing errors (the SVG backend writes to a string: none expected).
+pub fn render(
+    scene: &Scene,
+    samples: &Samples,
+    title: &str,
+    subtitle: &str,
+) -> Result<String, Box<dyn Error>> {
+    if samples.is_empty() {
+        return Err("there is no state to plot".into());
+    }
+    let (moving, fixed) = classify(scene, samples);
+    let paths: Vec<Series> = pick_refs(&moving, MAX_PATHS)
+        .into_iter()
+        .enumerate()
+        .map(|(k, t)| Series {
+            body: t.body,
+            local: t.local,
+            label: t.label.clone(),
+            color: PALETTE[k % PALETTE.len()],
+        })
+        .collect();
+    let instants = instants(samples.len());
+    let bounds = mechanism_bounds(scene, samples, &paths, &fixed, &instants);
+    let aspect = (bounds.x[1] - bounds.x[0]) / (bounds.y[1] - bounds.y[0]).max(1e-300);
+    let wide = aspect >= 1.4;
+    let legend_w = 240;
+    let mech_h = if wide {
+        // Plot width over aspect, plus title, margins and axis labels.
+        let plot_w = f64::from(WIDTH - legend_w - 94);
+        (plot_w / (1.12 * aspect) + 120.0).clamp(380.0, 720.0) as u32
+    } else {
+        720
+    };
+    let driven_h = if wide { 300 } else { 0 };
+    let height = HEAD + mech_h + driven_h + POINTS;
+
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (head, body) = root.split_vertically(HEAD);
+        let centre = plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Center,
+            plotters::style::text_anchor::VPos::Top,
+        );
+        head.draw_text(title, &text(22).pos(centre), (WIDTH as i32 / 2, 10))?;
+        head.draw_text(
+            subtitle,
+            &text(14).color(&RGBColor(90, 90, 90)).pos(centre),
+            (WIDTH as i32 / 2, 40),
+        )?;
+        let (upper, lower) = body.split_vertically(mech_h + driven_h);
+        let series: Vec<&Series> = pick_refs(&paths, MAX_SERIES);
+        let mechanism = Mechanism {
+            scene,
+            samples,
+            paths: &paths,
+            fixed: &fixed,
+            instants: &instants,
+            bounds,
+        };
+        if wide {
+            let (top, driven_area) = upper.split_vertically(mech_h);
+            let (view, legend) = top.split_horizontally(WIDTH - legend_w);
+            mechanism.draw(&view, &legend)?;
+            draw_driven(&driven_area, scene, samples, true)?;
+        } else {
+            let (left, driven_area) = upper.split_horizontally(800);
+            let (view, legend) = left.split_horizontally(800 - legend_w);
+            mechanism.draw(&view, &legend)?;
+            draw_driven(&driven_area, scene, samples, false)?;
+        }
+        draw_points(&lower, scene, samples, &series)?;
+        root.present()?;
+    }
+    Ok(svg)
+}
+
+fn text(size: u32) -> TextStyle<'static> {
+    TextStyle::from((FONT, size).into_font())
+}
+
+/// Indices of `items` to keep, at most `max`, evenly spread, first and last
+/// included.
+fn spread(len: usize, max: usize) -> Vec<usize> {
+    if len <= max {
+        return (0..len).collect();
+    }
+    let mut out: Vec<usize> = (0..max)
+        .map(|k| (k * (len - 1) + (max - 1) / 2) / (max - 1).max(1))
+        .collect();
+    out.dedup();
+    out
+}
+
+fn pick_refs<T>(items: &[T], max: usize) -> Vec<&T> {
+    spread(items.len(), max)
+        .into_iter()
+        .filter_map(|k| items.get(k))
+        .collect()
+}
+
+/// The states at which the mechanism is drawn.
+fn instants(len: usize) -> Vec<usize> {
+    spread(len, INSTANTS)
+}
+
+/// Sample indices of a polyline, thinned to [`MAX_POINTS`].
+fn thinned(len: usize) -> Vec<usize> {
+    spread(len, MAX_POINTS)
+}
+
+fn length_label(scene: &Scene) -> String {
+    scene
+        .length_unit
+        .as_ref()
+        .map_or_else(|| "length".to_string(), Clone::clone)
+}
+
+/// Units of a quantity and its first two time derivatives.
+fn units(base: &str) -> [String; 3] {
+    [base.to_string(), format!("{base}/s"), format!("{base}/s²")]
+}
+
+/// A tick label on an axis spanning about `span`: short, scientific for
+/// very large or small values, and `0` for roundoff around zero.
+fn tick(v: f64, span: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || a <= 1e-9 * span.abs() {
+        "0".to_string()
+    } else if !(1e-3..1e5).contains(&a) {
+        format!("{v:.1e}")
+    } else {
+        let s = format!("{v:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s.to_string()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_keeps_ends() {
+        assert_eq!(spread(3, 6), vec![0, 1, 2]);
+        let s = spread(101, 6);
+        assert_eq!(s.first(), Some(&0));
+        assert_eq!(s.last(), Some(&100));
+        assert_eq!(s.len(), 6);
+        assert!(spread(0, 6).is_empty());
+    }
+
+    #[test]
+    fn ticks() {
+        assert_eq!(tick(0.25, 1.0), "0.25");
+        assert_eq!(tick(-0.0001, 1e-3), "-1.0e-4");
+        assert_eq!(tick(1.0, 2.0), "1");
+        assert_eq!(tick(-5.6e-17, 2.0), "0");
+    }
+}

@@ -1,0 +1,392 @@
+//! `kinema run MODEL`: kinematic analysis over a time grid through the tape
+//! back end, streaming the CSV, with a summary and an optional plot.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use kinema::{Auto, Options, Solver, State, TapeSystem};
+use kinema_adm::Analysis;
+
+use super::args::{Backend, RunArgs};
+use super::check::run_error;
+use super::load::{Format, Loaded, load};
+use super::output::{CsvSink, Destination, duration, time};
+use super::plot::{self, Samples};
+use super::progress::Progress;
+use super::{Failure, adm};
+
+/// Default final time of a `.kin` run.
+pub const DEFAULT_T_END: f64 = 1.0;
+/// Default number of steps of a `.kin` run.
+pub const DEFAULT_STEPS: usize = 100;
+
+/// The times to solve at, and which of them are outputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// Strictly increasing solve times, from 0.
+    pub times: Vec<f64>,
+    /// `output[k]`: whether `times[k]` is written out.
+    pub output: Vec<bool>,
+    /// What the grid is, for the summary.
+    pub description: String,
+}
+
+impl Grid {
+    /// `steps` equal steps from 0 to `t_end` (N + 1 times, all outputs; the
+    /// last is exactly `t_end`).
+    pub fn uniform(t_end: f64, steps: usize) -> Grid {
+        let times: Vec<f64> = (0..=steps)
+            .map(|k| {
+                if k == steps {
+                    t_end
+                } else {
+                    k as f64 * t_end / steps as f64
+                }
+            })
+            .collect();
+        Grid {
+            output: vec![true; times.len()],
+            description: format!("{steps} equal steps from t = 0 to {}", time(t_end)),
+            times,
+        }
+    }
+
+    /// simEngine2D's grid: outputs at the ACF's `outputSteps + 1` times,
+    /// solves also every `stepSize` in between (warm starts, as the engine
+    /// did).
+    pub fn simengine(analysis: &Analysis) -> Grid {
+        let outputs = analysis.output_times();
+        let solves = analysis.solve_times();
+        let (mut times, mut output) = (Vec::new(), Vec::new());
+        let (mut i, mut j) = (0, 0);
+        while i < solves.len() || j < outputs.len() {
+            let (s, o) = (solves.get(i).copied(), outputs.get(j).copied());
+            let (t, is_output) = match (s, o) {
+                (Some(s), Some(o)) if s == o => {
+                    i += 1;
+                    j += 1;
+                    (s, true)
+                }
+                (Some(s), Some(o)) if s < o => {
+                    i += 1;
+                    (s, false)
+                }
+                (_, Some(o)) => {
+                    j += 1;
+                    (o, true)
+                }
+                (Some(s), None) => {
+                    i += 1;
+                    (s, false)
+                }
+                (None, None) => break,
+            };
+            // A solve within roundoff of the next output is that output
+            // (the engine's `t + stepSize` drifts: 0.29 + 0.01 < 0.3).
+            let near_output = !is_output
+                && outputs
+                    .get(j)
+                    .is_some_and(|&o| o - t <= 1e-9 * analysis.step_size.abs());
+            if near_output {
+                continue;
+            }
+            // Keep the grid strictly increasing whatever the inputs.
+            if times.last().is_none_or(|&last| t > last) {
+                times.push(t);
+                output.push(is_output);
+            } else if is_output && let Some(last) = output.last_mut() {
+                *last = true;
+            }
+        }
+        let outputs_n = output.iter().filter(|&&o| o).count();
+        Grid {
+            description: format!(
+                "{} outputs from t = 0 to {} (outputSteps {}), solved at {} times (stepSize {})",
+                outputs_n,
+                time(analysis.tend),
+                analysis.output_steps,
+                times.len(),
+                time(analysis.step_size)
+            ),
+            times,
+            output,
+        }
+    }
+}
+
+/// What the run cost, for the summary.
+#[derive(Debug, Clone, Default)]
+struct Stats {
+    assembly_iterations: usize,
+    steps: usize,
+    iterations: usize,
+    max_iterations: usize,
+    worst_residual: f64,
+    worst_residual_t: f64,
+}
+
+impl Stats {
+    fn record(&mut self, first: bool, state: &State) {
+        let s = state.stats();
+        if first {
+            self.assembly_iterations = s.iterations;
+        } else {
+            self.steps += 1;
+            self.iterations += s.iterations;
+            self.max_iterations = self.max_iterations.max(s.iterations);
+        }
+        if s.residual > self.worst_residual || self.steps + usize::from(first) == 1 {
+            self.worst_residual = s.residual;
+            self.worst_residual_t = state.t();
+        }
+    }
+}
+
+/// Checks `--t-end` and `--steps`.
+fn check_grid_args(t_end: Option<f64>, steps: Option<usize>) -> Result<(), Failure> {
+    if let Some(t) = t_end
+        && !(t.is_finite() && t > 0.0)
+    {
+        return Err(Failure::usage(format_args!(
+            "--t-end must be a positive finite time, found {t}"
+        )));
+    }
+    if steps == Some(0) {
+        return Err(Failure::usage("--steps must be at least 1"));
+    }
+    Ok(())
+}
+
+/// Runs `kinema run`.
+///
+/// # Errors
+/// [`Failure::Input`] for bad arguments or models, [`Failure::Analysis`]
+/// when the analysis fails (the rows computed before the failure are kept)
+/// or its results cannot be written.
+pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    let start = Instant::now();
+    let Backend::Tape = args.backend;
+    check_grid_args(args.t_end, args.steps)?;
+    let (grid, analysis) = match Format::of(&args.model)? {
+        Format::Kin => {
+            if args.acf.is_some() {
+                return Err(Failure::usage(
+                    "--acf is for simEngine2D models (.adm); a .kin model takes --t-end and --steps",
+                ));
+            }
+            let grid = Grid::uniform(
+                args.t_end.unwrap_or(DEFAULT_T_END),
+                args.steps.unwrap_or(DEFAULT_STEPS),
+            );
+            (grid, None)
+        }
+        Format::Adm => {
+            let mut analysis = adm::read_analysis(args.acf.as_deref())?;
+            if let Some(t) = args.t_end {
+                analysis.tend = t;
+            }
+            if let Some(n) = args.steps {
+                analysis.output_steps = n;
+            }
+            (Grid::simengine(&analysis), Some(analysis))
+        }
+    };
+    let loaded = load(&args.model, analysis.as_ref())?;
+    loaded.print_warnings();
+
+    // Outputs are created before the analysis: a bad path fails at once.
+    let system = loaded.model.system();
+    let names: Vec<String> = loaded
+        .model
+        .derivation()
+        .coordinates
+        .iter()
+        .map(|c| c.name.clone())
+        .collect();
+    let mut sink = CsvSink::create(Destination::of(&args.out), &names)?;
+    let plot_target = args.plot.as_deref().map(plot::Target::create).transpose()?;
+
+    let analysis_start = Instant::now();
+    let mut solver = Solver::<TapeSystem, Auto>::with_options(system, Options::default())
+        .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
+    let mut samples = plot_target.as_ref().map(|_| Samples::new(names.len()));
+    let mut stats = Stats::default();
+    let mut progress = Progress::new(grid.times.len());
+    let mut write_time = Duration::ZERO;
+    for (k, (&t, &is_output)) in grid.times.iter().zip(&grid.output).enumerate() {
+        let state = match solver.step(t) {
+            Ok(state) => state,
+            Err(e) => {
+                progress.finish();
+                let kept = sink.finish().map(|()| sink.rows()).unwrap_or(0);
+                let mut message = format!("error: {}", run_error(&loaded, &e));
+                if kept > 0
+                    && let Destination::File(p) = sink.destination()
+                {
+                    let _ = write!(
+                        message,
+                        "\n  = note: the {kept} rows computed before the failure are in `{}`",
+                        p.display()
+                    );
+                }
+                return Err(Failure::Analysis(message));
+            }
+        };
+        stats.record(k == 0, state);
+        if is_output {
+            let w = Instant::now();
+            sink.write(state)?;
+            if let Some(s) = &mut samples {
+                s.push(state);
+            }
+            write_time += w.elapsed();
+        }
+        progress.update(k + 1, t);
+    }
+    progress.finish();
+    let w = Instant::now();
+    sink.finish()?;
+    write_time += w.elapsed();
+    let analysis_time = analysis_start.elapsed().saturating_sub(write_time);
+
+    let plot_start = Instant::now();
+    if let (Some(target), Some(samples)) = (plot_target, &samples) {
+        target.write(
+            &loaded,
+            solver.system(),
+            samples,
+            &plot_title(&loaded, &grid),
+        )?;
+    }
+    let plot_time = args.plot.as_ref().map(|_| plot_start.elapsed());
+
+    let summary = summary(&SummaryInput {
+        loaded: &loaded,
+        grid: &grid,
+        stats: &stats,
+        sink: &sink,
+        plot: args.plot.as_deref(),
+        total: start.elapsed(),
+        analysis: analysis_time,
+        write: write_time,
+        plot_time,
+    });
+    if *sink.destination() == Destination::Stdout {
+        eprint!("{summary}");
+        Ok(())
+    } else {
+        super::print_stdout(&summary)
+    }
+}
+
+fn plot_title(loaded: &Loaded, grid: &Grid) -> String {
+    let end = grid.times.last().copied().unwrap_or(0.0);
+    format!(
+        "{} — kinematic analysis, t = 0 … {} s",
+        loaded.name(),
+        time(end)
+    )
+}
+
+struct SummaryInput<'a> {
+    loaded: &'a Loaded,
+    grid: &'a Grid,
+    stats: &'a Stats,
+    sink: &'a CsvSink,
+    plot: Option<&'a Path>,
+    total: Duration,
+    analysis: Duration,
+    write: Duration,
+    plot_time: Option<Duration>,
+}
+
+fn summary(s: &SummaryInput<'_>) -> String {
+    let c = &s.loaded.checked;
+    let mut out = String::new();
+    let nb = c.bodies.len();
+    let _ = writeln!(
+        out,
+        "{} ({}): {nb} bod{}, {} coordinates, tape back end",
+        c.name,
+        s.loaded.file,
+        if nb == 1 { "y" } else { "ies" },
+        3 * nb
+    );
+    let _ = writeln!(out, "  grid: {}", s.grid.description);
+    let st = s.stats;
+    let mean = if st.steps == 0 {
+        0.0
+    } else {
+        st.iterations as f64 / st.steps as f64
+    };
+    let _ = writeln!(
+        out,
+        "  Newton updates per step: mean {mean:.2}, max {} over {} steps (assembly: {})",
+        st.max_iterations, st.steps, st.assembly_iterations
+    );
+    let _ = writeln!(
+        out,
+        "  worst residual ‖Φ‖∞ = {:.2e} (at t = {})",
+        st.worst_residual,
+        time(st.worst_residual_t)
+    );
+    let mut parts = vec![
+        format!("model {}", duration(s.loaded.elapsed)),
+        format!("analysis {}", duration(s.analysis)),
+        format!("CSV {}", duration(s.write)),
+    ];
+    if let Some(p) = s.plot_time {
+        parts.push(format!("plot {}", duration(p)));
+    }
+    let _ = writeln!(out, "  time: {} ({})", duration(s.total), parts.join(", "));
+    let csv = match s.sink.destination() {
+        Destination::Stdout => "standard output".to_string(),
+        Destination::File(p) => format!("`{}`", p.display()),
+    };
+    let _ = write!(
+        out,
+        "  wrote {csv} ({} rows × {} columns)",
+        s.sink.rows(),
+        s.sink.columns()
+    );
+    if let Some(p) = s.plot {
+        let _ = write!(out, " and `{}`", p.display());
+    }
+    out.push('\n');
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_grid_ends_on_t_end() {
+        let g = Grid::uniform(0.3, 3);
+        assert_eq!(g.times.len(), 4);
+        assert_eq!(g.times.last().copied(), Some(0.3));
+        assert!(g.output.iter().all(|&o| o));
+    }
+
+    #[test]
+    fn simengine_grid_marks_outputs() {
+        let a = Analysis {
+            tend: 1.0,
+            step_size: 0.1,
+            output_steps: 4,
+            ..Analysis::default()
+        };
+        let g = Grid::simengine(&a);
+        assert!(g.times.windows(2).all(|w| w[1] > w[0]));
+        let outs: Vec<f64> = g
+            .times
+            .iter()
+            .zip(&g.output)
+            .filter(|(_, o)| **o)
+            .map(|(t, _)| *t)
+            .collect();
+        assert_eq!(outs, a.output_times());
+        assert!(g.times.len() > outs.len());
+    }
+}
