@@ -32,7 +32,6 @@
 //!
 //! See `ARCHITECTURE.md` for how the crates fit together.
 
-
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
     Auto, CsvWriter, DenseLu, DynDenseLu, Error, LinearSolver, Options, PointKinematics, Solver,

@@ -238,7 +238,11 @@ fn node<'c>(
             }
             if constant != 0.0 {
                 let k = number(constant.abs()).tokens;
-                tokens.extend(if constant < 0.0 { quote!(- #k) } else { quote!(+ #k) });
+                tokens.extend(if constant < 0.0 {
+                    quote!(- #k)
+                } else {
+                    quote!(+ #k)
+                });
             }
             Code {
                 tokens,

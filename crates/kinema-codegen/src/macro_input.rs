@@ -5,7 +5,7 @@
 //! Two forms:
 //! ```text
 //! mechanism! { mechanism SliderCrank { … } }      // the model inline
-//! mechanism!(file = "models/slider_crank.kin")     // a model file, relative to the crate
+//! mechanism!(file = "models/slider_crank.kin")     // a model file (see `resolve`)
 //! ```
 //! Errors become `compile_error!`s — all of them, each at its span (inline
 //! form) or at the file literal with the rendered `file:line:col` snippet
@@ -41,16 +41,21 @@ pub fn expand_macro_with(input: TokenStream, options: &Options) -> TokenStream {
 fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
     let mut it = input.clone().into_iter();
     match (it.next(), it.next()) {
-        (Some(TokenTree::Ident(i)), Some(TokenTree::Punct(p))) if i == "file" && p.as_char() == '=' => {}
+        (Some(TokenTree::Ident(i)), Some(TokenTree::Punct(p)))
+            if i == "file" && p.as_char() == '=' => {}
         _ => return None,
     }
     let rest: TokenStream = it.collect();
-    Some(syn::parse2::<syn::LitStr>(rest.clone()).map(|lit| (lit.value(), lit.span())).map_err(|_| {
-        syn::Error::new_spanned(
-            rest,
-            "expected a string literal: `mechanism!(file = \"models/my_model.kin\")`",
-        )
-    }))
+    Some(
+        syn::parse2::<syn::LitStr>(rest.clone())
+            .map(|lit| (lit.value(), lit.span()))
+            .map_err(|_| {
+                syn::Error::new_spanned(
+                    rest,
+                    "expected a string literal: `mechanism!(file = \"models/my_model.kin\")`",
+                )
+            }),
+    )
 }
 
 fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
@@ -71,8 +76,7 @@ fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
 }
 
 fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
-    let root = std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(|| PathBuf::from("."), PathBuf::from);
-    let full = root.join(path);
+    let full = resolve(path, span);
     let source = match std::fs::read_to_string(&full) {
         Ok(s) => s,
         Err(e) => {
@@ -83,31 +87,70 @@ fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
     // Rebuild whenever the model file changes.
     let full_str = full.display().to_string();
     let track = quote! { const _: &[u8] = ::core::include_bytes!(#full_str); };
-    let checked = Model::parse_str(&source).and_then(|m| m.check());
-    match checked {
-        Ok(checked) => {
-            let items = expand(&Derivation::new(&checked), options);
+    // Inside a proc macro, text parsed by proc-macro2 would get compiler spans
+    // that all point at the macro call. The fallback implementation keeps
+    // the file's own lines and columns, which is what the messages need;
+    // only strings and the span-free derivation leave this block.
+    proc_macro2::fallback::force();
+    let name = source
+        .parse::<TokenStream>()
+        .ok()
+        .and_then(|t| mechanism_name(&t))
+        .map(|i| i.to_string());
+    let outcome = match Model::parse_str(&source).and_then(|m| m.check()) {
+        Ok(checked) => Ok(Derivation::new(&checked)),
+        Err(diagnostics) => Err(diagnostics
+            .iter()
+            .filter(|d| d.severity == Severity::Error)
+            .map(|d| {
+                let rendered = d.render(&source, path);
+                // rustc prints its own "error: " before the message.
+                rendered
+                    .strip_prefix("error: ")
+                    .map_or(rendered.clone(), str::to_owned)
+            })
+            .collect::<Vec<String>>()),
+    };
+    proc_macro2::fallback::unforce();
+    match outcome {
+        Ok(derivation) => {
+            let items = expand(&derivation, options);
             quote! { #track #items }
         }
-        Err(diagnostics) => {
-            let errors: TokenStream = diagnostics
+        Err(messages) => {
+            let errors: TokenStream = messages
                 .iter()
-                .filter(|d| d.severity == Severity::Error)
-                .map(|d| {
-                    let rendered = d.render(&source, path);
-                    syn::Error::new(span, rendered).to_compile_error()
-                })
+                .map(|m| syn::Error::new(span, m).to_compile_error())
                 .collect();
-            let name = syn::parse_str::<TokenStream>(&source).ok().and_then(|t| mechanism_name(&t));
+            let name = name.and_then(|n| syn::parse_str::<syn::Ident>(&n).ok());
             let stub = stub(name, options);
             quote! { #track #errors #stub }
         }
     }
 }
 
+/// The model file: relative to the crate root (`CARGO_MANIFEST_DIR`), or,
+/// if no such file exists, relative to the directory of the source file that
+/// invokes the macro (as `include_str!` resolves paths).
+fn resolve(path: &str, span: Span) -> PathBuf {
+    let root =
+        std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(|| PathBuf::from("."), PathBuf::from);
+    let from_root = root.join(path);
+    if from_root.exists() {
+        return from_root;
+    }
+    span.local_file()
+        .and_then(|f| f.parent().map(|dir| dir.join(path)))
+        .filter(|p| p.exists())
+        .unwrap_or(from_root)
+}
+
 /// The identifier after the leading `mechanism` keyword, if any.
 fn mechanism_name(input: &TokenStream) -> Option<syn::Ident> {
-    let mut it = input.clone().into_iter().skip_while(|t| !matches!(t, TokenTree::Ident(i) if i == "mechanism"));
+    let mut it = input
+        .clone()
+        .into_iter()
+        .skip_while(|t| !matches!(t, TokenTree::Ident(i) if i == "mechanism"));
     it.next()?;
     match it.next() {
         Some(TokenTree::Ident(i)) => Some(i),

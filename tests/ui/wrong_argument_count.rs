@@ -1,0 +1,9 @@
+kinema::mechanism! {
+    mechanism M {
+        body bar { guess: (0.5, 0, 0) }
+        joint pin: revolute(ground(0, 0));
+        driver swing: bar.phi == t;
+    }
+}
+
+fn main() {}
