@@ -22,7 +22,9 @@ fn jacobian<S: System>(system: &mut S) -> (Vec<(u32, u32)>, Vec<f64>) {
 
 /// Factor + two solves, the velocity/acceleration part of a step.
 fn factor_and_solve<L: LinearSolver>(lu: &mut L, values: &[f64], rhs: &mut [f64]) {
-    let ok = lu.factor(values, 1e-10).is_ok() && lu.solve_in_place(rhs).is_ok() && lu.solve_in_place(rhs).is_ok();
+    let ok = lu.factor(values, 1e-10).is_ok()
+        && lu.solve_in_place(rhs).is_ok()
+        && lu.solve_in_place(rhs).is_ok();
     assert!(ok);
 }
 

@@ -13,26 +13,39 @@ use std::time::Duration;
 const STEPS: usize = 1001;
 
 fn modes() -> [(&'static str, Options); 2] {
-    [("same_algorithm", Options::same_algorithm()), ("default", Options::default())]
+    [
+        ("same_algorithm", Options::same_algorithm()),
+        ("default", Options::default()),
+    ]
 }
 
 /// Assembly at t = 0 and 1000 steps; panics on failure (benchmarks only).
 fn run_grid<S: System, L: LinearSolver>(solver: &mut Solver<S, L>) {
     let mut ok = solver.assemble(0.0).is_ok();
     for k in 1..STEPS {
-        ok &= solver.step(k as f64 / 1000.0).map(|s| black_box(s.qdd()[0])).is_ok();
+        ok &= solver
+            .step(k as f64 / 1000.0)
+            .map(|s| black_box(s.qdd()[0]))
+            .is_ok();
     }
     assert!(ok, "the benchmark mechanism failed");
 }
 
-fn bench_mechanism<S: System + Clone, L: LinearSolver>(c: &mut Criterion, group: &str, label: &str, system: &S) {
+fn bench_mechanism<S: System + Clone, L: LinearSolver>(
+    c: &mut Criterion,
+    group: &str,
+    label: &str,
+    system: &S,
+) {
     let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(STEPS as u64));
     for (mode, options) in modes() {
         let Ok(mut solver) = Solver::<S, L>::with_options(system.clone(), options) else {
             panic!("setup failed");
         };
-        g.bench_function(BenchmarkId::new(label, mode), |b| b.iter(|| run_grid(&mut solver)));
+        g.bench_function(BenchmarkId::new(label, mode), |b| {
+            b.iter(|| run_grid(&mut solver))
+        });
     }
     g.finish();
 }

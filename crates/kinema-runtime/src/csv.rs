@@ -28,12 +28,17 @@ impl<W: Write> CsvWriter<W> {
             }
         }
         out.write_all(b"\n")?;
-        Ok(Self { out, n: names.len() })
+        Ok(Self {
+            out,
+            n: names.len(),
+        })
     }
 
     /// Writes the header with the system's coordinate names.
     pub fn for_system<S: System + ?Sized>(out: W, system: &S) -> io::Result<Self> {
-        let names: Vec<&str> = (0..system.len()).map(|i| system.coordinate_name(i)).collect();
+        let names: Vec<&str> = (0..system.len())
+            .map(|i| system.coordinate_name(i))
+            .collect();
         Self::new(out, &names)
     }
 
@@ -82,8 +87,16 @@ mod tests {
         assert!(csv.write_row(0.0, &[1.0], &v, &v).is_err());
         let text = String::from_utf8(csv.into_inner())?;
         let mut lines = text.lines();
-        assert_eq!(lines.next(), Some("t,b.x,b.y,b.x_dot,b.y_dot,b.x_ddot,b.y_ddot"));
-        let row: Vec<f64> = lines.next().ok_or("row")?.split(',').map(str::parse).collect::<Result<_, _>>()?;
+        assert_eq!(
+            lines.next(),
+            Some("t,b.x,b.y,b.x_dot,b.y_dot,b.x_ddot,b.y_ddot")
+        );
+        let row: Vec<f64> = lines
+            .next()
+            .ok_or("row")?
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()?;
         assert_eq!(row, [0.125, v[0], v[1], 1e-300, 0.0, -2.5e17, 7.0]);
         assert_eq!(lines.next(), None);
         Ok(())

@@ -15,7 +15,11 @@ const INVOLVED: f64 = 1e-6;
 /// Explains a singular Φ_q (nonzeros `values` in the system's pattern order):
 /// which equations are dependent, which are redundant, which coordinates
 /// move freely. See [`Dependency`] for the maths.
-pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singular_tolerance: f64) -> Dependency {
+pub(crate) fn dependency<S: System + ?Sized>(
+    system: &S,
+    values: &[f64],
+    singular_tolerance: f64,
+) -> Dependency {
     let n = system.len();
     let mut dep = Dependency {
         rank: None,
@@ -45,7 +49,9 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
     dep.condition = Some(sigma_max / sigma.min());
     let cutoff = (10.0 * singular_tolerance).max(n as f64 * f64::EPSILON) * sigma_max;
     let smallest = sigma.imin();
-    let null: Vec<usize> = (0..n).filter(|&k| sigma[k] <= cutoff || k == smallest).collect();
+    let null: Vec<usize> = (0..n)
+        .filter(|&k| sigma[k] <= cutoff || k == smallest)
+        .collect();
     dep.rank = Some(n - null.len());
 
     let mut eq_involved = vec![false; n];
@@ -64,7 +70,10 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
     // largest remaining one, the last-written equation; it is called
     // redundant (the others of its combination can replace it), and is
     // eliminated from the remaining null vectors.
-    let mut w: Vec<Vec<f64>> = null.iter().map(|&k| (0..n).map(|i| u[(i, k)]).collect()).collect();
+    let mut w: Vec<Vec<f64>> = null
+        .iter()
+        .map(|&k| (0..n).map(|i| u[(i, k)]).collect())
+        .collect();
     let mut picked = Vec::with_capacity(w.len());
     for r in 0..w.len() {
         let largest = w[r..].iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
@@ -95,11 +104,18 @@ pub(crate) fn dependency<S: System + ?Sized>(system: &S, values: &[f64], singula
         picked.push(i);
     }
     picked.sort_unstable();
-    dep.redundant = picked.iter().map(|&i| system.equation_name(i).to_owned()).collect();
+    dep.redundant = picked
+        .iter()
+        .map(|&i| system.equation_name(i).to_owned())
+        .collect();
     dep
 }
 
-fn names<S: System + ?Sized>(system: &S, mask: &[bool], name: fn(&S, usize) -> &str) -> Vec<String> {
+fn names<S: System + ?Sized>(
+    system: &S,
+    mask: &[bool],
+    name: fn(&S, usize) -> &str,
+) -> Vec<String> {
     mask.iter()
         .enumerate()
         .filter(|&(_, &m)| m)

@@ -153,10 +153,18 @@ impl fmt::Display for Dependency {
         f.write_str(")")?;
         if !self.redundant.is_empty() {
             let s = if self.redundant.len() == 1 { "" } else { "s" };
-            write!(f, "; removing equation{s} {} restores full rank", self.redundant.join(", "))?;
+            write!(
+                f,
+                "; removing equation{s} {} restores full rank",
+                self.redundant.join(", ")
+            )?;
         }
         if !self.coordinates.is_empty() {
-            write!(f, "; coordinates left free or unbounded: {}", self.coordinates.join(", "))?;
+            write!(
+                f,
+                "; coordinates left free or unbounded: {}",
+                self.coordinates.join(", ")
+            )?;
         }
         Ok(())
     }

@@ -22,7 +22,13 @@ pub struct PointKinematics {
 ///
 /// `None` if an index is out of range of any of the three slices.
 #[must_use]
-pub fn point_kinematics(q: &[f64], qd: &[f64], qdd: &[f64], x_index: usize, s: [f64; 2]) -> Option<PointKinematics> {
+pub fn point_kinematics(
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    x_index: usize,
+    s: [f64; 2],
+) -> Option<PointKinematics> {
     let end = x_index.checked_add(3)?;
     let (&[x, y, phi], &[xd, yd, phid], &[xdd, ydd, phidd]) = (
         q.get(x_index..end)?,
@@ -39,7 +45,10 @@ pub fn point_kinematics(q: &[f64], qd: &[f64], qdd: &[f64], x_index: usize, s: [
     Some(PointKinematics {
         position: [x + a[0], y + a[1]],
         velocity: [xd + b[0] * phid, yd + b[1] * phid],
-        acceleration: [xdd + b[0] * phidd - a[0] * w2, ydd + b[1] * phidd - a[1] * w2],
+        acceleration: [
+            xdd + b[0] * phidd - a[0] * w2,
+            ydd + b[1] * phidd - a[1] * w2,
+        ],
     })
 }
 
@@ -60,12 +69,19 @@ mod tests {
             [l, 0.0],
         )
         .ok_or("in range")?;
-        let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-15 && (a[1] - b[1]).abs() < 1e-15;
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-15 && (a[1] - b[1]).abs() < 1e-15;
         assert!(close(p.position, [0.0, l]), "{p:?}");
         assert!(close(p.velocity, [-l * w, 0.0]), "{p:?}");
         assert!(close(p.acceleration, [0.0, -l * w * w]), "{p:?}");
-        assert_eq!(point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], 1, [0.0, 0.0]), None);
-        assert_eq!(point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], usize::MAX, [0.0, 0.0]), None);
+        assert_eq!(
+            point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], 1, [0.0, 0.0]),
+            None
+        );
+        assert_eq!(
+            point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], usize::MAX, [0.0, 0.0]),
+            None
+        );
         Ok(())
     }
 }

@@ -154,7 +154,12 @@ fn first_non_finite(x: &[f64]) -> Option<usize> {
 /// Fails with [`Error::NonFinite`] naming the equation of the first
 /// non-finite entry of `x` (one entry per equation).
 #[inline]
-pub(crate) fn check_equations<S: System + ?Sized>(system: &S, t: f64, quantity: Quantity, x: &[f64]) -> Result<(), Error> {
+pub(crate) fn check_equations<S: System + ?Sized>(
+    system: &S,
+    t: f64,
+    quantity: Quantity,
+    x: &[f64],
+) -> Result<(), Error> {
     match first_non_finite(x) {
         None => Ok(()),
         Some(i) => Err(Error::NonFinite {
@@ -168,7 +173,12 @@ pub(crate) fn check_equations<S: System + ?Sized>(system: &S, t: f64, quantity: 
 /// Fails with [`Error::NonFinite`] naming the coordinate of the first
 /// non-finite entry of `x` (one entry per coordinate).
 #[inline]
-pub(crate) fn check_coordinates<S: System + ?Sized>(system: &S, t: f64, quantity: Quantity, x: &[f64]) -> Result<(), Error> {
+pub(crate) fn check_coordinates<S: System + ?Sized>(
+    system: &S,
+    t: f64,
+    quantity: Quantity,
+    x: &[f64],
+) -> Result<(), Error> {
     match first_non_finite(x) {
         None => Ok(()),
         Some(i) => Err(Error::NonFinite {
@@ -182,7 +192,11 @@ pub(crate) fn check_coordinates<S: System + ?Sized>(system: &S, t: f64, quantity
 /// Fails with [`Error::NonFinite`] naming "equation / coordinate" of the
 /// first non-finite Jacobian nonzero.
 #[inline]
-pub(crate) fn check_jacobian<S: System + ?Sized>(system: &S, t: f64, jac: &[f64]) -> Result<(), Error> {
+pub(crate) fn check_jacobian<S: System + ?Sized>(
+    system: &S,
+    t: f64,
+    jac: &[f64],
+) -> Result<(), Error> {
     match first_non_finite(jac) {
         None => Ok(()),
         Some(k) => {

@@ -2,7 +2,10 @@
 
 use crate::error::{Error, Quantity};
 use crate::linalg::{Auto, LinalgError, LinearSolver};
-use crate::newton::{Factorization, Workspace, check_coordinates, check_equations, check_jacobian, factor, solve_position};
+use crate::newton::{
+    Factorization, Workspace, check_coordinates, check_equations, check_jacobian, factor,
+    solve_position,
+};
 use crate::options::Options;
 use crate::state::State;
 use crate::system::System;
@@ -179,14 +182,24 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             return Err(Error::NonFiniteTime { t });
         }
         let previous = self.state.t;
-        if !(t > previous) {
-            return Err(Error::NonIncreasingTime { index: 0, previous, t });
+        // False for NaN too.
+        let increasing = t > previous;
+        if !increasing {
+            return Err(Error::NonIncreasingTime {
+                index: 0,
+                previous,
+                t,
+            });
         }
         if self.options.predictor {
             let h = t - previous;
             let half_h2 = 0.5 * h * h;
             let guess = self.next.q.iter_mut();
-            for (((x, &q), &qd), &qdd) in guess.zip(&self.state.q).zip(&self.state.qd).zip(&self.state.qdd) {
+            for (((x, &q), &qd), &qdd) in guess
+                .zip(&self.state.q)
+                .zip(&self.state.qd)
+                .zip(&self.state.qdd)
+            {
                 *x = q + h * qd + half_h2 * qdd;
             }
         } else {
@@ -204,7 +217,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     pub fn run(&mut self, times: &[f64]) -> Result<Trajectory, Error> {
         let (&t0, _) = times.split_first().ok_or(Error::EmptyTimeGrid)?;
         for (index, w) in times.windows(2).enumerate() {
-            if !(w[1] > w[0]) {
+            let increasing = w[1] > w[0];
+            if !increasing {
                 return Err(Error::NonIncreasingTime {
                     index: index + 1,
                     previous: w[0],
@@ -282,7 +296,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         let dependency = crate::diagnose::dependency(&self.system, &self.ws.jac, tolerance);
         match dependency.condition {
-            Some(condition) if condition * tolerance >= 1.0 => Error::Singular { t: lo, dependency },
+            Some(condition) if condition * tolerance >= 1.0 => {
+                Error::Singular { t: lo, dependency }
+            }
             _ => failure,
         }
     }
@@ -303,7 +319,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             check_jacobian(&self.system, t, &self.ws.jac)?;
         }
         self.factorization = Factorization::None;
-        factor(&self.system, &mut self.lu, t, &self.ws.jac, self.options.singular_tolerance)?;
+        factor(
+            &self.system,
+            &mut self.lu,
+            t,
+            &self.ws.jac,
+            self.options.singular_tolerance,
+        )?;
         self.factorization = Factorization::Stale;
 
         self.system.nu(q, t, qd);

@@ -19,7 +19,9 @@ pub struct Trajectory {
 impl Trajectory {
     pub(crate) fn for_system<S: System + ?Sized>(system: &S, capacity: usize) -> Self {
         Self {
-            names: (0..system.len()).map(|i| system.coordinate_name(i).to_owned()).collect(),
+            names: (0..system.len())
+                .map(|i| system.coordinate_name(i).to_owned())
+                .collect(),
             states: Vec::with_capacity(capacity),
         }
     }

@@ -19,7 +19,10 @@ fn allocations() -> usize {
     ALLOCATIONS.with(Cell::get)
 }
 
-#[allow(unsafe_code, reason = "a GlobalAlloc impl is unsafe by definition; it only forwards")]
+#[allow(
+    unsafe_code,
+    reason = "a GlobalAlloc impl is unsafe by definition; it only forwards"
+)]
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         ALLOCATIONS.with(|n| n.set(n.get() + 1));
@@ -43,7 +46,10 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 /// Allocations made by 1000 steps after assembly.
-fn allocations_per_1000_steps<S: System, L: LinearSolver>(system: S, options: Options) -> Result<usize, Error> {
+fn allocations_per_1000_steps<S: System, L: LinearSolver>(
+    system: S,
+    options: Options,
+) -> Result<usize, Error> {
     let mut solver = Solver::<S, L>::with_options(system, options)?;
     solver.assemble(0.0)?;
     solver.step(0.001)?;
@@ -59,18 +65,42 @@ fn allocations_per_1000_steps<S: System, L: LinearSolver>(system: S, options: Op
 fn steps_do_not_allocate() -> Result<(), Error> {
     for options in [Options::default(), Options::same_algorithm()] {
         let cases = [
-            ("slider-crank, DenseLu<9>", allocations_per_1000_steps::<_, DenseLu<9>>(SliderCrank::default(), options)?),
-            ("slider-crank, DynDenseLu", allocations_per_1000_steps::<_, DynDenseLu>(SliderCrank::default(), options)?),
-            ("four-bar, DenseLu<9>", allocations_per_1000_steps::<_, DenseLu<9>>(FourBar::default(), options)?),
-            ("chain 10, DenseLu<30>", allocations_per_1000_steps::<_, DenseLu<30>>(Chain::new(10), options)?),
-            ("chain 10, DynDenseLu", allocations_per_1000_steps::<_, DynDenseLu>(Chain::new(10), options)?),
+            (
+                "slider-crank, DenseLu<9>",
+                allocations_per_1000_steps::<_, DenseLu<9>>(SliderCrank::default(), options)?,
+            ),
+            (
+                "slider-crank, DynDenseLu",
+                allocations_per_1000_steps::<_, DynDenseLu>(SliderCrank::default(), options)?,
+            ),
+            (
+                "four-bar, DenseLu<9>",
+                allocations_per_1000_steps::<_, DenseLu<9>>(FourBar::default(), options)?,
+            ),
+            (
+                "chain 10, DenseLu<30>",
+                allocations_per_1000_steps::<_, DenseLu<30>>(Chain::new(10), options)?,
+            ),
+            (
+                "chain 10, DynDenseLu",
+                allocations_per_1000_steps::<_, DynDenseLu>(Chain::new(10), options)?,
+            ),
             // Not promised (faer may grow its L/U storage when the pivot
             // sequence changes), but true here.
-            ("chain 10, SparseLu", allocations_per_1000_steps::<_, SparseLu>(Chain::new(10), options)?),
-            ("chain 50, SparseLu", allocations_per_1000_steps::<_, SparseLu>(Chain::new(50), options)?),
+            (
+                "chain 10, SparseLu",
+                allocations_per_1000_steps::<_, SparseLu>(Chain::new(10), options)?,
+            ),
+            (
+                "chain 50, SparseLu",
+                allocations_per_1000_steps::<_, SparseLu>(Chain::new(50), options)?,
+            ),
         ];
         for (case, count) in cases {
-            assert_eq!(count, 0, "{case} with {options:?}: {count} allocations in 1000 steps");
+            assert_eq!(
+                count, 0,
+                "{case} with {options:?}: {count} allocations in 1000 steps"
+            );
         }
     }
     Ok(())

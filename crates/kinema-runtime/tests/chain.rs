@@ -7,7 +7,11 @@ use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::{Chain, FourBar};
 use kinema_runtime::{Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu};
 
-fn run<L: LinearSolver>(links: usize, options: Options, times: &[f64]) -> Result<kinema_runtime::Trajectory, Error> {
+fn run<L: LinearSolver>(
+    links: usize,
+    options: Options,
+    times: &[f64],
+) -> Result<kinema_runtime::Trajectory, Error> {
     Solver::<Chain, L>::with_options(Chain::new(links), options)?.run(times)
 }
 
@@ -36,8 +40,18 @@ fn chain_10_sparse_equals_dense_and_exact() -> Result<(), Error> {
                 ("q̇", s.qd(), d.qd(), e.qd()),
                 ("q̈", s.qdd(), d.qdd(), e.qdd()),
             ] {
-                assert_close(&format!("SparseLu vs DenseLu<30>: {what} at {at}"), a, b, 1e-12);
-                assert_close(&format!("SparseLu vs DynDenseLu: {what} at {at}"), a, c, 1e-12);
+                assert_close(
+                    &format!("SparseLu vs DenseLu<30>: {what} at {at}"),
+                    a,
+                    b,
+                    1e-12,
+                );
+                assert_close(
+                    &format!("SparseLu vs DynDenseLu: {what} at {at}"),
+                    a,
+                    c,
+                    1e-12,
+                );
             }
             assert_eq!(s.stats().iterations, d.stats().iterations, "at {at}");
         }
@@ -59,7 +73,10 @@ fn chain_1000_sparse_matches_forward_kinematics() -> Result<(), Error> {
     // quick; the benchmarks run the whole grid.
     let grid: Vec<f64> = (0..=20).map(|k| k as f64 / 1000.0).collect();
     let solver = Solver::<Chain>::new(Chain::new(1000))?;
-    assert!(solver.linear_solver().is_sparse(), "Auto picks the sparse LU at n = 3000");
+    assert!(
+        solver.linear_solver().is_sparse(),
+        "Auto picks the sparse LU at n = 3000"
+    );
     for options in [Options::same_algorithm(), Options::default()] {
         let trajectory = run::<Auto>(1000, options, &grid)?;
         // The chain's tip is 1000 links out: positions carry 1000 rounding
@@ -71,7 +88,8 @@ fn chain_1000_sparse_matches_forward_kinematics() -> Result<(), Error> {
 
 #[test]
 fn four_bar_same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Error> {
-    let mut solver = Solver::<FourBar, DenseLu<9>>::with_options(FourBar::default(), Options::same_algorithm())?;
+    let mut solver =
+        Solver::<FourBar, DenseLu<9>>::with_options(FourBar::default(), Options::same_algorithm())?;
     let trajectory = solver.run(&benchmark_grid())?;
     assert_eq!(format!("{:.3}", trajectory.mean_iterations()), "3.000");
     // Loop closure: the rocker's pin at B coincides with the coupler's, and
@@ -94,7 +112,9 @@ fn chain_phi_and_jacobian_equals_the_separate_evaluations() {
     use kinema_runtime::System;
     let mut chain = Chain::new(7);
     let n = chain.len();
-    let q: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin() + 0.1 * i as f64).collect();
+    let q: Vec<f64> = (0..n)
+        .map(|i| (i as f64 * 0.7).sin() + 0.1 * i as f64)
+        .collect();
     let nnz = chain.jacobian_pattern().len();
     assert_eq!(nnz, 9 * 7 - 4);
     let (mut phi, mut values) = (vec![0.0; n], vec![0.0; nnz]);

@@ -22,14 +22,18 @@ fn isosceles_slider_crank() -> SliderCrank {
 #[test]
 fn toggle_position_of_a_slider_crank_is_reported_with_time_and_equations() -> Result<(), Error> {
     for options in [Options::default(), Options::same_algorithm()] {
-        let mut solver = Solver::<SliderCrank, DenseLu<9>>::with_options(isosceles_slider_crank(), options)?;
+        let mut solver =
+            Solver::<SliderCrank, DenseLu<9>>::with_options(isosceles_slider_crank(), options)?;
         let err = solver.run(&grid()).err();
         let Some(Error::Singular { t, dependency }) = &err else {
             panic!("expected a singular Jacobian, got {err:?}");
         };
         assert_eq!(*t, 0.125);
         assert_eq!(dependency.rank, Some(8));
-        assert_eq!(dependency.equations, ["pivot.y", "pin.y", "wrist.y", "on_axis"]);
+        assert_eq!(
+            dependency.equations,
+            ["pivot.y", "pin.y", "wrist.y", "on_axis"]
+        );
         assert_eq!(dependency.redundant, ["on_axis"]);
         let message = err.map(|e| e.to_string()).unwrap_or_default();
         assert!(
@@ -64,10 +68,16 @@ fn dead_point_of_a_four_bar_is_located_in_time() -> Result<(), Error> {
         let Some(Error::Singular { t, dependency }) = &err else {
             panic!("expected a lock-up, got {err:?}");
         };
-        assert!((t - t_star).abs() < 1e-9, "lock-up at {t}, expected {t_star}");
+        assert!(
+            (t - t_star).abs() < 1e-9,
+            "lock-up at {t}, expected {t_star}"
+        );
         assert_eq!(dependency.rank, Some(8));
         assert_eq!(dependency.redundant, ["crank_angle"], "{dependency}");
-        assert!(dependency.equations.iter().any(|e| e == "b.x"), "{dependency}");
+        assert!(
+            dependency.equations.iter().any(|e| e == "b.x"),
+            "{dependency}"
+        );
     }
     Ok(())
 }
@@ -80,8 +90,27 @@ struct Redundant(SliderCrank);
 const REDUNDANT_PATTERN: [(u32, u32); 21] = {
     let mut p = [(0, 0); 21];
     let base = [
-        (0, 0), (0, 2), (1, 1), (1, 2), (2, 0), (2, 2), (2, 3), (2, 5), (3, 1), (3, 2), (3, 4),
-        (3, 5), (4, 3), (4, 5), (4, 6), (5, 4), (5, 5), (5, 7), (6, 8), (7, 8), (8, 2),
+        (0, 0),
+        (0, 2),
+        (1, 1),
+        (1, 2),
+        (2, 0),
+        (2, 2),
+        (2, 3),
+        (2, 5),
+        (3, 1),
+        (3, 2),
+        (3, 4),
+        (3, 5),
+        (4, 3),
+        (4, 5),
+        (4, 6),
+        (5, 4),
+        (5, 5),
+        (5, 7),
+        (6, 8),
+        (7, 8),
+        (8, 2),
     ];
     let mut i = 0;
     while i < 21 {
@@ -99,7 +128,11 @@ impl System for Redundant {
         self.0.coordinate_name(i)
     }
     fn equation_name(&self, i: usize) -> &str {
-        if i == 6 { "no_turn_again" } else { self.0.equation_name(i) }
+        if i == 6 {
+            "no_turn_again"
+        } else {
+            self.0.equation_name(i)
+        }
     }
     fn initial_guess(&self, q: &mut [f64]) {
         self.0.initial_guess(q);
@@ -135,10 +168,19 @@ fn redundant_equations_are_named() -> Result<(), Error> {
     assert_eq!(dependency.equations, ["no_turn_again", "no_turn"]);
     assert_eq!(dependency.redundant, ["no_turn"]);
     // With y₃ free the slider can rise, the rod turning about the crank pin.
-    assert_eq!(dependency.coordinates, ["rod.x", "rod.y", "rod.phi", "slider.x", "slider.y"]);
+    assert_eq!(
+        dependency.coordinates,
+        ["rod.x", "rod.y", "rod.phi", "slider.x", "slider.y"]
+    );
     let message = err.map(|e| e.to_string()).unwrap_or_default();
-    assert!(message.contains("equations no_turn_again, no_turn are dependent (rank 8 of 9"), "{message}");
-    assert!(message.contains("removing equation no_turn restores full rank"), "{message}");
+    assert!(
+        message.contains("equations no_turn_again, no_turn are dependent (rank 8 of 9"),
+        "{message}"
+    );
+    assert!(
+        message.contains("removing equation no_turn restores full rank"),
+        "{message}"
+    );
     Ok(())
 }
 
@@ -148,7 +190,8 @@ fn no_convergence_names_time_residual_and_worst_equation() -> Result<(), Error> 
         max_iterations: 1,
         ..Options::same_algorithm()
     };
-    let mut solver = Solver::<SliderCrank, DenseLu<9>>::with_options(SliderCrank::default(), options)?;
+    let mut solver =
+        Solver::<SliderCrank, DenseLu<9>>::with_options(SliderCrank::default(), options)?;
     let err = solver.assemble(0.0).err();
     let Some(Error::NoConvergence {
         t,
@@ -163,7 +206,10 @@ fn no_convergence_names_time_residual_and_worst_equation() -> Result<(), Error> 
     assert!(*residual > 1e-12);
     assert!(!worst_equation.is_empty());
     let message = err.map(|e| e.to_string()).unwrap_or_default();
-    assert!(message.starts_with("position analysis did not converge at t = 0: ‖Φ‖∞ = "), "{message}");
+    assert!(
+        message.starts_with("position analysis did not converge at t = 0: ‖Φ‖∞ = "),
+        "{message}"
+    );
     Ok(())
 }
 
@@ -215,7 +261,10 @@ fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
             name: "pin.y".into()
         })
     );
-    assert_eq!(err.map(|e| e.to_string()).unwrap_or_default(), "non-finite γ at t = 0.5: pin.y");
+    assert_eq!(
+        err.map(|e| e.to_string()).unwrap_or_default(),
+        "non-finite γ at t = 0.5: pin.y"
+    );
 
     // A NaN parameter poisons Φ.
     let mut solver = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank {
@@ -244,8 +293,14 @@ fn time_grids_must_be_non_empty_finite_and_increasing() -> Result<(), Error> {
             t: 0.1
         })
     );
-    assert!(matches!(solver.run(&[0.0, f64::NAN]), Err(Error::NonIncreasingTime { index: 1, .. })));
-    assert_eq!(solver.assemble(f64::INFINITY).err(), Some(Error::NonFiniteTime { t: f64::INFINITY }));
+    assert!(matches!(
+        solver.run(&[0.0, f64::NAN]),
+        Err(Error::NonIncreasingTime { index: 1, .. })
+    ));
+    assert_eq!(
+        solver.assemble(f64::INFINITY).err(),
+        Some(Error::NonFiniteTime { t: f64::INFINITY })
+    );
     solver.step(0.5)?;
     let err = solver.step(0.25).err();
     assert_eq!(

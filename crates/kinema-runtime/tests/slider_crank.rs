@@ -5,7 +5,10 @@ mod common;
 
 use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::SliderCrank;
-use kinema_runtime::{Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu, System};
+use kinema_runtime::{
+    Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu, System,
+};
+use std::f64::consts::{FRAC_PI_4, TAU};
 
 /// Exact q, q̇, q̈ of the slider-crank at t.
 ///
@@ -24,7 +27,17 @@ fn closed_form(m: &SliderCrank, t: f64) -> [[f64; 9]; 3] {
     let w2 = -k * c1 * w / c2;
     let a2 = (k * s1 * w * w + s2 * w2 * w2) / c2;
     let (h1, h2) = (l1 / 2.0, l2 / 2.0);
-    let q = [h1 * c1, h1 * s1, p1, l1 * c1 + h2 * c2, l1 * s1 + h2 * s2, p2, l1 * c1 + l2 * c2, 0.0, 0.0];
+    let q = [
+        h1 * c1,
+        h1 * s1,
+        p1,
+        l1 * c1 + h2 * c2,
+        l1 * s1 + h2 * s2,
+        p2,
+        l1 * c1 + l2 * c2,
+        0.0,
+        0.0,
+    ];
     let qd = [
         -h1 * s1 * w,
         h1 * c1 * w,
@@ -82,7 +95,10 @@ fn one_revolution_matches_closed_form_in_every_mode_and_solver() -> Result<(), E
 
 #[test]
 fn same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Error> {
-    let mut solver = Solver::<SliderCrank, DenseLu<9>>::with_options(SliderCrank::default(), Options::same_algorithm())?;
+    let mut solver = Solver::<SliderCrank, DenseLu<9>>::with_options(
+        SliderCrank::default(),
+        Options::same_algorithm(),
+    )?;
     let trajectory = solver.run(&benchmark_grid())?;
     let total: usize = trajectory.iter().map(|s| s.stats().iterations).sum();
     // The peers' mean 2.762 over 1001 analyses.
@@ -94,11 +110,21 @@ fn same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Error> {
 #[test]
 fn default_mode_needs_fewer_factorizations() -> Result<(), Error> {
     let grid = benchmark_grid();
-    let mut same = Solver::<SliderCrank, DenseLu<9>>::with_options(SliderCrank::default(), Options::same_algorithm())?;
+    let mut same = Solver::<SliderCrank, DenseLu<9>>::with_options(
+        SliderCrank::default(),
+        Options::same_algorithm(),
+    )?;
     let mut fast = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank::default())?;
-    let factorizations = |tr: &kinema_runtime::Trajectory| tr.iter().map(|s| s.stats().factorizations).sum::<usize>();
+    let factorizations = |tr: &kinema_runtime::Trajectory| {
+        tr.iter().map(|s| s.stats().factorizations).sum::<usize>()
+    };
     let (a, b) = (same.run(&grid)?, fast.run(&grid)?);
-    assert!(factorizations(&b) * 4 < factorizations(&a), "{} vs {}", factorizations(&b), factorizations(&a));
+    assert!(
+        factorizations(&b) * 4 < factorizations(&a),
+        "{} vs {}",
+        factorizations(&b),
+        factorizations(&a)
+    );
     Ok(())
 }
 
@@ -111,31 +137,54 @@ fn worked_example_at_t0() -> Result<(), Error> {
     assert_close(
         "q",
         state.q(),
-        &[0.106066, 0.106066, 0.785398, 0.700753, 0.106066, -0.213756, 1.189373, 0.0, 0.0],
+        &[
+            0.106066, 0.106066, FRAC_PI_4, 0.700753, 0.106066, -0.213756, 1.189373, 0.0, 0.0,
+        ],
         tol,
     );
     assert_close(
         "q̇",
         state.qd(),
-        &[-0.666432, 0.666432, 6.283185, -1.477529, 0.666432, -1.363906, -1.622193, 0.0, 0.0],
+        &[
+            -0.666432, 0.666432, TAU, -1.477529, 0.666432, -1.363906, -1.622193, 0.0, 0.0,
+        ],
         tol,
     );
     assert_close(
         "q̈",
         state.qdd(),
-        &[-4.187319, -4.187319, 0.0, -8.417467, -4.187319, 8.165867, -8.460297, 0.0, 0.0],
+        &[
+            -4.187319, -4.187319, 0.0, -8.417467, -4.187319, 8.165867, -8.460297, 0.0, 0.0,
+        ],
         tol,
     );
     let system = solver.system_mut();
     let mut nu = [0.0; 9];
     system.nu(state.q(), 0.0, &mut nu);
-    assert_close("ν", &nu, &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0 * std::f64::consts::PI], 1e-15);
+    assert_close(
+        "ν",
+        &nu,
+        &[
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            2.0 * std::f64::consts::PI,
+        ],
+        1e-15,
+    );
     let mut gamma = [0.0; 9];
     system.gamma(state.q(), state.qd(), 0.0, &mut gamma);
     assert_close(
         "γ",
         &gamma,
-        &[-4.187319, -4.187319, 5.096270, 3.990010, 0.908951, -0.197308, 0.0, 0.0, 0.0],
+        &[
+            -4.187319, -4.187319, 5.096270, 3.990010, 0.908951, -0.197308, 0.0, 0.0, 0.0,
+        ],
         tol,
     );
     // Φ_q rows 1–6 as printed; rows 7–9 unit rows on y₃, φ₃, φ₁.
@@ -193,7 +242,11 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
         m.phi(&qm, t, &mut fm);
         for i in 0..n {
             let fd = (fp[i] - fm[i]) / (2.0 * h);
-            assert!((fd - d[i * n + j]).abs() < 1e-8, "∂Φ{i}/∂q{j}: {fd} vs {}", d[i * n + j]);
+            assert!(
+                (fd - d[i * n + j]).abs() < 1e-8,
+                "∂Φ{i}/∂q{j}: {fd} vs {}",
+                d[i * n + j]
+            );
         }
     }
     // γ = −(Φ_q q̇)_q q̇ (no Φ_qt, Φ_tt for this driver).
@@ -204,7 +257,10 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
     let mut gamma = [0.0; 9];
     m.gamma(&q, &qd, t, &mut gamma);
     for i in 0..n {
-        let fd: f64 = -(0..n).map(|j| (jp[i * n + j] - jm[i * n + j]) * qd[j]).sum::<f64>() / (2.0 * eps);
+        let fd: f64 = -(0..n)
+            .map(|j| (jp[i * n + j] - jm[i * n + j]) * qd[j])
+            .sum::<f64>()
+            / (2.0 * eps);
         assert!((fd - gamma[i]).abs() < 1e-6, "γ{i}: {fd} vs {}", gamma[i]);
     }
 }

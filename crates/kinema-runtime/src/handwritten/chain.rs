@@ -51,7 +51,12 @@ impl Chain {
             } else {
                 let i = j - 3;
                 pattern.extend([(r, i), (r, i + 2), (r, j), (r, j + 2)]);
-                pattern.extend([(r + 1, i + 1), (r + 1, i + 2), (r + 1, j + 1), (r + 1, j + 2)]);
+                pattern.extend([
+                    (r + 1, i + 1),
+                    (r + 1, i + 2),
+                    (r + 1, j + 1),
+                    (r + 1, j + 2),
+                ]);
             }
             pattern.push((r + 2, j + 2));
         }
@@ -76,7 +81,11 @@ impl Chain {
     pub fn angle(&self, k: usize, t: f64) -> (f64, f64, f64) {
         let w = 2.0 * PI;
         let (s, c) = (w * t + k as f64).sin_cos();
-        (FRAC_PI_4 + self.amplitude * s, self.amplitude * w * c, -self.amplitude * w * w * s)
+        (
+            FRAC_PI_4 + self.amplitude * s,
+            self.amplitude * w * c,
+            -self.amplitude * w * w * s,
+        )
     }
 
     /// Exact solution at t by forward kinematics: q, q̇, q̈ (each 3N long).
@@ -173,7 +182,8 @@ impl System for Chain {
                 out[0] = tip_x - (qk[0] - hc);
                 out[1] = tip_y - (qk[1] - hs);
                 let at = 9 * k - 4;
-                values[at..at + 9].copy_from_slice(&[1.0, -prev_hs, -1.0, -hs, 1.0, prev_hc, -1.0, hc, 1.0]);
+                values[at..at + 9]
+                    .copy_from_slice(&[1.0, -prev_hs, -1.0, -hs, 1.0, prev_hc, -1.0, hc, 1.0]);
             }
             out[2] = qk[2] - (FRAC_PI_4 + self.amplitude * (w * t + (k + 1) as f64).sin());
             tip_x = qk[0] + hc;
@@ -213,7 +223,12 @@ impl System for Chain {
         let w = 2.0 * PI;
         // A_{k−1} s′_tip φ̇²_{k−1} of the previous link (zero for ground).
         let (mut prev_x, mut prev_y) = (0.0, 0.0);
-        for (k, ((qk, qdk), out)) in q.chunks_exact(3).zip(qd.chunks_exact(3)).zip(gamma.chunks_exact_mut(3)).enumerate() {
+        for (k, ((qk, qdk), out)) in q
+            .chunks_exact(3)
+            .zip(qd.chunks_exact(3))
+            .zip(gamma.chunks_exact_mut(3))
+            .enumerate()
+        {
             let (s, c) = qk[2].sin_cos();
             let w2 = qdk[2] * qdk[2];
             let (ax, ay) = (0.5 * c * w2, 0.5 * s * w2);

@@ -65,7 +65,17 @@ const COORDINATES: [&str; 9] = [
     "rocker.y",
     "rocker.phi",
 ];
-const EQUATIONS: [&str; 9] = ["pivot.x", "pivot.y", "a.x", "a.y", "b.x", "b.y", "d.x", "d.y", "crank_angle"];
+const EQUATIONS: [&str; 9] = [
+    "pivot.x",
+    "pivot.y",
+    "a.x",
+    "a.y",
+    "b.x",
+    "b.y",
+    "d.x",
+    "d.y",
+    "crank_angle",
+];
 const PATTERN: [(u32, u32); 25] = [
     (0, 0),
     (0, 2),
@@ -98,7 +108,13 @@ type SinCos = (f64, f64);
 
 impl FourBar {
     #[inline(always)]
-    fn write_phi(&self, q: &[f64], t: f64, [(s1, c1), (s2, c2), (s3, c3)]: [SinCos; 3], phi: &mut [f64]) {
+    fn write_phi(
+        &self,
+        q: &[f64],
+        t: f64,
+        [(s1, c1), (s2, c2), (s3, c3)]: [SinCos; 3],
+        phi: &mut [f64],
+    ) {
         let (h1, h2, h3) = (0.5 * self.crank, 0.5 * self.coupler, 0.5 * self.rocker);
         let (x1, y1, p1, x2, y2, x3, y3) = (q[0], q[1], q[2], q[3], q[4], q[6], q[7]);
         phi[..9].copy_from_slice(&[

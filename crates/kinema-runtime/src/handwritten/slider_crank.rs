@@ -49,7 +49,15 @@ impl Default for SliderCrank {
 }
 
 const COORDINATES: [&str; 9] = [
-    "crank.x", "crank.y", "crank.phi", "rod.x", "rod.y", "rod.phi", "slider.x", "slider.y", "slider.phi",
+    "crank.x",
+    "crank.y",
+    "crank.phi",
+    "rod.x",
+    "rod.y",
+    "rod.phi",
+    "slider.x",
+    "slider.y",
+    "slider.phi",
 ];
 const EQUATIONS: [&str; 9] = [
     "pivot.x",
@@ -88,7 +96,14 @@ const PATTERN: [(u32, u32); 21] = [
 
 impl SliderCrank {
     #[inline(always)]
-    fn write_phi(&self, q: &[f64], t: f64, (s1, c1): (f64, f64), (s2, c2): (f64, f64), phi: &mut [f64]) {
+    fn write_phi(
+        &self,
+        q: &[f64],
+        t: f64,
+        (s1, c1): (f64, f64),
+        (s2, c2): (f64, f64),
+        phi: &mut [f64],
+    ) {
         let (h1, h2) = (0.5 * self.crank, 0.5 * self.rod);
         let [x1, y1, p1, x2, y2, _, x3, y3, p3] = q9(q);
         let out = [

@@ -29,7 +29,11 @@ impl Auto {
     pub const DEFAULT_THRESHOLD: usize = 12;
 
     /// Analyses the pattern with dense LU if `n < threshold`, else sparse LU.
-    pub fn with_threshold(n: usize, pattern: &[(u32, u32)], threshold: usize) -> Result<Self, LinalgError> {
+    pub fn with_threshold(
+        n: usize,
+        pattern: &[(u32, u32)],
+        threshold: usize,
+    ) -> Result<Self, LinalgError> {
         if n < threshold {
             DynDenseLu::analyze(n, pattern).map(Self::Dense)
         } else {

@@ -66,7 +66,14 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
         }
         let a = self.a.as_flattened_mut();
         let scale = scatter(a, &self.replay.scatter, values);
-        factor_in_place(a, N, &mut self.piv, &mut self.inv_diag, singular_tolerance * scale, scale)?;
+        factor_in_place(
+            a,
+            N,
+            &mut self.piv,
+            &mut self.inv_diag,
+            singular_tolerance * scale,
+            scale,
+        )?;
         self.replay.record(&self.piv, values, singular_tolerance);
         Ok(())
     }
@@ -273,7 +280,9 @@ fn factor_in_place(
                 p = i;
             }
         }
-        if !(best > threshold) {
+        // `best > threshold` is false for a NaN pivot too.
+        let acceptable = best > threshold;
+        if !acceptable {
             return Err(LinalgError::Singular {
                 step: k,
                 pivot: best,
@@ -361,15 +370,25 @@ mod tests {
         let a = [1.0, 2.0, 2.0, 4.0];
         let mut lu = DenseLu::<2>::analyze(2, &dense_pattern(2))?;
         let err = lu.factor(&a, 1e-12);
-        assert!(matches!(err, Err(LinalgError::Singular { step: 1, .. })), "{err:?}");
+        assert!(
+            matches!(err, Err(LinalgError::Singular { step: 1, .. })),
+            "{err:?}"
+        );
         let mut rhs = [1.0, 1.0];
         assert_eq!(lu.solve_in_place(&mut rhs), Err(LinalgError::NotFactored));
         // A regular matrix afterwards factors, then replays its schedule.
-        for a in [[1.0, 2.0, 3.0, 4.0], [1.0, 2.0, 3.0, 5.0], [3.0, 2.0, 1.0, 4.0]] {
+        for a in [
+            [1.0, 2.0, 3.0, 4.0],
+            [1.0, 2.0, 3.0, 5.0],
+            [3.0, 2.0, 1.0, 4.0],
+        ] {
             lu.factor(&a, 1e-12)?;
             let mut x = [a[0] + a[1], a[2] + a[3]];
             lu.solve_in_place(&mut x)?;
-            assert!((x[0] - 1.0).abs() < 1e-14 && (x[1] - 1.0).abs() < 1e-14, "{x:?}");
+            assert!(
+                (x[0] - 1.0).abs() < 1e-14 && (x[1] - 1.0).abs() < 1e-14,
+                "{x:?}"
+            );
         }
         Ok(())
     }

@@ -127,12 +127,7 @@ pub trait LinearSolver: Sized {
 pub(crate) fn validate_pattern(n: usize, pattern: &[(u32, u32)]) -> Result<(), LinalgError> {
     for (index, &(row, col)) in pattern.iter().enumerate() {
         if row as usize >= n || col as usize >= n {
-            return Err(LinalgError::OutOfRange {
-                index,
-                row,
-                col,
-                n,
-            });
+            return Err(LinalgError::OutOfRange { index, row, col, n });
         }
     }
     let mut order: Vec<usize> = (0..pattern.len()).collect();
@@ -153,7 +148,11 @@ pub(crate) fn validate_pattern(n: usize, pattern: &[(u32, u32)]) -> Result<(), L
 
 /// Returns an error unless `found == expected`.
 #[inline]
-pub(crate) fn check_len(what: &'static str, expected: usize, found: usize) -> Result<(), LinalgError> {
+pub(crate) fn check_len(
+    what: &'static str,
+    expected: usize,
+    found: usize,
+) -> Result<(), LinalgError> {
     if expected == found {
         Ok(())
     } else {

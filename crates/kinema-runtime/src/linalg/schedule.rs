@@ -61,7 +61,11 @@ impl Structure for DenseStructure<'_> {
         out.extend((k + 1..self.n).filter(|&j| row[j]).map(|j| j as u32));
     }
     fn col_below(&self, k: usize, out: &mut Vec<u32>) {
-        out.extend((k + 1..self.n).filter(|&i| self.mask[i * self.n + k]).map(|i| i as u32));
+        out.extend(
+            (k + 1..self.n)
+                .filter(|&i| self.mask[i * self.n + k])
+                .map(|i| i as u32),
+        );
     }
     fn row(&self, i: usize, out: &mut Vec<u32>) {
         let row = &self.mask[i * self.n..(i + 1) * self.n];
@@ -198,7 +202,6 @@ impl Schedule {
         self.ready
     }
 
-
     /// Records the elimination of P A Q for the pivot order `row_order`,
     /// `col_order` (original row / column at each position), using
     /// `structure` (empty on entry) for the symbolic work.
@@ -267,7 +270,10 @@ impl Schedule {
         self.values.resize(slots as usize, 0.0);
         self.entry_slot.clear();
         for &(r, c) in pattern {
-            let (i, j) = (self.list_a[r as usize] as usize, self.list_b[c as usize] as usize);
+            let (i, j) = (
+                self.list_a[r as usize] as usize,
+                self.list_b[c as usize] as usize,
+            );
             self.entry_slot.push(slot_index.get(i, j));
         }
         self.diag_slot.clear();
@@ -317,14 +323,19 @@ impl Schedule {
         self.l_col.clear();
         self.u_row.clear();
         for k in 0..n {
-            let (l_len, u_len) = (self.l_ptr[k + 1] - self.l_ptr[k], self.u_ptr[k + 1] - self.u_ptr[k]);
+            let (l_len, u_len) = (
+                self.l_ptr[k + 1] - self.l_ptr[k],
+                self.u_ptr[k + 1] - self.u_ptr[k],
+            );
             self.steps.push(Step {
                 diag: self.diag_slot[k],
                 l_len,
                 u_len,
             });
-            self.l_col.extend(std::iter::repeat_n(k as u32, l_len as usize));
-            self.u_row.extend(std::iter::repeat_n(k as u32, u_len as usize));
+            self.l_col
+                .extend(std::iter::repeat_n(k as u32, l_len as usize));
+            self.u_row
+                .extend(std::iter::repeat_n(k as u32, u_len as usize));
         }
         // Fill-ins: slots no pattern entry writes.
         let mut written = std::mem::take(&mut self.work);
@@ -348,7 +359,11 @@ impl Schedule {
     /// The threshold test |u_kk| ≥ θ |a_ik| is checked as |l_ik| ≤ 1/θ on the
     /// multipliers, and the singularity test on the smallest pivot, both once
     /// at the end: a failed replay is thrown away anyway.
-    pub(crate) fn refactor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), Replay> {
+    pub(crate) fn refactor(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), Replay> {
         let (scale, finite) = scale_and_finite(values);
         let lu = &mut self.values[..];
         for &s in &self.fill {
@@ -376,7 +391,10 @@ impl Schedule {
             let u_row = &*u_row;
             // Column k of L: l_ik = a_ik / u_kk; a_ij −= l_ik u_kj = a_ik (u_kj / u_kk).
             let l_end = l_at + step.l_len as usize;
-            for (lv, &ls) in self.l_val[l_at..l_end].iter_mut().zip(&self.l_slot[l_at..l_end]) {
+            for (lv, &ls) in self.l_val[l_at..l_end]
+                .iter_mut()
+                .zip(&self.l_slot[l_at..l_end])
+            {
                 let a = lu[ls as usize];
                 let l = a * inv;
                 *lv = l;
@@ -496,7 +514,10 @@ mod tests {
     #[test]
     fn scale_and_finite_sees_every_non_finite() {
         assert_eq!(scale_and_finite(&[]), (0.0, true));
-        assert_eq!(scale_and_finite(&[1.0, -3.5, 2.0, 0.0, -0.0, 1e-300]), (3.5, true));
+        assert_eq!(
+            scale_and_finite(&[1.0, -3.5, 2.0, 0.0, -0.0, 1e-300]),
+            (3.5, true)
+        );
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             for at in 0..6 {
                 let mut v = [1.0; 6];
@@ -511,12 +532,20 @@ mod tests {
     fn repivots<L: LinearSolver>() -> Result<(), LinalgError> {
         let pattern = [(0, 0), (0, 1), (1, 0), (1, 1)];
         let mut lu = L::analyze(2, &pattern)?;
-        for a in [[2.0, 1.0, 1.0, 2.0], [1e-3, 1.0, 1.0, 1.0], [2.0, 1.0, 1.0, 2.0], [1.0, 1.0, 1e-3, 1.0]] {
+        for a in [
+            [2.0, 1.0, 1.0, 2.0],
+            [1e-3, 1.0, 1.0, 1.0],
+            [2.0, 1.0, 1.0, 2.0],
+            [1.0, 1.0, 1e-3, 1.0],
+        ] {
             lu.factor(&a, 1e-12)?;
             let x = [0.25, -4.0];
             let mut b = [a[0] * x[0] + a[1] * x[1], a[2] * x[0] + a[3] * x[1]];
             lu.solve_in_place(&mut b)?;
-            assert!((b[0] - x[0]).abs() < 1e-13 && (b[1] - x[1]).abs() < 1e-13, "{a:?}: {b:?}");
+            assert!(
+                (b[0] - x[0]).abs() < 1e-13 && (b[1] - x[1]).abs() < 1e-13,
+                "{a:?}: {b:?}"
+            );
         }
         Ok(())
     }

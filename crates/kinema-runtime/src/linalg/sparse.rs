@@ -109,7 +109,8 @@ impl LinearSolver for SparseLu {
         let mut col_perm_inv = vec![0usize; n];
         {
             let req = colamd::order_scratch::<usize>(n, n, nnz);
-            let mut mem = MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
+            let mut mem =
+                MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
             colamd::order(
                 &mut col_perm,
                 &mut col_perm_inv,
@@ -123,7 +124,8 @@ impl LinearSolver for SparseLu {
             factorize_simplicial_numeric_lu_scratch::<usize, f64>(n, n),
             solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq),
         ]);
-        let scratch = MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
+        let scratch =
+            MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
         Ok(Self {
             n,
             col_ptr: col_ptr.into_boxed_slice(),
@@ -192,7 +194,11 @@ impl LinearSolver for SparseLu {
 impl SparseLu {
     /// Numeric LU by faer with partial pivoting, reusing the symbolic
     /// analysis; checks the pivots.
-    fn factor_with_faer(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
+    fn factor_with_faer(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), LinalgError> {
         let mut scale = 0.0_f64;
         for (&pos, &v) in self.slot.iter().zip(values) {
             if let Some(dst) = self.values.get_mut(pos) {
@@ -201,7 +207,8 @@ impl SparseLu {
             scale = scale.max(v.abs());
         }
         let n = self.n;
-        let symbolic = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let symbolic =
+            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let a = SparseColMatRef::new(symbolic, &self.values);
         let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
         factorize_simplicial_numeric_lu(
@@ -232,7 +239,8 @@ impl SparseLu {
                 .rposition(|&r| r == j)
                 .and_then(|p| vals.get(p))
                 .map_or(0.0, |v| v.abs());
-            if !(pivot > threshold) {
+            let acceptable = pivot > threshold;
+            if !acceptable {
                 return Err(LinalgError::Singular {
                     step: j,
                     pivot,
@@ -270,7 +278,11 @@ mod tests {
         for i in 0..n {
             for j in i.saturating_sub(1)..(i + 2).min(n) {
                 pattern.push((i as u32, j as u32));
-                values.push(if i == j { (i % 3) as f64 } else { 1.0 + 0.1 * j as f64 });
+                values.push(if i == j {
+                    (i % 3) as f64
+                } else {
+                    1.0 + 0.1 * j as f64
+                });
             }
         }
         pattern.push((n as u32 - 1, 0));
@@ -310,7 +322,10 @@ mod tests {
         ));
         // Column 1 empty.
         let mut lu = SparseLu::analyze(2, &[(0, 0), (1, 0)])?;
-        assert!(matches!(lu.factor(&[1.0, 1.0], 1e-12), Err(LinalgError::Singular { .. })));
+        assert!(matches!(
+            lu.factor(&[1.0, 1.0], 1e-12),
+            Err(LinalgError::Singular { .. })
+        ));
         Ok(())
     }
 }
