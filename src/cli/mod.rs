@@ -7,7 +7,8 @@
 //! | [`adm`] | simEngine2D specifics: the analysis, ignored forces, ADM names in messages |
 //! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
 //! | [`run`] | `kinema run`: the time loop and its summary |
-//! | [`output`] | CSV sink and number formatting |
+//! | [`output`] | the CSV sink; durations and times for people |
+//! | [`number`] | fast `{:e}` formatting of the CSV's numbers |
 //! | [`progress`] | the progress bar on standard error |
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
 //! | [`plot`] | the SVG figure |
@@ -19,6 +20,7 @@ pub mod adm;
 pub mod args;
 pub mod check;
 pub mod load;
+pub mod number;
 pub mod output;
 pub mod plot;
 pub mod progress;
