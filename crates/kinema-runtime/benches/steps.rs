@@ -60,7 +60,6 @@ fn chains(c: &mut Criterion) {
     bench_mechanism::<_, DenseLu<30>>(c, "chain10", "DenseLu30", &Chain::new(10));
     bench_mechanism::<_, DynDenseLu>(c, "chain10", "DynDenseLu", &Chain::new(10));
     bench_mechanism::<_, SparseLu>(c, "chain10", "SparseLu", &Chain::new(10));
-    bench_mechanism::<_, DynDenseLu>(c, "chain100", "DynDenseLu", &Chain::new(100));
     bench_mechanism::<_, SparseLu>(c, "chain100", "SparseLu", &Chain::new(100));
     bench_mechanism::<_, SparseLu>(c, "chain1000", "SparseLu", &Chain::new(1000));
 }

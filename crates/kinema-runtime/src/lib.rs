@@ -16,7 +16,7 @@
 //! | module | job |
 //! |---|---|
 //! | [`system`] | the [`System`] trait |
-//! | [`linalg`] | dense and sparse LU behind the [`LinearSolver`](linalg::LinearSolver) trait |
+//! | [`linalg`] | dense and sparse LU behind the [`LinearSolver`] trait |
 //! | [`solver`] | [`Solver`]: assembly, stepping, runs over a time grid |
 //! | [`options`] | [`Options`]: tolerances, predictor, modified Newton |
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |

@@ -67,10 +67,11 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
     let mut small_update = false;
     loop {
         if full {
+            // Φ_q's values are checked for finiteness by the factorization
+            // (see `factor`).
             system.phi_and_jacobian(q, t, &mut ws.phi, &mut ws.jac);
             stats.jacobian_evaluations += 1;
             check_equations(system, t, Quantity::Phi, &ws.phi)?;
-            check_jacobian(system, t, &ws.jac)?;
         } else {
             system.phi(q, t, &mut ws.phi);
             check_equations(system, t, Quantity::Phi, &ws.phi)?;
@@ -95,7 +96,6 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
             if !full {
                 system.jacobian(q, t, &mut ws.jac);
                 stats.jacobian_evaluations += 1;
-                check_jacobian(system, t, &ws.jac)?;
             }
             *factorization = Factorization::None;
             factor(system, lu, t, &ws.jac, options.singular_tolerance)?;
@@ -118,7 +118,11 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
 }
 
 /// Factors Φ_q (nonzeros `jac`); a singular matrix becomes
-/// [`Error::Singular`] with the rank-revealing diagnosis.
+/// [`Error::Singular`] with the rank-revealing diagnosis, or
+/// [`Error::NonFinite`] if a value is not finite. (Every solver refuses
+/// non-finite values: the recorded replay checks them and repivots, and
+/// partial pivoting cannot accept a NaN or infinite pivot. So the hot path
+/// checks the values once, inside the factorization.)
 pub(crate) fn factor<S: System, L: LinearSolver>(
     system: &S,
     lu: &mut L,
@@ -128,10 +132,13 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
 ) -> Result<(), Error> {
     match lu.factor(jac, singular_tolerance) {
         Ok(()) => Ok(()),
-        Err(LinalgError::Singular { .. }) => Err(Error::Singular {
-            t,
-            dependency: dependency(system, jac, singular_tolerance),
-        }),
+        Err(LinalgError::Singular { .. }) => {
+            check_jacobian(system, t, jac)?;
+            Err(Error::Singular {
+                t,
+                dependency: dependency(system, jac, singular_tolerance),
+            })
+        }
         Err(e) => Err(e.into()),
     }
 }

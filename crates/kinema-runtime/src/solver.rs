@@ -316,7 +316,6 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         )?;
         if !converged.jacobian_current {
             self.system.jacobian(q, t, &mut self.ws.jac);
-            check_jacobian(&self.system, t, &self.ws.jac)?;
         }
         self.factorization = Factorization::None;
         factor(

@@ -4,20 +4,40 @@
 //! solvers: [`LinearSolver::analyze`] once from the pattern (validation,
 //! orderings, buffers), then per Newton iteration [`LinearSolver::factor`]
 //! with new values and one or more [`LinearSolver::solve_in_place`]. Neither
-//! `factor` nor `solve_in_place` allocates.
+//! `factor` nor `solve_in_place` allocates (see each type for the one
+//! exception of [`SparseLu`]).
 //!
-//! | type | storage | for |
+//! | type | chooses pivots with | for |
 //! |---|---|---|
-//! | [`DenseLu<N>`] | `[[f64; N]; N]` inline, sizes known at compile time | generated solvers of small mechanisms (n ≲ 30) |
-//! | [`DynDenseLu`] | one heap buffer allocated at construction | mid sizes when n is known only at run time |
-//! | [`SparseLu`] | faer's sparse LU, symbolic analysis once | large mechanisms (chains of hundreds of bodies) |
+//! | [`DenseLu<N>`] | dense partial pivoting on an inline `[[f64; N]; N]` | generated solvers of small mechanisms |
+//! | [`DynDenseLu`] | the same, matrix on the heap | small systems whose n is known only at run time |
+//! | [`SparseLu`] | faer's sparse LU (COLAMD ordering, partial pivoting) | large mechanisms (chains of hundreds of bodies) |
 //! | [`Auto`] | one of the last two, by size | the default |
+//!
+//! # Refactorization
+//!
+//! The Jacobian's structure never changes, and along a motion its row pivots
+//! rarely do. So once a pivoting factorization P A Q = L U has chosen the
+//! order, every solver computes the filled structure of L + U and records the
+//! whole elimination as a list of storage slots: for step k, each row i with
+//! l_ik ≠ 0 gets a_ij −= l_ik u_kj for the u_kj ≠ 0 of row k. Each later
+//! factorization only replays that list — its cost is the number of
+//! structural multiply-adds, with no pivot search, no row swaps and no
+//! symbolic work (the idea of KLU's refactorization). The solves run over L
+//! and U packed in the order they are read.
+//!
+//! A replay is accepted only if every multiplier satisfies |l_ik| ≤ 1/θ
+//! (θ = 0.1: the threshold test |u_kk| ≥ θ |a_ik| of threshold partial
+//! pivoting, which bounds element growth) and every pivot passes the
+//! singularity test below; otherwise the solver repivots with its pivoting
+//! factorization and records the new order. So the singularity verdict is
+//! always that of partial pivoting.
 //!
 //! # Singularity criterion
 //!
-//! All solvers use LU with partial (row) pivoting. Let s = maxᵢⱼ |aᵢⱼ| be the
-//! matrix scale. The matrix is declared numerically singular when some pivot
-//! u_kk satisfies |u_kk| ≤ τ · s, with τ the `singular_tolerance` passed to
+//! Let s = maxᵢⱼ |aᵢⱼ| be the matrix scale. The matrix is declared
+//! numerically singular when the partial-pivoting LU meets a pivot u_kk with
+//! |u_kk| ≤ τ · s, τ being the `singular_tolerance` passed to
 //! [`LinearSolver::factor`] (see [`Options::singular_tolerance`]). An exactly
 //! singular matrix gives a pivot at roundoff level (≈ 1e-16 · s), so any τ
 //! well above machine precision detects it; a larger τ also flags

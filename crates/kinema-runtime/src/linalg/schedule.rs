@@ -1,24 +1,6 @@
-//! Refactorization with a fixed pivot order: the fast path of [`DenseLu`]
-//! and [`SparseLu`].
-//!
-//! The Jacobian's structure never changes, and along a motion its row pivots
-//! rarely do. So once a pivoting factorization P A Q = L U has chosen the
-//! order (the dense kernel for [`DenseLu`], faer for [`SparseLu`]), the
-//! filled structure of L + U is computed and the whole elimination is
-//! written down as a list of slots: for step k, each row i below with
-//! l_ik ≠ 0 gets `a_ij −= l_ik u_kj` for the u_kj ≠ 0 of row k. A numeric
-//! refactorization then only replays that list — the work is the number of
-//! structural multiply-adds, with no search, no swaps and no symbolic work
-//! (the idea of KLU's refactorization).
-//!
-//! Each replayed pivot must pass the threshold test |u_kk| ≥ θ maxᵢ |l_ik
-//! u_kk| (θ = [`PIVOT_THRESHOLD`], as in threshold partial pivoting) and the
-//! singularity test |u_kk| > τ · scale; if one fails the caller repivots
-//! with its pivoting factorization and rebuilds the schedule, so the
-//! singularity verdict is always that of partial pivoting.
-//!
-//! [`DenseLu`]: super::DenseLu
-//! [`SparseLu`]: super::SparseLu
+//! Refactorization with a fixed pivot order: the recorded elimination
+//! replayed by every solver (see the `linalg` module docs, section
+//! "Refactorization").
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -451,20 +433,20 @@ impl Schedule {
 pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
     const ABS: u64 = !(1 << 63);
     const INFINITY: u64 = 0x7FF0_0000_0000_0000;
-    let mut lanes = [0u64; 4];
+    let bits = |v: f64| v.to_bits() & ABS;
+    let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
     let chunks = values.chunks_exact(4);
     let rest = chunks.remainder();
     for c in chunks {
-        for (m, v) in lanes.iter_mut().zip(c) {
-            let b = v.to_bits() & ABS;
-            *m = if b > *m { b } else { *m };
-        }
+        m0 = m0.max(bits(c[0]));
+        m1 = m1.max(bits(c[1]));
+        m2 = m2.max(bits(c[2]));
+        m3 = m3.max(bits(c[3]));
     }
-    for (m, v) in lanes.iter_mut().zip(rest) {
-        let b = v.to_bits() & ABS;
-        *m = if b > *m { b } else { *m };
+    for &v in rest {
+        m0 = m0.max(bits(v));
     }
-    let max_bits = lanes.iter().fold(0u64, |m, &b| if b > m { b } else { m });
+    let max_bits = m0.max(m1).max(m2.max(m3));
     (f64::from_bits(max_bits), max_bits < INFINITY)
 }
 

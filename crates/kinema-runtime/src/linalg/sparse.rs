@@ -11,7 +11,8 @@
 //!   [`analyze`](LinearSolver::analyze) and does not allocate.
 //! * Its simplicial (Gilbert–Peierls, left-looking) LU with partial pivoting
 //!   exposes the U factor, so pivots can be checked against our singularity
-//!   criterion instead of silently producing infinities.
+//!   criterion instead of silently producing infinities, and exposes the row
+//!   and column permutations, which our recorded refactorization reuses.
 //! * The alternatives are either bindings to C (UMFPACK, KLU through
 //!   suitesparse-sys, which a generated solver's users would have to build)
 //!   or unmaintained.
@@ -36,15 +37,22 @@ use std::collections::BTreeMap;
 use super::schedule::{Schedule, SlotIndex, SparseStructure};
 use super::{LinalgError, LinearSolver, check_len, validate_pattern};
 
-/// Sparse LU with partial pivoting (faer, simplicial), the structure analysed
-/// once: the pattern is converted to compressed columns and a COLAMD column
-/// ordering Q computed at [`analyze`](LinearSolver::analyze); each
-/// [`factor`](LinearSolver::factor) computes P A Q = L U for new values.
+/// Sparse LU for large systems: faer chooses the pivots, a recorded
+/// elimination does the per-step work.
 ///
-/// Buffers, including faer's scratch memory, are sized at analysis. The L and
-/// U storage grows only if a new pivot sequence produces more fill than any
-/// before it (rare: the row pivots of a mechanism's Jacobian change little
-/// along a motion).
+/// [`analyze`](LinearSolver::analyze) converts the pattern to compressed
+/// columns and computes a COLAMD column ordering Q once. The first
+/// [`factor`](LinearSolver::factor) runs faer's simplicial LU with partial
+/// pivoting, P A Q = L U, checks its pivots against the singularity
+/// criterion, and records the elimination for that P and Q; later
+/// factorizations replay the recording (see [the module
+/// docs](super#refactorization)) until a pivot fails the threshold test,
+/// which sends the factorization back to faer.
+///
+/// Allocation: none per step while the pivot order holds. A repivot
+/// rebuilds the recording, which allocates (ordered sets for the symbolic
+/// fill); along the benchmark motions it happens only at the first
+/// factorization.
 pub struct SparseLu {
     n: usize,
     /// Compressed sparse column structure of A (rows sorted in each column).
