@@ -213,8 +213,9 @@ fn no_convergence_names_time_residual_and_worst_equation() -> Result<(), Error> 
     Ok(())
 }
 
-/// A slider-crank whose γ is NaN from t = 0.5 on.
-struct Broken(SliderCrank);
+/// A slider-crank whose γ (or, with `.1`, its Jacobian entry ∂pin.y/∂rod.phi)
+/// is NaN from t = 0.5 on.
+struct Broken(SliderCrank, bool);
 
 impl System for Broken {
     fn len(&self) -> usize {
@@ -237,13 +238,16 @@ impl System for Broken {
     }
     fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
         self.0.jacobian(q, t, values);
+        if self.1 && t >= 0.5 {
+            values[11] = f64::NAN;
+        }
     }
     fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
         self.0.nu(q, t, nu);
     }
     fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
         self.0.gamma(q, qd, t, gamma);
-        if t >= 0.5 {
+        if !self.1 && t >= 0.5 {
             gamma[3] = f64::NAN;
         }
     }
@@ -251,7 +255,7 @@ impl System for Broken {
 
 #[test]
 fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
-    let mut solver = Solver::<Broken, DenseLu<9>>::new(Broken(SliderCrank::default()))?;
+    let mut solver = Solver::<Broken, DenseLu<9>>::new(Broken(SliderCrank::default(), false))?;
     let err = solver.run(&grid()).err();
     assert_eq!(
         err,
@@ -265,6 +269,20 @@ fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
         err.map(|e| e.to_string()).unwrap_or_default(),
         "non-finite γ at t = 0.5: pin.y"
     );
+
+    // A NaN Jacobian entry, through every linear solver and both modes.
+    for options in [Options::default(), Options::same_algorithm()] {
+        let broken = || Broken(SliderCrank::default(), true);
+        let nan_jacobian = Some(Error::NonFinite {
+            t: 0.5,
+            quantity: Quantity::Jacobian,
+            name: "∂pin.y/∂rod.phi".into(),
+        });
+        let mut dense = Solver::<Broken, DenseLu<9>>::with_options(broken(), options)?;
+        assert_eq!(dense.run(&grid()).err(), nan_jacobian);
+        let mut sparse = Solver::<Broken, SparseLu>::with_options(broken(), options)?;
+        assert_eq!(sparse.run(&grid()).err(), nan_jacobian);
+    }
 
     // A NaN parameter poisons Φ.
     let mut solver = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank {

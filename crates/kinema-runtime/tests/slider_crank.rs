@@ -264,3 +264,51 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
         assert!((fd - gamma[i]).abs() < 1e-6, "γ{i}: {fd} vs {}", gamma[i]);
     }
 }
+
+/// The CSV contract of DESIGN.md: `t`, names, `_dot`, `_ddot`; N + 1 rows for
+/// N steps; numbers that parse back to the very same f64.
+#[test]
+fn csv_follows_the_command_line_contract() -> Result<(), Box<dyn std::error::Error>> {
+    let mut solver = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank::default())?;
+    let times: Vec<f64> = (0..=10).map(|k| k as f64 / 10.0).collect();
+    let trajectory = solver.run(&times)?;
+    let mut out = Vec::new();
+    trajectory.write_csv(&mut out)?;
+    let text = String::from_utf8(out)?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().ok_or("header")?.split(',').collect();
+    assert_eq!(header.len(), 1 + 3 * 9);
+    assert_eq!(&header[..4], ["t", "crank.x", "crank.y", "crank.phi"]);
+    assert_eq!(header[10], "crank.x_dot");
+    assert_eq!(header[27], "slider.phi_ddot");
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 11);
+    for (row, state) in rows.iter().zip(&trajectory) {
+        let numbers: Vec<f64> = row.split(',').map(str::parse).collect::<Result<_, _>>()?;
+        let expected: Vec<f64> = std::iter::once(state.t())
+            .chain(state.q().iter().copied())
+            .chain(state.qd().iter().copied())
+            .chain(state.qdd().iter().copied())
+            .collect();
+        assert_eq!(numbers, expected);
+    }
+    Ok(())
+}
+
+/// Body-point kinematics along the trajectory: the rod's end B (s′ = (½, 0))
+/// is the slider's pin, whose closed-form motion is x = l₁ cos φ₁ + l₂ cos φ₂.
+#[test]
+fn rod_end_follows_the_slider() -> Result<(), Error> {
+    let mut solver = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank::default())?;
+    let trajectory = solver.run(&benchmark_grid())?;
+    for (k, state) in trajectory.iter().enumerate() {
+        let [q, qd, qdd] = closed_form(solver.system(), state.t());
+        let Some(b) = trajectory.point(k, 3, [0.5, 0.0]) else {
+            unreachable!("body 1 exists");
+        };
+        assert_close("B", &b.position, &[q[6], 0.0], 1e-10);
+        assert_close("Ḃ", &b.velocity, &[qd[6], 0.0], 1e-10);
+        assert_close("B̈", &b.acceleration, &[qdd[6], 0.0], 1e-9);
+    }
+    Ok(())
+}
