@@ -478,6 +478,10 @@ fn usage_errors_give_status_2() {
             "--t-end must be a positive finite time",
         ),
         (
+            &["run", "models/pendulum.kin", "--steps", "20000000"],
+            "more than one run takes",
+        ),
+        (
             &["run", "models/pendulum.kin", "--steps", "many"],
             "invalid value",
         ),

@@ -43,7 +43,7 @@ impl Progress {
                 bar.set_message(format!("t = {t:.4}"));
             }
             None if self.start.elapsed() >= DELAY => {
-                let bar = ProgressBar::new(self.total);
+                let bar = ProgressBar::new(self.total).with_elapsed(self.start.elapsed());
                 let style = ProgressStyle::with_template(
                     "{spinner} {elapsed_precise} [{wide_bar}] {pos}/{len} steps, {msg} (eta {eta})",
                 );

@@ -20,6 +20,12 @@ use super::{Failure, adm};
 pub const DEFAULT_T_END: f64 = 1.0;
 /// Default number of steps of a `.kin` run.
 pub const DEFAULT_STEPS: usize = 100;
+/// Most solve times a run may have (the grid is kept in memory: 9 bytes a
+/// time).
+pub const MAX_TIMES: usize = 10_000_000;
+/// Most states kept for a plot; longer runs are thinned evenly (the last
+/// state always kept).
+pub const MAX_PLOT_STATES: usize = 5000;
 
 /// The times to solve at, and which of them are outputs.
 #[derive(Debug, Clone, PartialEq)]
@@ -118,6 +124,7 @@ impl Grid {
 /// What the run cost, for the summary.
 #[derive(Debug, Clone, Default)]
 struct Stats {
+    recorded: bool,
     assembly_iterations: usize,
     steps: usize,
     iterations: usize,
@@ -136,10 +143,11 @@ impl Stats {
             self.iterations += s.iterations;
             self.max_iterations = self.max_iterations.max(s.iterations);
         }
-        if s.residual > self.worst_residual || self.steps + usize::from(first) == 1 {
+        if !self.recorded || s.residual > self.worst_residual {
             self.worst_residual = s.residual;
             self.worst_residual_t = state.t();
         }
+        self.recorded = true;
     }
 }
 
@@ -155,7 +163,29 @@ fn check_grid_args(t_end: Option<f64>, steps: Option<usize>) -> Result<(), Failu
     if steps == Some(0) {
         return Err(Failure::usage("--steps must be at least 1"));
     }
+    if let Some(n) = steps
+        && n >= MAX_TIMES
+    {
+        return Err(Failure::usage(format_args!(
+            "--steps {n} is more than one run takes (at most {})",
+            MAX_TIMES - 1
+        )));
+    }
     Ok(())
+}
+
+/// Refuses a simEngine2D analysis with more solve times than [`MAX_TIMES`].
+fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
+    let solves = analysis.tend / analysis.step_size + analysis.output_steps as f64;
+    if solves.is_finite() && solves < MAX_TIMES as f64 {
+        Ok(())
+    } else {
+        Err(Failure::usage(format_args!(
+            "the analysis asks for about {solves:.3e} solves (tend {} / stepSize {} + outputSteps {}); \
+             one run takes at most {MAX_TIMES}",
+            analysis.tend, analysis.step_size, analysis.output_steps
+        )))
+    }
 }
 
 /// Runs `kinema run`.
@@ -189,6 +219,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             if let Some(n) = args.steps {
                 analysis.output_steps = n;
             }
+            check_analysis_size(&analysis)?;
             (Grid::simengine(&analysis), Some(analysis))
         }
     };
@@ -214,6 +245,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut stats = Stats::default();
     let mut progress = Progress::new(grid.times.len());
     let mut write_time = Duration::ZERO;
+    let outputs = grid.output.iter().filter(|&&o| o).count();
+    let stride = outputs.div_ceil(MAX_PLOT_STATES).max(1);
+    let mut written = 0usize;
     for (k, (&t, &is_output)) in grid.times.iter().zip(&grid.output).enumerate() {
         let state = match solver.step(t) {
             Ok(state) => state,
@@ -237,9 +271,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         if is_output {
             let w = Instant::now();
             sink.write(state)?;
-            if let Some(s) = &mut samples {
+            if let Some(s) = &mut samples
+                && (written % stride == 0 || written + 1 == outputs)
+            {
                 s.push(state);
             }
+            written += 1;
             write_time += w.elapsed();
         }
         progress.update(k + 1, t);
