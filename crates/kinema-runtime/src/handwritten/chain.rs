@@ -21,6 +21,10 @@ use crate::system::System;
 /// Coordinates are named `link{k}.x`, `link{k}.y`, `link{k}.phi`. The initial
 /// guess is the exact configuration at t = 0 (forward kinematics), as in the
 /// benchmarks.
+///
+/// The drivers' f(t), f′(t), f″(t) depend on t only, so they are computed
+/// once per time and kept (Newton evaluates Φ several times at the same t) —
+/// the hoisting of t-only subexpressions that generated code should do too.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chain {
     links: usize,
@@ -29,6 +33,15 @@ pub struct Chain {
     coordinate_names: Vec<String>,
     equation_names: Vec<String>,
     pattern: Vec<(u32, u32)>,
+    drivers: Drivers,
+}
+
+/// (f, f′, f″) of every link's driver at time `t` for amplitude `amplitude`.
+#[derive(Debug, Clone, PartialEq)]
+struct Drivers {
+    t: f64,
+    amplitude: f64,
+    values: Vec<[f64; 3]>,
 }
 
 impl Chain {
@@ -66,6 +79,25 @@ impl Chain {
             coordinate_names,
             equation_names,
             pattern,
+            drivers: Drivers {
+                t: f64::NAN,
+                amplitude: f64::NAN,
+                values: vec![[0.0; 3]; links],
+            },
+        }
+    }
+
+    /// Brings the driver cache to time t (and the current amplitude).
+    fn refresh_drivers(&mut self, t: f64) {
+        let fresh = self.drivers.t == t && self.drivers.amplitude == self.amplitude;
+        if !fresh {
+            let (w, a) = (2.0 * PI, self.amplitude);
+            for (k, f) in self.drivers.values.iter_mut().enumerate() {
+                let (s, c) = (w * t + (k + 1) as f64).sin_cos();
+                *f = [FRAC_PI_4 + a * s, a * w * c, -a * w * w * s];
+            }
+            self.drivers.t = t;
+            self.drivers.amplitude = a;
         }
     }
 
@@ -146,7 +178,8 @@ impl System for Chain {
     }
 
     fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
-        let w = 2.0 * PI;
+        self.refresh_drivers(t);
+        let drivers = &self.drivers.values;
         // Tip of the previous link.
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
         for (k, (qk, out)) in q.chunks_exact(3).zip(phi.chunks_exact_mut(3)).enumerate() {
@@ -160,7 +193,7 @@ impl System for Chain {
                 out[0] = tip_x - (qk[0] - hx);
                 out[1] = tip_y - (qk[1] - hy);
             }
-            out[2] = qk[2] - (FRAC_PI_4 + self.amplitude * (w * t + (k + 1) as f64).sin());
+            out[2] = qk[2] - drivers[k][0];
             tip_x = qk[0] + hx;
             tip_y = qk[1] + hy;
         }
@@ -168,7 +201,8 @@ impl System for Chain {
 
     /// Φ and Φ_q sharing each link's sine and cosine.
     fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
-        let w = 2.0 * PI;
+        self.refresh_drivers(t);
+        let drivers = &self.drivers.values;
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
         let (mut prev_hs, mut prev_hc) = (0.0, 0.0);
         for (k, (qk, out)) in q.chunks_exact(3).zip(phi.chunks_exact_mut(3)).enumerate() {
@@ -185,7 +219,7 @@ impl System for Chain {
                 values[at..at + 9]
                     .copy_from_slice(&[1.0, -prev_hs, -1.0, -hs, 1.0, prev_hc, -1.0, hc, 1.0]);
             }
-            out[2] = qk[2] - (FRAC_PI_4 + self.amplitude * (w * t + (k + 1) as f64).sin());
+            out[2] = qk[2] - drivers[k][0];
             tip_x = qk[0] + hc;
             tip_y = qk[1] + hs;
             (prev_hs, prev_hc) = (hs, hc);
@@ -211,16 +245,17 @@ impl System for Chain {
     }
 
     fn nu(&mut self, _q: &[f64], t: f64, nu: &mut [f64]) {
-        let w = 2.0 * PI;
-        for (k, out) in nu.chunks_exact_mut(3).enumerate() {
+        self.refresh_drivers(t);
+        for (out, f) in nu.chunks_exact_mut(3).zip(&self.drivers.values) {
             out[0] = 0.0;
             out[1] = 0.0;
-            out[2] = self.amplitude * w * (w * t + (k + 1) as f64).cos();
+            out[2] = f[1];
         }
     }
 
     fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        let w = 2.0 * PI;
+        self.refresh_drivers(t);
+        let drivers = &self.drivers.values;
         // A_{k−1} s′_tip φ̇²_{k−1} of the previous link (zero for ground).
         let (mut prev_x, mut prev_y) = (0.0, 0.0);
         for (k, ((qk, qdk), out)) in q
@@ -241,7 +276,7 @@ impl System for Chain {
                 out[0] = prev_x + ax;
                 out[1] = prev_y + ay;
             }
-            out[2] = -self.amplitude * w * w * (w * t + (k + 1) as f64).sin();
+            out[2] = drivers[k][2];
             (prev_x, prev_y) = (ax, ay);
         }
     }

@@ -119,7 +119,7 @@ pub(crate) struct Schedule {
     l_ptr: Vec<u32>,
     l_row: Vec<u32>,
     l_slot: Vec<u32>,
-    /// Strict U by rows: entries u_ptr[k]..u_ptr[k+1] are (column, slot) of row k.
+    /// Strict U by rows, laid out last row first after `build`: (column, slot) of each entry.
     u_ptr: Vec<u32>,
     u_col: Vec<u32>,
     u_slot: Vec<u32>,
@@ -297,6 +297,19 @@ impl Schedule {
         }
         self.list_a = below;
         self.list_b = right;
+        // Lay U's rows out last row first (each row's entries in place), so
+        // that back substitution reads them front to back.
+        let mut reordered = std::mem::take(&mut self.list_a);
+        for array in [&mut self.u_col, &mut self.u_slot] {
+            reordered.clear();
+            for k in (0..n).rev() {
+                reordered
+                    .extend_from_slice(&array[self.u_ptr[k] as usize..self.u_ptr[k + 1] as usize]);
+            }
+            array.clear();
+            array.extend_from_slice(&reordered);
+        }
+        self.list_a = reordered;
         self.l_val.clear();
         self.l_val.resize(self.l_row.len(), 0.0);
         self.u_val.clear();
@@ -316,6 +329,9 @@ impl Schedule {
             });
             self.l_col
                 .extend(std::iter::repeat_n(k as u32, l_len as usize));
+        }
+        for k in (0..n).rev() {
+            let u_len = self.u_ptr[k + 1] - self.u_ptr[k];
             self.u_row
                 .extend(std::iter::repeat_n(k as u32, u_len as usize));
         }
@@ -357,6 +373,7 @@ impl Schedule {
         let (mut min_pivot, mut max_multiplier) = (f64::INFINITY, 0.0_f64);
         let mut update = self.update.iter();
         let (mut l_at, mut u_at) = (0usize, 0usize);
+        let u_total = self.u_val.len();
         for (step, inv_diag) in self.steps.iter().zip(self.inv_diag.iter_mut()) {
             let pivot = lu[step.diag as usize];
             if pivot.abs() < min_pivot {
@@ -364,10 +381,12 @@ impl Schedule {
             }
             let inv = 1.0 / pivot;
             *inv_diag = inv;
-            // Row k of U is final: pack it, scaled by 1/u_kk.
+            // Row k of U is final: pack it, scaled by 1/u_kk (rows are laid
+            // out last first: row k ends where rows 0..k−1 begin).
             let u_end = u_at + step.u_len as usize;
-            let u_row = &mut self.u_val[u_at..u_end];
-            for (u, &us) in u_row.iter_mut().zip(&self.u_slot[u_at..u_end]) {
+            let (r0, r1) = (u_total - u_end, u_total - u_at);
+            let u_row = &mut self.u_val[r0..r1];
+            for (u, &us) in u_row.iter_mut().zip(&self.u_slot[r0..r1]) {
                 *u = lu[us as usize] * inv;
             }
             let u_row = &*u_row;
@@ -416,7 +435,7 @@ impl Schedule {
         for (yk, &inv) in y.iter_mut().zip(&self.inv_diag) {
             *yk *= inv;
         }
-        for ((&k, &j), &u) in self.u_row.iter().zip(&self.u_col).zip(&self.u_val).rev() {
+        for ((&k, &j), &u) in self.u_row.iter().zip(&self.u_col).zip(&self.u_val) {
             y[k as usize] -= u * y[j as usize];
         }
         for (&yk, &c) in y.iter().zip(&self.col_order) {
