@@ -728,6 +728,63 @@ fn adm_four_bar_matches_the_peer_reference_and_notes_ignored_forces() -> TestRes
 }
 
 #[test]
+fn adm_absolute_pendulum_matches_the_closed_form_and_ignores_its_forces() -> TestResult {
+    let dir = TempDir::new("adm-pendulum");
+    let adm = format!("{ADM_DATA}/absolute_pendulum.adm");
+    let (o, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/two_seconds.acf"))?;
+    let err = stderr(&o);
+    for force in ["push", "motor", "damper", "lookup"] {
+        assert!(
+            err.contains(&format!(
+                "note: ignored by kinematic analysis: force \"{force}\""
+            )),
+            "{err}"
+        );
+    }
+    // The rod's end (−1, 0) is pinned at the origin: its frame is at
+    // (cos φ, sin φ), φ = −π/2 + 0.5 sin 2πt − t²/10 + 1.5e-5 t³.
+    let col = |name: &str| csv.column(name);
+    let c = [
+        col("rod.x")?,
+        col("rod.y")?,
+        col("rod.phi")?,
+        col("rod.x_dot")?,
+        col("rod.y_dot")?,
+        col("rod.phi_dot")?,
+        col("rod.x_ddot")?,
+        col("rod.y_ddot")?,
+        col("rod.phi_ddot")?,
+    ];
+    for row in &csv.rows {
+        let t = row[0];
+        let w = 2.0 * PI;
+        let p = -PI / 2.0 + 0.5 * (w * t).sin() - t * t / 10.0 + 1.5e-5 * t.powi(3);
+        let pd = PI * (w * t).cos() - t / 5.0 + 4.5e-5 * t * t;
+        let pdd = -2.0 * PI * PI * (w * t).sin() - 0.2 + 9e-5 * t;
+        let (sn, cs) = p.sin_cos();
+        let exact = [
+            cs,
+            sn,
+            p,
+            -sn * pd,
+            cs * pd,
+            pd,
+            -cs * pd * pd - sn * pdd,
+            -sn * pd * pd + cs * pdd,
+            pdd,
+        ];
+        for (k, (&i, e)) in c.iter().zip(exact).enumerate() {
+            assert!(
+                (row[i] - e).abs() <= 1e-10,
+                "t = {t}: column {k} = {}, closed form {e}",
+                row[i]
+            );
+        }
+    }
+    Ok(())
+}
+
+#[test]
 fn adm_import_prints_kin_text() -> TestResult {
     let adm = format!("{ADM_DATA}/slider_crank.adm");
     let o = kinema(&["import", &adm]);
