@@ -76,8 +76,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     }
 
     /// A solver with the given options and an already analysed linear solver
-    /// (e.g. [`Auto::with_threshold`]), whose dimension must be the
-    /// system's.
+    /// (e.g. [`Auto::with_threshold`]). It must have been analysed from this
+    /// system's dimension and Jacobian pattern; the dimension is checked
+    /// here, the number of nonzeros at each factorization.
     pub fn with_linear_solver(system: S, options: Options, lu: L) -> Result<Self, Error> {
         let n = system.len();
         if lu.dim() != n {
