@@ -272,7 +272,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             let w = Instant::now();
             sink.write(state)?;
             if let Some(s) = &mut samples
-                && (written % stride == 0 || written + 1 == outputs)
+                && (written.is_multiple_of(stride) || written + 1 == outputs)
             {
                 s.push(state);
             }
