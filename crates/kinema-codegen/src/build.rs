@@ -1,16 +1,16 @@
 //! The build-script path: a `.kin` file in, a formatted `.rs` file out.
 //!
+//! In `build.rs`:
+//!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     if let Err(e) = kinema_codegen::build::generate("models/slider_crank.kin", "slider_crank.rs") {
-//!         eprintln!("{e}");
-//!         std::process::exit(1);
-//!     }
+//! if let Err(e) = kinema_codegen::build::generate("models/slider_crank.kin", "slider_crank.rs") {
+//!     eprintln!("{e}"); // file:line:col and the offending source line
+//!     std::process::exit(1);
 //! }
-//! // src/main.rs
-//! // include!(concat!(env!("OUT_DIR"), "/slider_crank.rs"));
 //! ```
+//!
+//! and in the crate: `include!(concat!(env!("OUT_DIR"), "/slider_crank.rs"));`
+//! (see `examples/build-rs`).
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -1,0 +1,51 @@
+//! Time to get from model text to something that runs, on the serial chain:
+//! parse + check + derive (the derivation of BENCHMARKS.md), then tape
+//! compilation (runnable with no compiler), and the code generator's own
+//! work (what `mechanism!` does at expansion) at N = 200.
+//!
+//! `cargo bench -p kinema-bench --bench derivation`
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use kinema_model::{Derivation, Model};
+
+fn derive(text: &str) -> Derivation {
+    let checked = Model::parse_str(text)
+        .and_then(|m| m.check())
+        .unwrap_or_else(|e| panic!("{}", e.render(text, "chain.kin")));
+    Derivation::new(&checked)
+}
+
+fn derivation(c: &mut Criterion) {
+    let mut group = c.benchmark_group("derivation");
+    group.sample_size(10);
+    for n in [10usize, 200, 1000] {
+        let text = kinema_model::chain::chain_kin(n);
+        group.bench_with_input(
+            BenchmarkId::new("text to derivation", n),
+            &text,
+            |b, text| {
+                b.iter(|| derive(black_box(text)).phi.len());
+            },
+        );
+        let d = derive(&text);
+        group.bench_with_input(
+            BenchmarkId::new("text to runnable tapes", n),
+            &text,
+            |b, text| {
+                b.iter(|| kinema::Model::from_derivation(derive(black_box(text))).system());
+            },
+        );
+        if n == 200 {
+            let options = kinema_codegen::Options::default();
+            group.bench_function(BenchmarkId::new("codegen expand", n), |b| {
+                b.iter(|| kinema_codegen::expand(black_box(&d), &options).is_empty());
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, derivation);
+criterion_main!(benches);

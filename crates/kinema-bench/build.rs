@@ -1,0 +1,46 @@
+//! Generates the solvers of the benchmark mechanisms into OUT_DIR with
+//! kinema-codegen's build-script path: the two models from models/ and the
+//! serial chains from kinema-model's generator (N = 200 and 1000 only with
+//! the `large` feature: they take a while to compile).
+
+use std::path::Path;
+
+fn main() {
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    for (file, out) in [
+        ("slider_crank.kin", "slider_crank.rs"),
+        ("four_bar.kin", "four_bar.rs"),
+    ] {
+        if let Err(e) = kinema_codegen::build::generate(models.join(file), out) {
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    }
+    let mut chains = vec![2, 10, 50, 100];
+    if std::env::var_os("CARGO_FEATURE_LARGE").is_some() {
+        chains.extend([200, 1000]);
+    }
+    let Some(out_dir) = std::env::var_os("OUT_DIR") else {
+        eprintln!("OUT_DIR is not set");
+        std::process::exit(1);
+    };
+    for n in chains {
+        let text = kinema_model::chain::chain_kin(n);
+        let source = kinema_codegen::build::derive_source(&text, &format!("chain{n}.kin"))
+            .map(|d| kinema_codegen::generate_source(&d, &kinema_codegen::Options::default()));
+        match source {
+            Ok(source) => {
+                let path = Path::new(&out_dir).join(format!("chain{n}.rs"));
+                if let Err(e) = std::fs::write(&path, source) {
+                    eprintln!("{}: {e}", path.display());
+                    std::process::exit(1);
+                }
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+        }
+    }
+    println!("cargo::rerun-if-changed=build.rs");
+}
