@@ -1,5 +1,6 @@
 //! Time to get from model text to something that runs, on the serial chain:
-//! parse + check + derive (the derivation of BENCHMARKS.md), then tape
+//! parse + check + derive, the derivation alone (lowering to expressions,
+//! Φ_q, ν, γ: what the peers' derivation times measure), then tape
 //! compilation (runnable with no compiler), and the code generator's own
 //! work (what `mechanism!` does at expansion) at N = 200.
 //!
@@ -27,6 +28,16 @@ fn derivation(c: &mut Criterion) {
             &text,
             |b, text| {
                 b.iter(|| derive(black_box(text)).phi.len());
+            },
+        );
+        let checked = Model::parse_str(&text)
+            .and_then(|m| m.check())
+            .unwrap_or_else(|e| panic!("{}", e.render(&text, "chain.kin")));
+        group.bench_with_input(
+            BenchmarkId::new("checked model to derivation", n),
+            &checked,
+            |b, checked| {
+                b.iter(|| Derivation::new(black_box(checked)).phi.len());
             },
         );
         let d = derive(&text);
