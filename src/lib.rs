@@ -48,3 +48,8 @@ pub use model::{Model, ModelError, TapeSystem};
 pub mod __private {
     pub use kinema_runtime::{Auto, DenseLu, Error, Options, Solver, SparseLu, System};
 }
+
+/// The README's Rust examples, compiled and run as doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
