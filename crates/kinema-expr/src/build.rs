@@ -37,6 +37,57 @@ pub(crate) fn powv(x: f64, p: f64) -> f64 {
     }
 }
 
+/// An operand of a sum (a term and its coefficient) or of a product (a
+/// factor and its exponent): an expression with a numeric weight.
+trait Weighted: Copy {
+    fn expr(&self) -> ExprId;
+    fn weight(&self) -> f64;
+    fn add_weight(&mut self, w: f64);
+}
+
+impl Weighted for Term {
+    fn expr(&self) -> ExprId {
+        self.expr
+    }
+    fn weight(&self) -> f64 {
+        self.coeff
+    }
+    fn add_weight(&mut self, w: f64) {
+        self.coeff += w;
+    }
+}
+
+impl Weighted for Factor {
+    fn expr(&self) -> ExprId {
+        self.base
+    }
+    fn weight(&self) -> f64 {
+        self.exp
+    }
+    fn add_weight(&mut self, w: f64) {
+        self.exp += w;
+    }
+}
+
+/// Sorts operands into canonical order, merges equal expressions (adding
+/// their weights: like terms, like bases) and drops zero weights.
+fn merge_like<T: Weighted>(buf: &mut Vec<T>, order: impl Fn(ExprId, ExprId) -> std::cmp::Ordering) {
+    buf.retain(|o| o.weight() != 0.0);
+    buf.sort_by(|a, b| order(a.expr(), b.expr()));
+    let mut w: usize = 0;
+    for r in 0..buf.len() {
+        let next = buf[r];
+        if w > 0 && buf[w - 1].expr() == next.expr() {
+            buf[w - 1].add_weight(next.weight());
+        } else {
+            buf[w] = next;
+            w += 1;
+        }
+    }
+    buf.truncate(w);
+    buf.retain(|o| o.weight() != 0.0);
+}
+
 fn finite_or(v: f64) -> Option<f64> {
     v.is_finite().then_some(if v == 0.0 { 0.0 } else { v })
 }
@@ -148,20 +199,7 @@ impl Arena {
             }
             i += 1;
         }
-        buf.retain(|t| t.coeff != 0.0);
-        buf.sort_by(|a, b| self.term_cmp(a.expr, b.expr));
-        // Merge like terms (now adjacent) and drop zeros.
-        let mut w = 0;
-        for r in 0..buf.len() {
-            if w > 0 && buf[w - 1].expr == buf[r].expr {
-                buf[w - 1].coeff += buf[r].coeff;
-            } else {
-                buf[w] = buf[r];
-                w += 1;
-            }
-        }
-        buf.truncate(w);
-        buf.retain(|t| t.coeff != 0.0);
+        merge_like(&mut buf, |a, b| self.term_cmp(a, b));
         let constant = if constant == 0.0 { 0.0 } else { constant };
         let result = match (buf.as_slice(), constant == 0.0) {
             ([], _) => self.num(constant),
@@ -310,19 +348,7 @@ impl Arena {
         if coeff == 0.0 {
             return self.zero;
         }
-        buf.retain(|f| f.exp != 0.0);
-        buf.sort_by(|a, b| self.factor_cmp(a.base, b.base));
-        let mut w = 0;
-        for r in 0..buf.len() {
-            if w > 0 && buf[w - 1].base == buf[r].base {
-                buf[w - 1].exp += buf[r].exp;
-            } else {
-                buf[w] = buf[r];
-                w += 1;
-            }
-        }
-        buf.truncate(w);
-        buf.retain(|f| f.exp != 0.0);
+        merge_like(buf, |a, b| self.factor_cmp(a, b));
         if !coeff.is_finite() {
             // Overflowed coefficient: keep it visible as a factor instead of folding.
             let c = self.intern(Node::Num(coeff));
