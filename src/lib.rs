@@ -46,7 +46,9 @@ pub use model::{Model, ModelError, TapeSystem};
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
 pub mod __private {
-    pub use kinema_runtime::{Auto, DenseLu, Error, Options, Solver, SparseLu, System};
+    pub use kinema_runtime::{
+        Auto, DenseLu, Error, LinalgError, LinearSolver, Options, Solver, SparseLu, System,
+    };
 }
 
 /// The README's Rust examples, compiled and run as doc tests.

@@ -55,7 +55,7 @@ macro_rules! mechanism {
         let mut group = $c.benchmark_group(concat!("step/", $name));
         group.sample_size($samples);
         for (mode, options) in modes() {
-            per_step(&mut group, &format!("generated/{mode}"), kinema_bench::solver($generated, options));
+            per_step(&mut group, &format!("generated/{mode}"), $generated.solver(options).unwrap_or_else(|e| panic!("{e}")));
             per_step(&mut group, &format!("tape/{mode}"), kinema_bench::solver(tape($name), options));
             $(per_step(&mut group, &format!("handwritten/{mode}"), kinema_bench::solver($hand, options));)?
         }

@@ -80,9 +80,11 @@ pub(crate) fn body(
     let schedule = arena.schedule(outputs);
     let nodes = schedule.nodes();
     let mut code: Vec<Code> = Vec::with_capacity(nodes.len());
-    let mut stmts = TokenStream::new();
+    let mut bindings: Vec<TokenStream> = Vec::new();
     let mut used = Used::default();
-    let mut names = 0usize;
+    // Past `MAX_LETS` bindings, values live in one local array (see
+    // `lu::MAX_LETS`); decided up front from the binding count.
+    let large = count_bindings(arena, &schedule) > crate::lu::MAX_LETS;
     for (i, &n) in nodes.iter().enumerate() {
         let child = |e: ExprId| -> &Code {
             // Children always precede their parents in a schedule.
@@ -94,15 +96,30 @@ pub(crate) fn body(
         let leaf = matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_));
         let bind = !leaf && (uses > 1 || c.depth > MAX_INLINE_DEPTH);
         if bind {
-            let name = format_ident!("v{}", names);
-            names += 1;
             let value = &c.tokens;
-            stmts.extend(quote! { let #name = #value; });
-            code.push(Code::atom(quote!(#name)));
+            let place = if large {
+                let k = Literal::usize_unsuffixed(bindings.len());
+                quote!(v[#k])
+            } else {
+                let name = format_ident!("v{}", bindings.len());
+                quote!(#name)
+            };
+            bindings.push(if large {
+                quote! { #place = #value; }
+            } else {
+                quote! { let #place = #value; }
+            });
+            code.push(Code::atom(place));
         } else {
             code.push(c);
         }
     }
+    let mut stmts = TokenStream::new();
+    if large {
+        let k = Literal::usize_unsuffixed(bindings.len());
+        stmts.extend(quote! { let mut v = [0.0f64; #k]; });
+    }
+    stmts.extend(bindings);
     for (k, &o) in outputs.iter().enumerate() {
         let value = match schedule.position(o) {
             Some(p) => code[p].tokens.clone(),
@@ -112,6 +129,20 @@ pub(crate) fn body(
         stmts.extend(quote! { #place = #value; });
     }
     (stmts, used)
+}
+
+/// How many values [`body`] binds for `schedule`: the shared ones (the
+/// depth limit adds a few more, which `MAX_LETS` leaves room for).
+fn count_bindings(arena: &Arena, schedule: &kinema_expr::Schedule) -> usize {
+    schedule
+        .nodes()
+        .iter()
+        .enumerate()
+        .filter(|&(i, &n)| {
+            let uses = schedule.parent_uses()[i] + schedule.output_uses()[i];
+            uses > 1 && !matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_))
+        })
+        .count()
 }
 
 /// A finite number as a literal (negation emitted separately), or a named

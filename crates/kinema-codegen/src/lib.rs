@@ -8,12 +8,23 @@
 //! no panics. It also carries the derivation as text
 //! (`SliderCrank::derivation()`) for snapshot tests.
 //!
+//! Beside it comes `SliderCrankLu`, a sparse LU generated for the Jacobian's
+//! pattern (module `lu`): the pivot order is chosen at generation time on Φ_q
+//! at the initial guess, constants (the ±1 of joint and driver rows) are
+//! folded, and the factorization and solves are straight-line code over
+//! fixed-size arrays. Each factorization is checked against the runtime's
+//! criteria (finite values, pivots above τ · scale, multipliers ≤ 10); when
+//! the order does not suit the matrix, the runtime's `DenseLu<N>` (or `Auto`
+//! for large systems) held inside takes over, and its partial pivoting gives
+//! the singularity verdict and diagnostics. `SliderCrank::solver()` uses it.
+//!
 //! Three ways to use it: the `kinema::mechanism!` macro (through
 //! [`expand`]), a build script ([`build::generate`], writing a formatted
 //! `.rs` file into `OUT_DIR`), and `kinema codegen` on the command line
 //! ([`generate_source`]).
 
 mod emit;
+mod lu;
 mod macro_input;
 
 pub mod build;
@@ -32,8 +43,14 @@ pub struct Options {
     /// `::kinema_runtime` for an app that depends on the runtime alone).
     pub runtime: syn::Path,
     /// Largest coordinate count for which `solver()` uses the statically
-    /// sized dense LU; above it, the size-based automatic choice.
+    /// sized dense LU; above it, the size-based automatic choice. (With
+    /// [`static_lu`](Self::static_lu), the solver the generated LU falls
+    /// back to.)
     pub static_dense_limit: usize,
+    /// Generate a sparse LU specialized to the Jacobian's pattern (pivot
+    /// order chosen at generation time, straight-line factorization and
+    /// solves, runtime fallback) and make `solver()` use it.
+    pub static_lu: bool,
 }
 
 impl Default for Options {
@@ -41,6 +58,7 @@ impl Default for Options {
         Options {
             runtime: syn::parse_quote!(::kinema::__private),
             static_dense_limit: 24,
+            static_lu: true,
         }
     }
 }
@@ -155,31 +173,71 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     let gamma_q_check = sized(gamma_used.q, "q", &nc_lit, false);
     let gamma_qd_check = sized(gamma_used.qd, "qd", &nc_lit, false);
 
-    let solver = if nc <= options.static_dense_limit {
-        quote! {
-            /// The solver for this mechanism: Newton–Raphson position analysis,
-            /// velocity and acceleration, with a dense LU sized at compile time.
-            ///
-            /// # Errors
-            /// If the runtime rejects the Jacobian pattern (it cannot for
-            /// generated code).
-            pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #rt::DenseLu<#nc_lit>>, #rt::Error> {
-                #rt::Solver::with_options(self, options)
-            }
-        }
+    let fallback = if nc <= options.static_dense_limit {
+        quote!(#rt::DenseLu<#nc_lit>)
     } else {
-        quote! {
-            /// The solver for this mechanism: Newton–Raphson position analysis,
-            /// velocity and acceleration, with a sparse LU whose symbolic
-            /// analysis is done once.
-            ///
-            /// # Errors
-            /// If the runtime rejects the Jacobian pattern (it cannot for
-            /// generated code).
-            pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #rt::Auto>, #rt::Error> {
-                #rt::Solver::with_options(self, options)
-            }
+        quote!(#rt::Auto)
+    };
+    let plan = if options.static_lu {
+        static_lu_plan(d)
+    } else {
+        None
+    };
+    let (solver, lu_items) = match plan {
+        Some(plan) => {
+            let lu_name = format_ident!("{}Lu", name);
+            let items = plan.emit(&lu::Names {
+                rt,
+                ty: &lu_name,
+                system: &name,
+                fallback: fallback.clone(),
+            });
+            let doc = format!(
+                " velocity and acceleration, with [`{lu_name}`], the LU generated for this"
+            );
+            let solver = quote! {
+                /// The solver for this mechanism: Newton–Raphson position analysis,
+                #[doc = #doc]
+                /// Jacobian's pattern.
+                ///
+                /// # Errors
+                /// If the runtime rejects the Jacobian pattern (it cannot for
+                /// generated code).
+                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #lu_name>, #rt::Error> {
+                    #rt::Solver::with_options(self, options)
+                }
+            };
+            (solver, items)
         }
+        None if nc <= options.static_dense_limit => (
+            quote! {
+                /// The solver for this mechanism: Newton–Raphson position analysis,
+                /// velocity and acceleration, with a dense LU sized at compile time.
+                ///
+                /// # Errors
+                /// If the runtime rejects the Jacobian pattern (it cannot for
+                /// generated code).
+                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #fallback>, #rt::Error> {
+                    #rt::Solver::with_options(self, options)
+                }
+            },
+            quote!(),
+        ),
+        None => (
+            quote! {
+                /// The solver for this mechanism: Newton–Raphson position analysis,
+                /// velocity and acceleration, with a sparse LU whose symbolic
+                /// analysis is done once.
+                ///
+                /// # Errors
+                /// If the runtime rejects the Jacobian pattern (it cannot for
+                /// generated code).
+                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #fallback>, #rt::Error> {
+                    #rt::Solver::with_options(self, options)
+                }
+            },
+            quote!(),
+        ),
     };
 
     let nc_doc = format!(" Number of generalized coordinates (and equations): {nc}.");
@@ -280,7 +338,35 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
                 #gamma_body
             }
         }
+
+        #lu_items
     }
+}
+
+/// The generated LU's plan: Φ_q's pattern, which entries are numbers, and
+/// their values at the initial guess with the default parameters (t = 0).
+fn static_lu_plan(d: &Derivation) -> Option<lu::Plan> {
+    use kinema_expr::SymKind;
+    let a = &d.arena;
+    let params: Vec<f64> = d.params.iter().map(|p| p.value).collect();
+    let value = |q: &[f64], s: kinema_expr::SymId| -> f64 {
+        match a.symbol(s).kind {
+            SymKind::Parameter(i) => params.get(i as usize).copied().unwrap_or(0.0),
+            SymKind::Coordinate(i) => q.get(i as usize).copied().unwrap_or(0.0),
+            SymKind::Velocity(_) | SymKind::Time => 0.0,
+        }
+    };
+    let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
+    let q = a.eval_many(&guesses, |s| value(&[], s));
+    let exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
+    let values = a.eval_many(&exprs, |s| value(&q, s));
+    let pattern: Vec<_> = d
+        .phi_q
+        .entries
+        .iter()
+        .map(|e| (e.row, e.col, a.as_num(e.expr)))
+        .collect();
+    lu::Plan::new(d.nc(), &pattern, &values)
 }
 
 /// The generated items as formatted Rust source (prettyplease), with a
