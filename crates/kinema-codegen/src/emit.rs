@@ -57,6 +57,92 @@ impl Code {
 pub(crate) struct Inputs<'a> {
     /// Names of the parameters (read as `self.name`).
     pub params: &'a [Ident],
+    /// Nodes whose value is read from somewhere else (a per-step cache):
+    /// emitted as the given tokens, their operands not visited.
+    pub cached: &'a dyn Fn(ExprId) -> Option<TokenStream>,
+}
+
+/// Children of `e` (operands), in canonical order.
+pub(crate) fn children(arena: &Arena, e: ExprId, out: &mut Vec<ExprId>) {
+    match arena.node(e) {
+        NodeRef::Num(_) | NodeRef::Sym(_) => {}
+        NodeRef::Add { terms, .. } => out.extend(terms.iter().map(|t| t.expr)),
+        NodeRef::Mul { factors, .. } => out.extend(factors.iter().map(|f| f.base)),
+        NodeRef::Unary(_, a) => out.push(a),
+        NodeRef::Pow(a, b) | NodeRef::Atan2(a, b) => {
+            out.push(a);
+            out.push(b);
+        }
+    }
+}
+
+/// The nodes `outputs` need, children before parents (depth-first
+/// post-order, first child first), not descending below cached nodes; with
+/// use counts. Like `Arena::schedule`, which cannot stop at given nodes.
+struct Schedule {
+    nodes: Vec<ExprId>,
+    /// Position of each arena node (`usize::MAX` if absent).
+    position: Vec<usize>,
+    /// Uses of each scheduled node as an operand and as an output.
+    uses: Vec<u32>,
+}
+
+impl Schedule {
+    fn new(arena: &Arena, outputs: &[ExprId], stop: &dyn Fn(ExprId) -> bool) -> Self {
+        let mut position = vec![usize::MAX; arena.len()];
+        let mut nodes = Vec::new();
+        let mut stack: Vec<(ExprId, bool)> = Vec::new();
+        let mut kids = Vec::new();
+        for &root in outputs {
+            stack.push((root, false));
+            while let Some((n, expanded)) = stack.pop() {
+                if position[n.index()] != usize::MAX {
+                    continue;
+                }
+                if expanded || stop(n) {
+                    position[n.index()] = nodes.len();
+                    nodes.push(n);
+                } else {
+                    stack.push((n, true));
+                    kids.clear();
+                    children(arena, n, &mut kids);
+                    for &c in kids.iter().rev() {
+                        if position[c.index()] == usize::MAX {
+                            stack.push((c, false));
+                        }
+                    }
+                }
+            }
+        }
+        let mut uses = vec![0u32; nodes.len()];
+        for &n in &nodes {
+            if stop(n) {
+                continue;
+            }
+            kids.clear();
+            children(arena, n, &mut kids);
+            kids.sort_unstable();
+            kids.dedup();
+            for c in &kids {
+                uses[position[c.index()]] += 1;
+            }
+        }
+        for o in outputs {
+            uses[position[o.index()]] += 1;
+        }
+        Schedule {
+            nodes,
+            position,
+            uses,
+        }
+    }
+
+    fn position(&self, e: ExprId) -> Option<usize> {
+        self.position
+            .get(e.index())
+            .copied()
+            .filter(|&p| p != usize::MAX)
+    }
 }
 
 /// Which inputs a generated body reads: decides whether a function argument
@@ -77,8 +163,8 @@ pub(crate) fn body(
     target: &dyn Fn(usize) -> TokenStream,
     inputs: &Inputs<'_>,
 ) -> (TokenStream, Used) {
-    let schedule = arena.schedule(outputs);
-    let nodes = schedule.nodes();
+    let schedule = Schedule::new(arena, outputs, &|e| (inputs.cached)(e).is_some());
+    let nodes = &schedule.nodes;
     let mut code: Vec<Code> = Vec::with_capacity(nodes.len());
     let mut bindings: Vec<TokenStream> = Vec::new();
     let mut used = Used::default();
@@ -86,13 +172,17 @@ pub(crate) fn body(
     // `lu::MAX_LETS`); decided up front from the binding count.
     let large = count_bindings(arena, &schedule) > crate::lu::MAX_LETS;
     for (i, &n) in nodes.iter().enumerate() {
+        if let Some(tokens) = (inputs.cached)(n) {
+            code.push(Code::atom(tokens));
+            continue;
+        }
         let child = |e: ExprId| -> &Code {
             // Children always precede their parents in a schedule.
             let p = schedule.position(e).unwrap_or(0);
             &code[p]
         };
         let c = node(arena, n, &child, inputs, &mut used);
-        let uses = schedule.parent_uses()[i] + schedule.output_uses()[i];
+        let uses = schedule.uses[i];
         let leaf = matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_));
         let bind = !leaf && (uses > 1 || c.depth > MAX_INLINE_DEPTH);
         if bind {
@@ -133,16 +223,25 @@ pub(crate) fn body(
 
 /// How many values [`body`] binds for `schedule`: the shared ones (the
 /// depth limit adds a few more, which `MAX_LETS` leaves room for).
-fn count_bindings(arena: &Arena, schedule: &kinema_expr::Schedule) -> usize {
+fn count_bindings(arena: &Arena, schedule: &Schedule) -> usize {
     schedule
-        .nodes()
+        .nodes
         .iter()
-        .enumerate()
-        .filter(|&(i, &n)| {
-            let uses = schedule.parent_uses()[i] + schedule.output_uses()[i];
+        .zip(&schedule.uses)
+        .filter(|&(&n, &uses)| {
             uses > 1 && !matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_))
         })
         .count()
+}
+
+/// The nodes below `outputs` (outputs included), each once, in schedule
+/// order, not descending below nodes for which `stop` holds.
+pub(crate) fn reachable(
+    arena: &Arena,
+    outputs: &[ExprId],
+    stop: &dyn Fn(ExprId) -> bool,
+) -> Vec<ExprId> {
+    Schedule::new(arena, outputs, stop).nodes
 }
 
 /// A finite number as a literal (negation emitted separately), or a named

@@ -18,11 +18,20 @@
 //! for large systems) held inside takes over, and its partial pivoting gives
 //! the singularity verdict and diagnostics. `SliderCrank::solver()` uses it.
 //!
+//! The struct also has a hidden field `__cache` (module `cache`): sin and
+//! cos of the body angles keyed on the exact angle, and the functions of
+//! time (the drivers' sin, cos, …) keyed on the exact t, so that the
+//! evaluations of one step — and the next step's first, at the same q —
+//! share them. It never changes a result and compares equal to any other
+//! cache; build the mechanism with `..Default::default()` when setting
+//! parameters: `SliderCrank { l2: 0.3, ..SliderCrank::default() }`.
+//!
 //! Three ways to use it: the `kinema::mechanism!` macro (through
 //! [`expand`]), a build script ([`build::generate`], writing a formatted
 //! `.rs` file into `OUT_DIR`), and `kinema codegen` on the command line
 //! ([`generate_source`]).
 
+mod cache;
 mod emit;
 mod lu;
 mod macro_input;
@@ -113,19 +122,47 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     });
     let derivation_text = d.render();
 
-    let inputs = emit::Inputs { params: &params };
     let a = &d.arena;
     let out = format_ident!("out");
     let to_out = |k: usize| emit::index(&out, k);
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
     let guess_exprs: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
 
+    // sin/cos of the angles and the functions of time, cached per step.
+    let everything: Vec<_> = d
+        .phi
+        .iter()
+        .chain(&jac_exprs)
+        .chain(&d.nu)
+        .chain(&d.gamma)
+        .copied()
+        .collect();
+    let cache = cache::Cache::find(a, &everything);
+    let lookup = |e| cache.lookup(e);
+    let no_cache = |_| None;
+    let inputs = emit::Inputs {
+        params: &params,
+        cached: &lookup,
+    };
+    // The body of a method computing `outputs`, the cache refreshed first.
+    let method = |outputs: &[kinema_expr::ExprId], target: &dyn Fn(usize) -> TokenStream| {
+        let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
+        let (body, mut used) = emit::body(a, outputs, target, &inputs);
+        used.q |= reads_q;
+        used.t |= reads_t;
+        (quote!(#refresh #body), used)
+    };
+
     let q_name = format_ident!("q");
-    let (guess_body, _) = emit::body(a, &guess_exprs, &|k| emit::index(&q_name, k), &inputs);
-    let (phi_body, phi_used) = emit::body(a, &d.phi, &to_out, &inputs);
-    let (jac_body, jac_used) = emit::body(a, &jac_exprs, &to_out, &inputs);
-    let (nu_body, nu_used) = emit::body(a, &d.nu, &to_out, &inputs);
-    let (gamma_body, gamma_used) = emit::body(a, &d.gamma, &to_out, &inputs);
+    let guess_inputs = emit::Inputs {
+        params: &params,
+        cached: &no_cache,
+    };
+    let (guess_body, _) = emit::body(a, &guess_exprs, &|k| emit::index(&q_name, k), &guess_inputs);
+    let (phi_body, phi_used) = method(&d.phi, &to_out);
+    let (jac_body, jac_used) = method(&jac_exprs, &to_out);
+    let (nu_body, nu_used) = method(&d.nu, &to_out);
+    let (gamma_body, gamma_used) = method(&d.gamma, &to_out);
     // Φ and Φ_q together: one schedule, so sin/cos are computed once per body.
     let both: Vec<_> = d.phi.iter().chain(&jac_exprs).copied().collect();
     let (phi_name, values_name) = (format_ident!("phi"), format_ident!("values"));
@@ -136,7 +173,23 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
             emit::index(&values_name, k - nc)
         }
     };
-    let (both_body, both_used) = emit::body(a, &both, &to_both, &inputs);
+    let (both_body, both_used) = method(&both, &to_both);
+    let (cache_field, cache_default, cache_items) = if cache.is_empty() {
+        (quote!(), quote!(), quote!())
+    } else {
+        let cache_name = format_ident!("{}Cache", name);
+        (
+            quote! {
+                /// Per-step cache (sin and cos of the body angles, functions of
+                /// time). Not a parameter: construct the mechanism with
+                /// `..Default::default()`; it never affects results or equality.
+                #[doc(hidden)]
+                pub __cache: #cache_name,
+            },
+            quote!(__cache: ::core::default::Default::default(),),
+            cache.items(a, &cache_name, &params),
+        )
+    };
 
     let arg = |used: bool, name: &str| {
         if used {
@@ -248,11 +301,12 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
         #[derive(Clone, Debug, PartialEq)]
         pub struct #name {
             #(#fields)*
+            #cache_field
         }
 
         impl ::core::default::Default for #name {
             fn default() -> Self {
-                Self { #(#defaults)* }
+                Self { #(#defaults)* #cache_default }
             }
         }
 
@@ -338,6 +392,8 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
                 #gamma_body
             }
         }
+
+        #cache_items
 
         #lu_items
     }

@@ -1,0 +1,267 @@
+//! Per-step caches of a generated system: sin and cos of the body angles,
+//! keyed on the exact angle, and the functions of time (drivers' sin, cos,
+//! …), keyed on the exact t.
+//!
+//! Within one step the runtime evaluates Φ and Φ_q at several iterates, then
+//! ν and γ at the converged q; the next step's first iterate is that same q
+//! again. Every evaluation at an angle already seen reuses its sin and cos
+//! (one `sin_cos` per new angle), and the drivers' functions of t are
+//! computed once per time. Values are compared bit for bit, so a cache hit
+//! returns exactly what the computation would: results do not change.
+//!
+//! The cache holds nothing that depends on parameters, so changing a
+//! parameter between steps never makes it stale.
+
+use std::collections::BTreeMap;
+
+use kinema_expr::{Arena, ExprId, NodeRef, SymKind, UnaryOp};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+
+use crate::emit;
+
+/// What a generated system caches.
+pub(crate) struct Cache {
+    /// Coordinate index of each cached angle.
+    angles: Vec<u32>,
+    /// sin or cos node → (angle slot, is sin).
+    trig: BTreeMap<ExprId, (usize, bool)>,
+    /// Functions of t alone, in slot order.
+    time: Vec<ExprId>,
+    time_slot: BTreeMap<ExprId, usize>,
+}
+
+/// Which inputs a node depends on.
+#[derive(Clone, Copy, Default)]
+struct Deps {
+    time: bool,
+    other: bool,
+}
+
+impl Cache {
+    /// Finds the cacheable nodes below `outputs`.
+    pub(crate) fn find(arena: &Arena, outputs: &[ExprId]) -> Cache {
+        let nodes = emit::reachable(arena, outputs, &|_| false);
+        let mut deps = vec![Deps::default(); arena.len()];
+        let mut angle_slot: BTreeMap<u32, usize> = BTreeMap::new();
+        let mut trig_nodes: Vec<(ExprId, u32, bool)> = Vec::new();
+        let mut time = Vec::new();
+        let mut kids = Vec::new();
+        for &n in &nodes {
+            let mut d = Deps::default();
+            match arena.node(n) {
+                NodeRef::Sym(s) => match arena.symbol(s).kind {
+                    SymKind::Time => d.time = true,
+                    _ => d.other = true,
+                },
+                _ => {
+                    kids.clear();
+                    emit::children(arena, n, &mut kids);
+                    for k in &kids {
+                        let c = deps[k.index()];
+                        d.time |= c.time;
+                        d.other |= c.other;
+                    }
+                }
+            }
+            deps[n.index()] = d;
+            if let NodeRef::Unary(op @ (UnaryOp::Sin | UnaryOp::Cos), a) = arena.node(n)
+                && let NodeRef::Sym(s) = arena.node(a)
+                && let SymKind::Coordinate(i) = arena.symbol(s).kind
+            {
+                angle_slot.entry(i).or_insert(0);
+                trig_nodes.push((n, i, op == UnaryOp::Sin));
+            }
+            let expensive = match arena.node(n) {
+                NodeRef::Unary(op, _) => !matches!(op, UnaryOp::Abs | UnaryOp::Smooth(_)),
+                NodeRef::Pow(..) | NodeRef::Atan2(..) => true,
+                _ => false,
+            };
+            if expensive && d.time && !d.other {
+                time.push(n);
+            }
+        }
+        let angles: Vec<u32> = angle_slot.keys().copied().collect();
+        for (slot, v) in angle_slot.values_mut().enumerate() {
+            *v = slot;
+        }
+        let trig = trig_nodes
+            .into_iter()
+            .map(|(n, i, sin)| (n, (angle_slot[&i], sin)))
+            .collect();
+        let time_slot = time.iter().enumerate().map(|(k, &n)| (n, k)).collect();
+        Cache {
+            angles,
+            trig,
+            time,
+            time_slot,
+        }
+    }
+
+    /// Nothing to cache.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.angles.is_empty() && self.time.is_empty()
+    }
+
+    /// Where a cached node's value is read, if it is cached.
+    pub(crate) fn lookup(&self, e: ExprId) -> Option<TokenStream> {
+        if let Some(&(slot, sin)) = self.trig.get(&e) {
+            let slot = Literal::usize_unsuffixed(slot);
+            return Some(if sin {
+                quote!(self.__cache.sin[#slot])
+            } else {
+                quote!(self.__cache.cos[#slot])
+            });
+        }
+        self.time_slot.get(&e).map(|&slot| {
+            let slot = Literal::usize_unsuffixed(slot);
+            quote!(self.__cache.time[#slot])
+        })
+    }
+
+    /// Statements bringing the cache up to date for `outputs` (at the
+    /// current `q` and `t`), and whether they read q and t.
+    pub(crate) fn refresh(&self, arena: &Arena, outputs: &[ExprId]) -> (TokenStream, bool, bool) {
+        if self.is_empty() {
+            return (quote!(), false, false);
+        }
+        let reached = emit::reachable(arena, outputs, &|e| self.lookup(e).is_some());
+        let mut slots: Vec<usize> = reached
+            .iter()
+            .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
+            .collect();
+        slots.sort_unstable();
+        slots.dedup();
+        let uses_time = reached.iter().any(|e| self.time_slot.contains_key(e));
+        let mut out = TokenStream::new();
+        if uses_time {
+            out.extend(quote! {
+                if t.to_bits() != self.__cache.t.to_bits() {
+                    self.__cache.refresh_time(t);
+                }
+            });
+        }
+        if !slots.is_empty() {
+            let checks = slots.iter().map(|&slot| {
+                let i = Literal::usize_unsuffixed(self.angles[slot] as usize);
+                let k = Literal::usize_unsuffixed(slot);
+                quote! {
+                    if q[#i].to_bits() != c.angle[#k].to_bits() {
+                        c.angle[#k] = q[#i];
+                        (c.sin[#k], c.cos[#k]) = q[#i].sin_cos();
+                    }
+                }
+            });
+            out.extend(quote! {
+                {
+                    let c = &mut self.__cache;
+                    #(#checks)*
+                }
+            });
+        }
+        (out, !slots.is_empty(), uses_time)
+    }
+
+    /// The cache type `name` and the field declaration for the system.
+    pub(crate) fn items(&self, arena: &Arena, name: &Ident, params: &[Ident]) -> TokenStream {
+        let k = Literal::usize_unsuffixed(self.angles.len());
+        let m = Literal::usize_unsuffixed(self.time.len());
+        let (angle_fields, angle_init) = if self.angles.is_empty() {
+            (quote!(), quote!())
+        } else {
+            (
+                quote! {
+                    angle: [f64; #k],
+                    sin: [f64; #k],
+                    cos: [f64; #k],
+                },
+                quote! {
+                    angle: [0.0; #k],
+                    sin: [0.0; #k],
+                    cos: [1.0; #k],
+                },
+            )
+        };
+        let (time_fields, time_init, time_refresh) = if self.time.is_empty() {
+            (quote!(), quote!(), quote!())
+        } else {
+            let none = |_: ExprId| None;
+            let inputs = emit::Inputs {
+                params,
+                cached: &none,
+            };
+            let to = |k: usize| {
+                let k = Literal::usize_unsuffixed(k);
+                quote!(self.time[#k])
+            };
+            let (body, _) = emit::body(arena, &self.time, &to, &inputs);
+            (
+                quote! {
+                    t: f64,
+                    time: [f64; #m],
+                },
+                quote! {
+                    t: 0.0,
+                    time: [0.0; #m],
+                },
+                quote! {
+                    #[allow(clippy::approx_constant)]
+                    impl #name {
+                        /// The functions of time at `t`.
+                        fn refresh_time(&mut self, t: f64) {
+                            self.t = t;
+                            #body
+                        }
+                    }
+                },
+            )
+        };
+        let init = if self.time.is_empty() {
+            quote!(Self { #angle_init })
+        } else {
+            quote! {
+                let mut cache = Self { #angle_init #time_init };
+                cache.refresh_time(0.0);
+                cache
+            }
+        };
+        let doc = format!(
+            " Per-step cache of [`{}`]: sin and cos of {} body angles (keyed on the exact \
+             angle), {} functions of time (keyed on the exact t). Not part of the \
+             mechanism: it compares equal to any other, and a clone or a default is as good \
+             as the original.",
+            name.to_string().trim_end_matches("Cache"),
+            self.angles.len(),
+            self.time.len()
+        );
+        quote! {
+            #[doc = #doc]
+            #[doc(hidden)]
+            #[derive(Clone)]
+            pub struct #name {
+                #angle_fields
+                #time_fields
+            }
+
+            impl ::core::default::Default for #name {
+                fn default() -> Self {
+                    #init
+                }
+            }
+
+            impl ::core::cmp::PartialEq for #name {
+                fn eq(&self, _: &Self) -> bool {
+                    true
+                }
+            }
+
+            impl ::core::fmt::Debug for #name {
+                fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+                    f.write_str(stringify!(#name))
+                }
+            }
+
+            #time_refresh
+        }
+    }
+}
