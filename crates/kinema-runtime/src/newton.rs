@@ -14,12 +14,10 @@ const CONTRACTION: f64 = 0.2;
 /// Scratch vectors of one solver, allocated once.
 #[derive(Debug, Clone)]
 pub(crate) struct Workspace {
-    /// Φ, then the right-hand side −Φ.
+    /// Φ, then Φ_q⁻¹ Φ (the Newton update with its sign flipped).
     pub(crate) phi: Box<[f64]>,
     /// Nonzeros of Φ_q in pattern order.
     pub(crate) jac: Box<[f64]>,
-    /// Newton update Δq.
-    pub(crate) dq: Box<[f64]>,
 }
 
 impl Workspace {
@@ -27,7 +25,6 @@ impl Workspace {
         Self {
             phi: vec![0.0; n].into_boxed_slice(),
             jac: vec![0.0; nnz].into_boxed_slice(),
-            dq: vec![0.0; n].into_boxed_slice(),
         }
     }
 }
@@ -71,12 +68,14 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
             // (see `factor`).
             system.phi_and_jacobian(q, t, &mut ws.phi, &mut ws.jac);
             stats.jacobian_evaluations += 1;
-            check_equations(system, t, Quantity::Phi, &ws.phi)?;
         } else {
             system.phi(q, t, &mut ws.phi);
+        }
+        // ‖Φ‖∞ and the finiteness check in one pass.
+        let (residual, finite) = scale_and_finite(&ws.phi);
+        if !finite {
             check_equations(system, t, Quantity::Phi, &ws.phi)?;
         }
-        let residual = inf_norm(&ws.phi);
         stats.residual = residual;
         if residual <= options.residual_tolerance || small_update {
             return Ok(Converged {
@@ -104,17 +103,31 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
             have_lu = true;
         }
         previous_residual = residual;
-        for (d, p) in ws.dq.iter_mut().zip(ws.phi.iter()) {
-            *d = -p;
+        // Δq = −Φ_q⁻¹ Φ: Φ_q⁻¹ Φ is solved for in place and subtracted. The
+        // solves are linear and IEEE rounding is symmetric, so this is
+        // q + Δq to the bit, without a negated copy of Φ.
+        lu.solve_in_place(&mut ws.phi)?;
+        let (step, finite) = scale_and_finite(&ws.phi);
+        if !finite {
+            check_coordinates(system, t, Quantity::Position, &ws.phi)?;
         }
-        lu.solve_in_place(&mut ws.dq)?;
-        check_coordinates(system, t, Quantity::Position, &ws.dq)?;
-        for (x, d) in q.iter_mut().zip(ws.dq.iter()) {
-            *x += d;
+        for (x, d) in q.iter_mut().zip(ws.phi.iter()) {
+            *x -= d;
         }
         stats.iterations += 1;
-        small_update = inf_norm(&ws.dq) <= options.update_tolerance * (1.0 + inf_norm(q));
+        small_update = is_small_update(step, options.update_tolerance, q);
     }
+}
+
+/// ‖Δq‖∞ ≤ tol · (1 + ‖q‖∞). With tol = 0 (the peers' loop) a nonzero step
+/// never passes (the right side is 0, or NaN for a non-finite q), so ‖q‖∞ is
+/// not computed.
+#[inline]
+fn is_small_update(step: f64, tol: f64, q: &[f64]) -> bool {
+    if tol == 0.0 && step > 0.0 {
+        return false;
+    }
+    step <= tol * (1.0 + inf_norm(q))
 }
 
 /// Factors Φ_q (nonzeros `jac`); a singular matrix becomes

@@ -213,9 +213,16 @@ fn no_convergence_names_time_residual_and_worst_equation() -> Result<(), Error> 
     Ok(())
 }
 
-/// A slider-crank whose γ (or, with `.1`, its Jacobian entry ∂pin.y/∂rod.phi)
-/// is NaN from t = 0.5 on.
-struct Broken(SliderCrank, bool);
+/// A slider-crank whose γ, Jacobian entry ∂pin.y/∂rod.phi or ν is NaN from
+/// t = 0.5 on.
+struct Broken(SliderCrank, Poisoned);
+
+#[derive(Clone, Copy, PartialEq)]
+enum Poisoned {
+    Gamma,
+    Jacobian,
+    Nu,
+}
 
 impl System for Broken {
     fn len(&self) -> usize {
@@ -238,16 +245,19 @@ impl System for Broken {
     }
     fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
         self.0.jacobian(q, t, values);
-        if self.1 && t >= 0.5 {
+        if self.1 == Poisoned::Jacobian && t >= 0.5 {
             values[11] = f64::NAN;
         }
     }
     fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
         self.0.nu(q, t, nu);
+        if self.1 == Poisoned::Nu && t >= 0.5 {
+            nu[8] = f64::NAN;
+        }
     }
     fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
         self.0.gamma(q, qd, t, gamma);
-        if !self.1 && t >= 0.5 {
+        if self.1 == Poisoned::Gamma && t >= 0.5 {
             gamma[3] = f64::NAN;
         }
     }
@@ -255,7 +265,8 @@ impl System for Broken {
 
 #[test]
 fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
-    let mut solver = Solver::<Broken, DenseLu<9>>::new(Broken(SliderCrank::default(), false))?;
+    let mut solver =
+        Solver::<Broken, DenseLu<9>>::new(Broken(SliderCrank::default(), Poisoned::Gamma))?;
     let err = solver.run(&grid()).err();
     assert_eq!(
         err,
@@ -272,7 +283,7 @@ fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
 
     // A NaN Jacobian entry, through every linear solver and both modes.
     for options in [Options::default(), Options::same_algorithm()] {
-        let broken = || Broken(SliderCrank::default(), true);
+        let broken = || Broken(SliderCrank::default(), Poisoned::Jacobian);
         let nan_jacobian = Some(Error::NonFinite {
             t: 0.5,
             quantity: Quantity::Jacobian,
@@ -282,6 +293,22 @@ fn non_finite_values_are_reported_never_returned() -> Result<(), Error> {
         assert_eq!(dense.run(&grid()).err(), nan_jacobian);
         let mut sparse = Solver::<Broken, SparseLu>::with_options(broken(), options)?;
         assert_eq!(sparse.run(&grid()).err(), nan_jacobian);
+    }
+
+    // A NaN ν is named as such (not as the velocity it poisons).
+    for options in [Options::default(), Options::same_algorithm()] {
+        let mut solver = Solver::<Broken, DenseLu<9>>::with_options(
+            Broken(SliderCrank::default(), Poisoned::Nu),
+            options,
+        )?;
+        assert_eq!(
+            solver.run(&grid()).err(),
+            Some(Error::NonFinite {
+                t: 0.5,
+                quantity: Quantity::Nu,
+                name: "crank_angle".into()
+            })
+        );
     }
 
     // A NaN parameter poisons Φ.
