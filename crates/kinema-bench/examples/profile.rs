@@ -1,0 +1,70 @@
+//! Runs one benchmark mechanism's grid many times, for `perf` and
+//! `valgrind --tool=callgrind`:
+//! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
+//! (mechanism: slider_crank, four_bar, chain10, chain100; back end:
+//! generated, tape, handwritten; mode: same, default; repetitions).
+
+use kinema::{LinearSolver, Options, Solver, System};
+use kinema_bench::{generated, grid, handwritten, steps, tape};
+
+fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
+    let times = grid();
+    let mut acc = 0.0;
+    for _ in 0..reps {
+        acc += steps(&mut solver, std::hint::black_box(&times));
+    }
+    println!("{acc}");
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
+    let (name, backend, mode) = (get(0, "slider_crank"), get(1, "generated"), get(2, "same"));
+    let reps: usize = get(3, "1000").parse().unwrap_or(1000);
+    let options = if mode == "same" {
+        Options::same_algorithm()
+    } else {
+        Options::default()
+    };
+    let ok = |e: kinema::Error| -> ! { panic!("{e}") };
+    match (name.as_str(), backend.as_str()) {
+        ("slider_crank", "generated") => run(
+            generated::slider_crank::SliderCrank::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("four_bar", "generated") => run(
+            generated::four_bar::FourBar::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain10", "generated") => run(
+            generated::chain10::Chain10::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain100", "generated") => run(
+            generated::chain100::Chain100::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("slider_crank", "handwritten") => run(
+            kinema_bench::solver(handwritten::SliderCrank::default(), options),
+            reps,
+        ),
+        ("four_bar", "handwritten") => run(
+            kinema_bench::solver(handwritten::FourBar::default(), options),
+            reps,
+        ),
+        ("chain10", "handwritten") => run(
+            kinema_bench::solver(handwritten::Chain::new(10), options),
+            reps,
+        ),
+        (name, "tape") => run(kinema_bench::solver(tape(name), options), reps),
+        other => panic!("unknown {other:?}"),
+    }
+}
