@@ -1,7 +1,8 @@
 //! Runs one benchmark mechanism's grid many times, for `perf` and
 //! `valgrind --tool=callgrind`:
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
-//! (mechanism: slider_crank, four_bar, chain10, chain100; back end:
+//! (mechanism: slider_crank, four_bar, chain10, chain100, and with
+//! `--features large` chain200 and chain1000; back end:
 //! generated, tape, handwritten; mode: same, default; repetitions).
 
 use kinema::{LinearSolver, Options, Solver, System};
@@ -50,6 +51,24 @@ fn main() {
             generated::chain100::Chain100::default()
                 .solver(options)
                 .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        #[cfg(feature = "large")]
+        ("chain200", "generated") => run(
+            generated::chain200::Chain200::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        #[cfg(feature = "large")]
+        ("chain1000", "generated") => run(
+            generated::chain1000::Chain1000::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain1000", "handwritten") => run(
+            kinema_bench::solver(handwritten::Chain::new(1000), options),
             reps,
         ),
         ("slider_crank", "handwritten") => run(

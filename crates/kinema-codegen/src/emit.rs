@@ -170,7 +170,7 @@ pub(crate) fn body(
     let mut used = Used::default();
     // Past `MAX_LETS` bindings, values live in one local array (see
     // `lu::MAX_LETS`); decided up front from the binding count.
-    let large = count_bindings(arena, &schedule) > crate::lu::MAX_LETS;
+    let large = count_bindings(arena, &schedule, inputs) > crate::lu::MAX_LETS;
     for (i, &n) in nodes.iter().enumerate() {
         if let Some(tokens) = (inputs.cached)(n) {
             code.push(Code::atom(tokens));
@@ -223,13 +223,15 @@ pub(crate) fn body(
 
 /// How many values [`body`] binds for `schedule`: the shared ones (the
 /// depth limit adds a few more, which `MAX_LETS` leaves room for).
-fn count_bindings(arena: &Arena, schedule: &Schedule) -> usize {
+fn count_bindings(arena: &Arena, schedule: &Schedule, inputs: &Inputs<'_>) -> usize {
     schedule
         .nodes
         .iter()
         .zip(&schedule.uses)
         .filter(|&(&n, &uses)| {
-            uses > 1 && !matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_))
+            uses > 1
+                && !matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_))
+                && (inputs.cached)(n).is_none()
         })
         .count()
 }

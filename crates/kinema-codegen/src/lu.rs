@@ -44,6 +44,10 @@ const GENERATION_THRESHOLD: f64 = 0.5;
 /// Above this many emitted operations the static LU is not generated (the
 /// runtime's sparse LU does the work instead).
 const MAX_OPERATIONS: usize = 200_000;
+/// Up to this many entries, per-entry work (checks, copies) is emitted
+/// straight-line; beyond it, as a loop over a table of positions, which keeps
+/// the code of large systems small enough for the instruction caches.
+const MAX_UNROLLED: usize = 16;
 /// Functions with more bindings than this keep them in a local array
 /// instead of `let`s: every `let` opens a nested scope, and very deep nests
 /// overflow the compiler's stack when it writes debug information.
@@ -321,7 +325,7 @@ impl Plan {
     /// Which run-time values the solves read (stored by the factorization),
     /// as a map var → slot in the stored array.
     fn stored(&self) -> BTreeMap<u32, usize> {
-        let mut stored = BTreeMap::new();
+        let mut needed = BTreeSet::new();
         let vals = self
             .inv
             .iter()
@@ -329,9 +333,21 @@ impl Plan {
             .chain(self.upper.iter().map(|e| &e.2));
         for v in vals {
             if let Val::Var(x) = *v {
-                let next = stored.len();
-                stored.entry(x).or_insert(next);
+                needed.insert(x);
             }
+        }
+        // Inputs first, in input order (copied by one loop), then the
+        // computed values.
+        let mut stored = BTreeMap::new();
+        let inputs = needed
+            .iter()
+            .filter(|&&x| matches!(self.vars[x as usize], Def::Input(_)));
+        let computed = needed
+            .iter()
+            .filter(|&&x| !matches!(self.vars[x as usize], Def::Input(_)));
+        for &x in inputs.chain(computed) {
+            let next = stored.len();
+            stored.insert(x, next);
         }
         stored
     }
@@ -422,7 +438,7 @@ impl Plan {
         let stored = self.stored();
         let nf = stored.len();
         let nf_lit = Literal::usize_unsuffixed(nf.max(1));
-        let large = self.vars.len() > MAX_LETS;
+        let large = self.operations() > MAX_LETS;
 
         // How the factorization reads var x.
         let var = |x: u32| -> TokenStream {
@@ -506,34 +522,82 @@ impl Plan {
             quote!()
         };
 
-        // Checks: finiteness and scale over the run-time inputs (four
-        // accumulators of |bits|), smallest run-time pivot, largest run-time
-        // multiplier.
-        let accumulators = self.runtime_inputs.len().min(4);
-        let mut scale_stmts = TokenStream::new();
-        for i in 0..accumulators {
-            let m = format_ident!("m{}", i);
-            let k = Literal::usize_unsuffixed(self.runtime_inputs[i]);
-            let reassigned = self.runtime_inputs.len() > i + 4;
-            scale_stmts.extend(if reassigned {
-                quote!(let mut #m = a[#k].to_bits() & ABS;)
-            } else {
-                quote!(let #m = a[#k].to_bits() & ABS;)
-            });
-        }
-        for (i, &k) in self.runtime_inputs.iter().enumerate().skip(accumulators) {
-            let m = format_ident!("m{}", i % 4);
-            let k = Literal::usize_unsuffixed(k);
-            scale_stmts.extend(quote!(#m = #m.max(a[#k].to_bits() & ABS);));
-        }
-        let merged = if accumulators == 0 {
-            quote!(0u64)
-        } else {
-            let rest = (1..accumulators).map(|i| {
+        // Checks over the run-time inputs (a loop over a table of their
+        // positions: compact for large systems, unrolled for small ones), four
+        // lanes: Σ|a| (finite iff every input is; an overflowing sum only
+        // sends a finite matrix to the fallback) and max |a| (the scale; NaNs,
+        // caught by the sum, never win a comparison).
+        let table = |name: &proc_macro2::Ident, ks: &[usize]| -> TokenStream {
+            let len = Literal::usize_unsuffixed(ks.len());
+            let ks = ks.iter().map(|&k| Literal::usize_unsuffixed(k));
+            quote!(const #name: [usize; #len] = [#(#ks),*];)
+        };
+        let inputs_name = format_ident!("INPUTS");
+        let scale_stmts = if self.runtime_inputs.is_empty() {
+            quote! {
+                let (finite, input_max) = (true, 0.0f64);
+            }
+        } else if self.runtime_inputs.len() <= MAX_UNROLLED {
+            // max |bits| in four scalar lanes: for IEEE doubles with the sign
+            // cleared, integer order is the order of |a|, and every ±∞ or NaN
+            // lies at or above the bits of +∞.
+            let lanes = self.runtime_inputs.len().min(4);
+            let mut stmts = quote!(
+                const ABS: u64 = !(1 << 63);
+            );
+            for (i, &k) in self.runtime_inputs.iter().enumerate() {
+                let m = format_ident!("m{}", i % 4);
+                let k = Literal::usize_unsuffixed(k);
+                stmts.extend(if i < lanes {
+                    let reassigned = self.runtime_inputs.len() > i + 4;
+                    if reassigned {
+                        quote!(let mut #m = a[#k].to_bits() & ABS;)
+                    } else {
+                        quote!(let #m = a[#k].to_bits() & ABS;)
+                    }
+                } else {
+                    quote!(#m = #m.max(a[#k].to_bits() & ABS);)
+                });
+            }
+            let rest = (1..lanes).map(|i| {
                 let m = format_ident!("m{}", i);
                 quote!(.max(#m))
             });
-            quote!(m0 #(#rest)*)
+            quote! {
+                #stmts
+                let bits = m0 #(#rest)*;
+                let finite = bits < 0x7FF0_0000_0000_0000;
+                let input_max = f64::from_bits(bits);
+            }
+        } else {
+            let t = table(&inputs_name, &self.runtime_inputs);
+            quote! {
+                #t
+                let (mut sum, mut max) = ([0.0f64; 4], [0.0f64; 4]);
+                let chunks = INPUTS.chunks_exact(4);
+                for &k in chunks.remainder() {
+                    if let Some(x) = a.get(k) {
+                        let x = x.abs();
+                        sum[0] += x;
+                        if x > max[0] {
+                            max[0] = x;
+                        }
+                    }
+                }
+                for ks in chunks {
+                    for ((s, m), &k) in sum.iter_mut().zip(max.iter_mut()).zip(ks) {
+                        if let Some(x) = a.get(k) {
+                            let x = x.abs();
+                            *s += x;
+                            if x > *m {
+                                *m = x;
+                            }
+                        }
+                    }
+                }
+                let finite = (sum[0] + sum[1]) + (sum[2] + sum[3]) < f64::INFINITY;
+                let input_max = max[0].max(max[1]).max(max[2].max(max[3]));
+            }
         };
         let constant_pivot_min = self
             .pivots
@@ -550,16 +614,68 @@ impl Plan {
                 pivot_stmts.extend(quote!(min_pivot = min_pivot.min(#v.abs());));
             }
         }
-        let mut multiplier_stmts = TokenStream::new();
-        let mut seen = BTreeSet::new();
+        // Multipliers as |bits| maxima (a NaN exceeds any bound). Those that
+        // are inputs as they are (unit pivots) are bounded by the inputs'
+        // maximum when they are all of them.
+        let mut identity = BTreeSet::new();
+        let mut computed = BTreeSet::new();
         for &(_, _, l) in &self.lower {
-            if let Val::Var(x) = l
-                && seen.insert(x)
-            {
-                let v = var(x);
-                multiplier_stmts.extend(quote!(max_multiplier = max_multiplier.max(#v.abs());));
+            if let Val::Var(x) = l {
+                match self.vars[x as usize] {
+                    Def::Input(k) => identity.insert(k),
+                    _ => computed.insert(x),
+                };
             }
         }
+        let all_inputs = identity.len() == self.runtime_inputs.len();
+        let mut multiplier_stmts = if all_inputs && !identity.is_empty() {
+            quote!(let mut max_multiplier = input_max;)
+        } else {
+            quote!(let mut max_multiplier = 0.0f64;)
+        };
+        if !all_inputs && !identity.is_empty() && identity.len() <= MAX_UNROLLED {
+            for &k in &identity {
+                let k = Literal::usize_unsuffixed(k);
+                multiplier_stmts.extend(quote! {{
+                    let x = a[#k].abs();
+                    if x > max_multiplier {
+                        max_multiplier = x;
+                    }
+                }});
+            }
+        } else if !all_inputs && !identity.is_empty() {
+            let ks: Vec<usize> = identity.iter().copied().collect();
+            let t = table(&format_ident!("MULTIPLIERS"), &ks);
+            multiplier_stmts.extend(quote! {
+                #t
+                for &k in &MULTIPLIERS {
+                    if let Some(x) = a.get(k) {
+                        let x = x.abs();
+                        if x > max_multiplier {
+                            max_multiplier = x;
+                        }
+                    }
+                }
+            });
+        }
+        for &x in &computed {
+            let v = var(x);
+            multiplier_stmts.extend(quote! {{
+                let x = #v.abs();
+                if !(x <= max_multiplier) {
+                    max_multiplier = x;
+                }
+            }});
+        }
+        let multiplier_stmts = if (all_inputs || identity.is_empty()) && computed.is_empty() {
+            if all_inputs && !identity.is_empty() {
+                quote!(let max_multiplier = input_max;)
+            } else {
+                quote!(let max_multiplier = 0.0f64;)
+            }
+        } else {
+            multiplier_stmts
+        };
         let constant_scale = lit(self.constant_scale);
         let min_pivot0 = if constant_pivot_min.is_finite() {
             lit(constant_pivot_min)
@@ -572,14 +688,42 @@ impl Plan {
         } else {
             quote!(let mut min_pivot: f64 = #min_pivot0;)
         };
-        let multiplier_decl = if multiplier_stmts.is_empty() {
-            quote!(let max_multiplier: f64 = 0.0;)
-        } else {
-            quote!(let mut max_multiplier: f64 = 0.0;)
-        };
 
+        // Stored inputs (the first slots) by a loop over their positions, the
+        // computed values one by one.
+        let stored_inputs: Vec<usize> = stored
+            .keys()
+            .filter_map(|&x| match self.vars[x as usize] {
+                Def::Input(k) => Some(k),
+                _ => None,
+            })
+            .collect();
         let mut store = TokenStream::new();
+        if stored_inputs.len() > MAX_UNROLLED {
+            let mut by_slot: Vec<(usize, usize)> = stored
+                .iter()
+                .filter_map(|(&x, &slot)| match self.vars[x as usize] {
+                    Def::Input(k) => Some((slot, k)),
+                    _ => None,
+                })
+                .collect();
+            by_slot.sort_unstable();
+            let ks: Vec<usize> = by_slot.iter().map(|&(_, k)| k).collect();
+            let t = table(&format_ident!("STORED"), &ks);
+            store.extend(quote! {
+                #t
+                for (d, &k) in f.iter_mut().zip(&STORED) {
+                    if let Some(&x) = a.get(k) {
+                        *d = x;
+                    }
+                }
+            });
+        }
         for (&x, &slot) in &stored {
+            if stored_inputs.len() > MAX_UNROLLED && matches!(self.vars[x as usize], Def::Input(_))
+            {
+                continue;
+            }
             let v = var(x);
             let slot = Literal::usize_unsuffixed(slot);
             store.extend(quote!(f[#slot] = #v;));
@@ -696,16 +840,12 @@ impl Plan {
                         _ => return self.factor_fallback(values, singular_tolerance),
                     };
                     #memo_check
-                    const ABS: u64 = !(1 << 63);
                     #scale_stmts
-                    let bits = #merged;
-                    let finite = bits < 0x7FF0_0000_0000_0000;
-                    let scale = f64::from_bits(bits).max(#constant_scale);
+                    let scale = input_max.max(#constant_scale);
                     #scratch
                     #body
                     #pivot_decl
                     #pivot_stmts
-                    #multiplier_decl
                     #multiplier_stmts
                     let accept = finite
                         && max_multiplier <= #bound

@@ -107,16 +107,25 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
         // solves are linear and IEEE rounding is symmetric, so this is
         // q + Δq to the bit, without a negated copy of Φ.
         lu.solve_in_place(&mut ws.phi)?;
-        let (step, finite) = scale_and_finite(&ws.phi);
+        let (step, finite) = subtract_and_scale(q, &ws.phi);
         if !finite {
+            // q is scratch on failure (the solver keeps its last state).
             check_coordinates(system, t, Quantity::Position, &ws.phi)?;
-        }
-        for (x, d) in q.iter_mut().zip(ws.phi.iter()) {
-            *x -= d;
         }
         stats.iterations += 1;
         small_update = is_small_update(step, options.update_tolerance, q);
     }
+}
+
+/// q −= d, and (max |d|, whether d is finite) from [`scale_and_finite`]
+/// (two passes that vectorize).
+#[inline]
+fn subtract_and_scale(q: &mut [f64], d: &[f64]) -> (f64, bool) {
+    let scale = scale_and_finite(d);
+    for (x, &v) in q.iter_mut().zip(d) {
+        *x -= v;
+    }
+    scale
 }
 
 /// ‖Δq‖∞ ≤ tol · (1 + ‖q‖∞). With tol = 0 (the peers' loop) a nonzero step
@@ -145,21 +154,40 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
 ) -> Result<(), Error> {
     match lu.factor(jac, singular_tolerance) {
         Ok(()) => Ok(()),
-        Err(LinalgError::Singular { .. }) => {
-            check_jacobian(system, t, jac)?;
-            Err(Error::Singular {
-                t,
-                dependency: dependency(system, jac, singular_tolerance),
-            })
-        }
-        Err(e) => Err(e.into()),
+        Err(e) => Err(factor_error(system, t, jac, singular_tolerance, e)),
     }
 }
 
-/// ‖x‖∞ of a vector known to be finite.
+/// The error for a failed factorization (out of line: the hot path only
+/// tests for success).
+#[cold]
+#[inline(never)]
+fn factor_error<S: System>(
+    system: &S,
+    t: f64,
+    jac: &[f64],
+    singular_tolerance: f64,
+    e: LinalgError,
+) -> Error {
+    match e {
+        LinalgError::Singular { .. } => match check_jacobian(system, t, jac) {
+            Err(non_finite) => non_finite,
+            Ok(()) => Error::Singular {
+                t,
+                dependency: dependency(system, jac, singular_tolerance),
+            },
+        },
+        e => e.into(),
+    }
+}
+
+/// ‖x‖∞ (NaN if x is not finite).
 #[inline]
 pub(crate) fn inf_norm(x: &[f64]) -> f64 {
-    scale_and_finite(x).0
+    match scale_and_finite(x) {
+        (norm, true) => norm,
+        (_, false) => f64::NAN,
+    }
 }
 
 #[inline]

@@ -445,28 +445,33 @@ impl Schedule {
 }
 
 /// max |v| over `values`, and whether all are finite, in one branch-free
-/// pass over the bit patterns: for IEEE doubles with the sign cleared, the
-/// integer order is the order of |v|, and every infinity or NaN lies at or
-/// above the bits of +∞. (The scale is meaningless when not all are finite.)
+/// pass that vectorizes (four lanes): |v| is kept when larger (a NaN never
+/// is), and v − v, which is 0 for a finite v and NaN for ±∞ or NaN, is
+/// summed per lane. (The scale covers the finite values only; it is
+/// meaningless when not all are finite.)
 #[inline]
+// `v - v` is the point: 0 or NaN.
+#[allow(clippy::eq_op)]
 pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
-    const ABS: u64 = !(1 << 63);
-    const INFINITY: u64 = 0x7FF0_0000_0000_0000;
-    let bits = |v: f64| v.to_bits() & ABS;
-    let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
+    let mut max = [0.0f64; 4];
+    let mut nan = [0.0f64; 4];
     let chunks = values.chunks_exact(4);
     let rest = chunks.remainder();
     for c in chunks {
-        m0 = m0.max(bits(c[0]));
-        m1 = m1.max(bits(c[1]));
-        m2 = m2.max(bits(c[2]));
-        m3 = m3.max(bits(c[3]));
+        for ((m, z), &v) in max.iter_mut().zip(nan.iter_mut()).zip(c) {
+            let a = v.abs();
+            *m = if a > *m { a } else { *m };
+            *z += v - v;
+        }
     }
-    for &v in rest {
-        m0 = m0.max(bits(v));
+    for (&v, (m, z)) in rest.iter().zip(max.iter_mut().zip(nan.iter_mut())) {
+        let a = v.abs();
+        *m = if a > *m { a } else { *m };
+        *z += v - v;
     }
-    let max_bits = m0.max(m1).max(m2.max(m3));
-    (f64::from_bits(max_bits), max_bits < INFINITY)
+    let scale = max[0].max(max[1]).max(max[2].max(max[3]));
+    let finite = (nan[0] + nan[1]) + (nan[2] + nan[3]) == 0.0;
+    (scale, finite)
 }
 
 /// Map from a filled position (i, j) to its slot while building.
