@@ -3,7 +3,8 @@
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
-//! generated, tape, handwritten; mode: same, default; repetitions).
+//! generated, tape, handwritten; mode: same, default, predictor (full
+//! Newton), modified (no predictor); repetitions).
 
 use kinema::{LinearSolver, Options, Solver, System};
 use kinema_bench::{generated, grid, handwritten, steps, tape};
@@ -14,7 +15,8 @@ fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
     for _ in 0..reps {
         acc += steps(&mut solver, std::hint::black_box(&times));
     }
-    println!("{acc}");
+    let run = kinema_bench::run_grid(&mut solver);
+    eprintln!("{acc}: {} Newton updates per step", run.mean_updates);
 }
 
 fn main() {
@@ -22,10 +24,13 @@ fn main() {
     let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
     let (name, backend, mode) = (get(0, "slider_crank"), get(1, "generated"), get(2, "same"));
     let reps: usize = get(3, "1000").parse().unwrap_or(1000);
-    let options = if mode == "same" {
-        Options::same_algorithm()
-    } else {
-        Options::default()
+    let options = match mode.as_str() {
+        "same" => Options::same_algorithm(),
+        // Predictor with full Newton.
+        "predictor" => Options::default().with_modified_newton(false),
+        // Modified Newton without the predictor.
+        "modified" => Options::default().with_predictor(false),
+        _ => Options::default(),
     };
     let ok = |e: kinema::Error| -> ! { panic!("{e}") };
     match (name.as_str(), backend.as_str()) {

@@ -445,14 +445,48 @@ impl Schedule {
 }
 
 /// max |v| over `values`, and whether all are finite, in one branch-free
-/// pass that vectorizes (four lanes): |v| is kept when larger (a NaN never
-/// is), and v − v, which is 0 for a finite v and NaN for ±∞ or NaN, is
-/// summed per lane. (The scale covers the finite values only; it is
-/// meaningless when not all are finite.)
+/// pass. (The scale is meaningless when not all are finite.)
+///
+/// Short vectors (the small mechanisms' Φ, whose norm decides every Newton
+/// iteration) go through the bit patterns in four scalar lanes: for IEEE
+/// doubles with the sign cleared, the integer order is the order of |v|, and
+/// every infinity or NaN lies at or above the bits of +∞ — short latency.
+/// Long ones through f64 lanes that vectorize: |v| kept when larger (a NaN
+/// never is), and v − v, 0 for a finite v and NaN otherwise, summed.
 #[inline]
+pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
+    if values.len() <= 32 {
+        scale_and_finite_bits(values)
+    } else {
+        scale_and_finite_lanes(values)
+    }
+}
+
+#[inline]
+fn scale_and_finite_bits(values: &[f64]) -> (f64, bool) {
+    const ABS: u64 = !(1 << 63);
+    const INFINITY: u64 = 0x7FF0_0000_0000_0000;
+    let bits = |v: f64| v.to_bits() & ABS;
+    let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
+    let chunks = values.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        m0 = m0.max(bits(c[0]));
+        m1 = m1.max(bits(c[1]));
+        m2 = m2.max(bits(c[2]));
+        m3 = m3.max(bits(c[3]));
+    }
+    for &v in rest {
+        m0 = m0.max(bits(v));
+    }
+    let max_bits = m0.max(m1).max(m2.max(m3));
+    (f64::from_bits(max_bits), max_bits < INFINITY)
+}
+
 // `v - v` is the point: 0 or NaN.
 #[allow(clippy::eq_op)]
-pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
+#[inline(never)]
+fn scale_and_finite_lanes(values: &[f64]) -> (f64, bool) {
     let mut max = [0.0f64; 4];
     let mut nan = [0.0f64; 4];
     let chunks = values.chunks_exact(4);
@@ -516,6 +550,21 @@ impl SlotIndex<'_> {
 mod tests {
     use super::*;
     use crate::linalg::{DenseLu, DynDenseLu, LinalgError, LinearSolver, SparseLu};
+
+    #[test]
+    fn both_norm_passes_agree() {
+        for n in [0, 1, 5, 9, 31, 32, 33, 100] {
+            let v: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.5).collect();
+            assert_eq!(scale_and_finite_bits(&v), scale_and_finite_lanes(&v), "{n}");
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in (0..n).step_by(3) {
+                    let mut w = v.clone();
+                    w[at] = bad;
+                    assert!(!scale_and_finite_bits(&w).1 && !scale_and_finite_lanes(&w).1);
+                }
+            }
+        }
+    }
 
     #[test]
     fn scale_and_finite_sees_every_non_finite() {
