@@ -73,8 +73,8 @@ def table():
     p = peers()
     lines = [f"Machine: {machine()}.", "",
              "Per full step (Newton to ‖Φ‖∞ ≤ 1e-12, velocity, acceleration), µs, medians. "
-             "kinema 'same' = the peers' loop (`Options::same_algorithm()`), 'default' = predictor "
-             "+ modified Newton. Ratio = best peer / kinema same-algorithm generated (target ≥ 3).", "",
+             "kinema 'same' = the peers' loop (`Options::same_algorithm()`), 'default' = kinema's "
+             "defaults (`Options::default()`: predictor, full Newton). Ratio = best peer / kinema same-algorithm generated (target ≥ 3).", "",
              "| mechanism (n) | " + " | ".join(name for _, name in PEER_COLS)
              + " | best peer | kinema generated, same | generated, default | tape, same | tape, default "
              "| hand-written, same | ratio | target |",

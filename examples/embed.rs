@@ -18,7 +18,7 @@ struct Frame {
 }
 
 fn main() -> Result<(), kinema::Error> {
-    // Default options: predictor from the previous step, modified Newton.
+    // Default options: predictor from the previous step, full Newton.
     let mut solver = SliderCrank::default().solver(Options::default())?;
     solver.assemble(0.0)?;
 

@@ -1,7 +1,7 @@
 //! Per-step time of kinematic analysis on the benchmark mechanisms, every
 //! back end, in two modes:
 //! - `same`: exactly the peers' loop (Options::same_algorithm);
-//! - `default`: kinema's defaults (predictor, modified Newton).
+//! - `default`: kinema's defaults (predictor, full Newton).
 //!
 //! Each measurement runs the whole grid t_k = k/1000, k = 0..=1000 (1001
 //! analyses, from the initial guess), as the peers do, and reports the time

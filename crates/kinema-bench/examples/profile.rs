@@ -4,7 +4,7 @@
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
 //! generated, tape, handwritten; mode: same, default, predictor (full
-//! Newton), modified (no predictor); repetitions).
+//! Newton), predictor-modified, modified (no predictor); repetitions).
 
 use kinema::{LinearSolver, Options, Solver, System};
 use kinema_bench::{generated, grid, handwritten, steps, tape};
@@ -16,7 +16,10 @@ fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
         acc += steps(&mut solver, std::hint::black_box(&times));
     }
     let run = kinema_bench::run_grid(&mut solver);
-    eprintln!("{acc}: {} Newton updates per step", run.mean_updates);
+    eprintln!(
+        "{acc}: {:.3} Newton updates and {:.3} factorizations per step",
+        run.mean_updates, run.mean_factorizations
+    );
 }
 
 fn main() {
@@ -28,8 +31,12 @@ fn main() {
         "same" => Options::same_algorithm(),
         // Predictor with full Newton.
         "predictor" => Options::default().with_modified_newton(false),
+        // Predictor with modified Newton.
+        "predictor-modified" => Options::default().with_modified_newton(true),
         // Modified Newton without the predictor.
-        "modified" => Options::default().with_predictor(false),
+        "modified" => Options::default()
+            .with_predictor(false)
+            .with_modified_newton(true),
         _ => Options::default(),
     };
     let ok = |e: kinema::Error| -> ! { panic!("{e}") };

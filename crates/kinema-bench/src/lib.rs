@@ -97,6 +97,9 @@ pub struct Checkpoint {
 pub struct Run {
     /// Mean Newton updates per step.
     pub mean_updates: f64,
+    /// Mean factorizations of Φ_q per step inside the Newton iteration (the
+    /// one at the converged q, for velocity and acceleration, not counted).
+    pub mean_factorizations: f64,
     /// The checkpoints t = 0, 0.05, …, 1 (every 50th step).
     pub checkpoints: Vec<Checkpoint>,
 }
@@ -117,10 +120,12 @@ pub fn solver<S: System>(system: S, options: Options) -> Solver<S, Auto> {
 pub fn run_grid<S: System, L: kinema::LinearSolver>(solver: &mut Solver<S, L>) -> Run {
     solver.reset();
     let mut updates = 0usize;
+    let mut factorizations = 0usize;
     let mut checkpoints = Vec::new();
     for (k, t) in grid().into_iter().enumerate() {
         let state = solver.step(t).unwrap_or_else(|e| panic!("{e}"));
         updates += state.stats().iterations;
+        factorizations += state.stats().factorizations;
         if k.is_multiple_of(50) {
             checkpoints.push(Checkpoint {
                 t,
@@ -132,6 +137,7 @@ pub fn run_grid<S: System, L: kinema::LinearSolver>(solver: &mut Solver<S, L>) -
     }
     Run {
         mean_updates: updates as f64 / 1001.0,
+        mean_factorizations: factorizations as f64 / 1001.0,
         checkpoints,
     }
 }

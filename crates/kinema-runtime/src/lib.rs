@@ -18,7 +18,7 @@
 //! | [`system`] | the [`System`] trait |
 //! | [`linalg`] | dense and sparse LU behind the [`LinearSolver`] trait |
 //! | [`solver`] | [`Solver`]: assembly, stepping, runs over a time grid |
-//! | [`options`] | [`Options`]: tolerances, predictor, modified Newton |
+//! | [`options`] | [`Options`]: tolerances, predictor, full or modified Newton |
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
 //! | [`trajectory`], [`state`], [`kinematics`], [`csv`] | results: states, body-point kinematics, CSV |
 //! | `handwritten` | reference mechanisms of the benchmarks (feature `handwritten`) |
