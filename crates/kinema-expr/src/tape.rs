@@ -57,13 +57,12 @@ type Reg = u32;
 #[derive(Clone, Copy, Debug)]
 enum Instr {
     Const { dst: Reg, v: f64 },
-    Q { dst: Reg, i: u32 },
-    Qd { dst: Reg, i: u32 },
-    P { dst: Reg, i: u32 },
-    T { dst: Reg },
     Copy { dst: Reg, a: Reg },
+    Neg { dst: Reg, a: Reg },
     Scale { dst: Reg, a: Reg, k: f64 },
-    Acc { dst: Reg, acc: Reg, a: Reg, k: f64 },
+    Add { dst: Reg, a: Reg, b: Reg },
+    Sub { dst: Reg, a: Reg, b: Reg },
+    MulAdd { dst: Reg, acc: Reg, a: Reg, k: f64 },
     AddConst { dst: Reg, a: Reg, c: f64 },
     Mul { dst: Reg, a: Reg, b: Reg },
     Div { dst: Reg, a: Reg, b: Reg },
@@ -72,14 +71,20 @@ enum Instr {
     Sqrt { dst: Reg, a: Reg },
     PowI { dst: Reg, a: Reg, n: i32 },
     PowF { dst: Reg, a: Reg, p: f64 },
+    Sin { dst: Reg, a: Reg },
+    Cos { dst: Reg, a: Reg },
     Unary { dst: Reg, op: UnaryOp, a: Reg },
     Pow { dst: Reg, a: Reg, b: Reg },
     Atan2 { dst: Reg, y: Reg, x: Reg },
-    Store { out: u32, a: Reg },
 }
 
 /// A compiled list of instructions computing a vector of outputs.
 #[derive(Clone, Debug)]
+///
+/// The register file is laid out as `[outputs | q | q̇ | params | t |
+/// constants | temporaries]`: evaluation copies the inputs and constants in,
+/// runs the instructions (which compute outputs straight into their
+/// registers), and copies the outputs out, so leaves cost no instruction.
 pub struct Tape {
     instrs: Vec<Instr>,
     registers: usize,
@@ -87,12 +92,19 @@ pub struct Tape {
     need_q: usize,
     need_qd: usize,
     need_params: usize,
+    /// Register of `t`, if the tape reads it.
+    t_reg: Option<usize>,
+    /// Values of the constants' registers, from `consts_base`.
+    consts: Vec<f64>,
+    consts_base: usize,
 }
 
-/// Register allocation: a free list over a growing register file.
+/// Register allocation: a free list over a growing register file. The
+/// registers below `reserved` (outputs, inputs, constants) are never reused.
 struct Regs {
     free: Vec<Reg>,
     count: u32,
+    reserved: u32,
 }
 
 impl Regs {
@@ -101,6 +113,13 @@ impl Regs {
             self.count += 1;
             self.count - 1
         })
+    }
+
+    /// Returns `r` to the pool unless it is reserved.
+    fn free(&mut self, r: Reg) {
+        if r >= self.reserved {
+            self.free.push(r);
+        }
     }
 }
 
@@ -112,10 +131,34 @@ impl Tape {
         let schedule = arena.schedule(outputs);
         let nodes = schedule.nodes();
         let mut reg_of: Vec<Reg> = vec![0; nodes.len()];
+        // Sizes of the input regions, and the constants.
+        let (mut need_q, mut need_qd, mut need_params, mut uses_t) = (0, 0, 0, false);
+        let mut consts = Vec::new();
+        for &n in nodes {
+            match arena.node(n) {
+                NodeRef::Sym(s) => match arena.symbol(s).kind {
+                    SymKind::Coordinate(i) => need_q = need_q.max(i as usize + 1),
+                    SymKind::Velocity(i) => need_qd = need_qd.max(i as usize + 1),
+                    SymKind::Parameter(i) => need_params = need_params.max(i as usize + 1),
+                    SymKind::Time => uses_t = true,
+                },
+                NodeRef::Num(v) => consts.push(v),
+                _ => {}
+            }
+        }
+        let q_base = outputs.len();
+        let qd_base = q_base + need_q;
+        let p_base = qd_base + need_qd;
+        let t_reg = uses_t.then_some(p_base + need_params);
+        let consts_base = p_base + need_params + usize::from(uses_t);
+        let reserved = consts_base + consts.len();
+        let as_reg = |r: usize| Reg::try_from(r).unwrap_or(Reg::MAX);
         let mut regs = Regs {
             free: Vec::new(),
-            count: 0,
+            count: as_reg(reserved),
+            reserved: as_reg(reserved),
         };
+        let mut next_const = consts_base;
         let mut stores: Vec<Vec<u32>> = vec![Vec::new(); nodes.len()];
         for (k, o) in outputs.iter().enumerate() {
             if let Some(p) = schedule.position(*o) {
@@ -126,20 +169,45 @@ impl Tape {
             instrs: Vec::with_capacity(nodes.len() * 2),
             registers: 0,
             outputs: outputs.len(),
-            need_q: 0,
-            need_qd: 0,
-            need_params: 0,
+            need_q,
+            need_qd,
+            need_params,
+            t_reg,
+            consts,
+            consts_base,
         };
         let mut kids: Vec<ExprId> = Vec::new();
         for (i, &n) in nodes.iter().enumerate() {
             let reg = |e: ExprId| -> Reg { schedule.position(e).map_or(0, |p| reg_of[p]) };
-            // The destination is taken before any operand is freed, so it never
+            // An output is computed straight into its own register; a
+            // temporary is taken before any operand is freed, so it never
             // aliases a live operand.
-            let dst = regs.take();
-            tape.node(arena, n, dst, &reg, &mut regs);
+            // A leaf lives in its reserved register and is copied to the
+            // outputs it is.
+            let leaf = match arena.node(n) {
+                NodeRef::Sym(s) => Some(match arena.symbol(s).kind {
+                    SymKind::Coordinate(k) => q_base + k as usize,
+                    SymKind::Velocity(k) => qd_base + k as usize,
+                    SymKind::Parameter(k) => p_base + k as usize,
+                    SymKind::Time => t_reg.unwrap_or(0),
+                }),
+                NodeRef::Num(_) => {
+                    next_const += 1;
+                    Some(next_const - 1)
+                }
+                _ => None,
+            };
+            let (dst, copies) = match leaf {
+                Some(r) => (as_reg(r), &stores[i][..]),
+                None => {
+                    let dst = stores[i].first().copied().unwrap_or_else(|| regs.take());
+                    tape.node(arena, n, dst, &reg, &mut regs);
+                    (dst, stores[i].get(1..).unwrap_or(&[]))
+                }
+            };
             reg_of[i] = dst;
-            for &out in &stores[i] {
-                tape.instrs.push(Instr::Store { out, a: dst });
+            for &out in copies {
+                tape.instrs.push(Instr::Copy { dst: out, a: dst });
             }
             // Free operands whose last use is this node, then this node if unused.
             kids.clear();
@@ -150,11 +218,11 @@ impl Tape {
                 if let Some(p) = schedule.position(*c)
                     && schedule.last_use()[p] as usize == i
                 {
-                    regs.free.push(reg_of[p]);
+                    regs.free(reg_of[p]);
                 }
             }
             if schedule.parent_uses()[i] == 0 {
-                regs.free.push(dst);
+                regs.free(dst);
             }
         }
         tape.registers = regs.count as usize;
@@ -171,43 +239,18 @@ impl Tape {
         regs: &mut Regs,
     ) {
         match arena.node(n) {
-            NodeRef::Num(v) => self.instrs.push(Instr::Const { dst, v }),
-            NodeRef::Sym(s) => {
-                let instr = match arena.symbol(s).kind {
-                    SymKind::Coordinate(i) => {
-                        self.need_q = self.need_q.max(i as usize + 1);
-                        Instr::Q { dst, i }
-                    }
-                    SymKind::Velocity(i) => {
-                        self.need_qd = self.need_qd.max(i as usize + 1);
-                        Instr::Qd { dst, i }
-                    }
-                    SymKind::Parameter(i) => {
-                        self.need_params = self.need_params.max(i as usize + 1);
-                        Instr::P { dst, i }
-                    }
-                    SymKind::Time => Instr::T { dst },
-                };
-                self.instrs.push(instr);
-            }
+            // Leaves live in reserved registers (see `compile`).
+            NodeRef::Num(_) | NodeRef::Sym(_) => {}
             NodeRef::Add { constant, terms } => {
                 let first = terms[0];
                 let mut acc = reg(first.expr);
                 if first.coeff != 1.0 {
-                    self.instrs.push(Instr::Scale {
-                        dst,
-                        a: acc,
-                        k: first.coeff,
-                    });
+                    self.instrs.push(scale(dst, acc, first.coeff));
                     acc = dst;
                 }
                 for t in &terms[1..] {
-                    self.instrs.push(Instr::Acc {
-                        dst,
-                        acc,
-                        a: reg(t.expr),
-                        k: t.coeff,
-                    });
+                    self.instrs
+                        .push(accumulate_into(dst, acc, reg(t.expr), t.coeff));
                     acc = dst;
                 }
                 if constant != 0.0 {
@@ -284,18 +327,21 @@ impl Tape {
                     }
                 };
                 if coeff != 1.0 {
-                    self.instrs.push(Instr::Scale {
-                        dst,
-                        a: r,
-                        k: coeff,
-                    });
+                    self.instrs.push(scale(dst, r, coeff));
                 } else if r != dst {
                     self.instrs.push(Instr::Copy { dst, a: r });
                 }
                 regs.free.extend(den_reg);
                 regs.free.extend(tmp);
             }
-            NodeRef::Unary(op, a) => self.instrs.push(Instr::Unary { dst, op, a: reg(a) }),
+            NodeRef::Unary(op, a) => {
+                let a = reg(a);
+                self.instrs.push(match op {
+                    UnaryOp::Sin => Instr::Sin { dst, a },
+                    UnaryOp::Cos => Instr::Cos { dst, a },
+                    op => Instr::Unary { dst, op, a },
+                });
+            }
             NodeRef::Pow(a, b) => self.instrs.push(Instr::Pow {
                 dst,
                 a: reg(a),
@@ -358,17 +404,28 @@ impl Tape {
         check("registers", self.registers, registers.len())?;
         check("outputs", self.outputs, out.len())?;
         let r = registers;
+        let (q, qd, p) = (
+            self.outputs,
+            self.outputs + self.need_q,
+            self.outputs + self.need_q + self.need_qd,
+        );
+        r[q..qd].copy_from_slice(&inputs.q[..self.need_q]);
+        r[qd..p].copy_from_slice(&inputs.qd[..self.need_qd]);
+        r[p..p + self.need_params].copy_from_slice(&inputs.params[..self.need_params]);
+        if let Some(t) = self.t_reg {
+            r[t] = inputs.t;
+        }
+        r[self.consts_base..self.consts_base + self.consts.len()].copy_from_slice(&self.consts);
         for ins in &self.instrs {
             match *ins {
                 Instr::Const { dst, v } => r[dst as usize] = v,
-                Instr::Q { dst, i } => r[dst as usize] = inputs.q[i as usize],
-                Instr::Qd { dst, i } => r[dst as usize] = inputs.qd[i as usize],
-                Instr::P { dst, i } => r[dst as usize] = inputs.params[i as usize],
-                Instr::T { dst } => r[dst as usize] = inputs.t,
                 Instr::Copy { dst, a } => r[dst as usize] = r[a as usize],
-                Instr::Scale { dst, a, k } => r[dst as usize] = scaled(k, r[a as usize]),
-                Instr::Acc { dst, acc, a, k } => {
-                    r[dst as usize] = accumulate(r[acc as usize], k, r[a as usize]);
+                Instr::Neg { dst, a } => r[dst as usize] = -r[a as usize],
+                Instr::Scale { dst, a, k } => r[dst as usize] = k * r[a as usize],
+                Instr::Add { dst, a, b } => r[dst as usize] = r[a as usize] + r[b as usize],
+                Instr::Sub { dst, a, b } => r[dst as usize] = r[a as usize] - r[b as usize],
+                Instr::MulAdd { dst, acc, a, k } => {
+                    r[dst as usize] = r[acc as usize] + k * r[a as usize];
                 }
                 Instr::AddConst { dst, a, c } => r[dst as usize] = r[a as usize] + c,
                 Instr::Mul { dst, a, b } => r[dst as usize] = r[a as usize] * r[b as usize],
@@ -381,12 +438,14 @@ impl Tape {
                 Instr::Sqrt { dst, a } => r[dst as usize] = r[a as usize].sqrt(),
                 Instr::PowI { dst, a, n } => r[dst as usize] = r[a as usize].powi(n),
                 Instr::PowF { dst, a, p } => r[dst as usize] = r[a as usize].powf(p),
+                Instr::Sin { dst, a } => r[dst as usize] = r[a as usize].sin(),
+                Instr::Cos { dst, a } => r[dst as usize] = r[a as usize].cos(),
                 Instr::Unary { dst, op, a } => r[dst as usize] = op.apply(r[a as usize]),
                 Instr::Pow { dst, a, b } => r[dst as usize] = r[a as usize].powf(r[b as usize]),
                 Instr::Atan2 { dst, y, x } => r[dst as usize] = r[y as usize].atan2(r[x as usize]),
-                Instr::Store { out: k, a } => out[k as usize] = r[a as usize],
             }
         }
+        out[..self.outputs].copy_from_slice(&r[..self.outputs]);
         Ok(())
     }
 }
@@ -400,6 +459,32 @@ fn check(which: &'static str, needed: usize, given: usize) -> Result<(), TapeErr
         })
     } else {
         Ok(())
+    }
+}
+
+/// `dst = k a`, with the special cases of [`scaled`] resolved at compile time
+/// (so the tape and the tree evaluator agree bit for bit).
+fn scale(dst: Reg, a: Reg, k: f64) -> Instr {
+    if k == -1.0 {
+        Instr::Neg { dst, a }
+    } else if k == 1.0 {
+        Instr::Copy { dst, a }
+    } else {
+        debug_assert_eq!(scaled(k, 1.0), k);
+        Instr::Scale { dst, a, k }
+    }
+}
+
+/// `dst = acc + k a`, with the special cases of [`accumulate`] resolved at
+/// compile time.
+fn accumulate_into(dst: Reg, acc: Reg, a: Reg, k: f64) -> Instr {
+    if k == 1.0 {
+        Instr::Add { dst, a: acc, b: a }
+    } else if k == -1.0 {
+        Instr::Sub { dst, a: acc, b: a }
+    } else {
+        debug_assert_eq!(accumulate(0.0, k, 1.0), k);
+        Instr::MulAdd { dst, acc, a, k }
     }
 }
 
