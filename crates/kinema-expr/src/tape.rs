@@ -1,8 +1,9 @@
 //! Tapes: outputs compiled to a flat instruction list over registers.
 //!
 //! A tape is built once from a [`Schedule`] and then evaluated any number of
-//! times with no allocation: the caller owns the register file. Registers are
-//! reused once a value is dead, so the register file stays small. Arithmetic
+//! times with no allocation: the caller owns the register file. Outputs,
+//! inputs and constants have registers of their own (see [`Tape`]);
+//! temporaries are reused once a value is dead. Arithmetic
 //! follows the order documented in [`crate::eval`], so a tape and the tree
 //! evaluator agree bit for bit.
 
