@@ -153,7 +153,6 @@ pub struct TapeSystem {
     nu: Tape,
     gamma: Tape,
     registers: Vec<f64>,
-    both_out: Vec<f64>,
     zeros: Vec<f64>,
 }
 
@@ -182,7 +181,6 @@ impl TapeSystem {
             param_names: d.params.iter().map(|p| p.name.clone()).collect(),
             params: d.param_values(),
             pattern: d.phi_q.entries.iter().map(|e| (e.row, e.col)).collect(),
-            both_out: vec![0.0; n + jac.len()],
             zeros: vec![0.0; n],
             guess,
             phi,
@@ -283,14 +281,18 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        Self::run(&self.both, &mut self.registers, &inputs, &mut self.both_out);
-        let (p, j) = self.both_out.split_at(phi.len().min(self.both_out.len()));
-        if p.len() == phi.len() && j.len() == values.len() {
-            phi.copy_from_slice(p);
-            values.copy_from_slice(j);
-        } else {
-            phi.fill(f64::NAN);
-            values.fill(f64::NAN);
+        // The outputs are Φ then Φ_q's values, read where the tape left them.
+        let outputs = self.both.eval_in_registers(&inputs, &mut self.registers);
+        match outputs {
+            Ok(out) if out.len() == phi.len() + values.len() => {
+                let (p, j) = out.split_at(phi.len());
+                phi.copy_from_slice(p);
+                values.copy_from_slice(j);
+            }
+            _ => {
+                phi.fill(f64::NAN);
+                values.fill(f64::NAN);
+            }
         }
     }
 

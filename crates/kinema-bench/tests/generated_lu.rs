@@ -5,6 +5,7 @@
 
 use kinema::{DenseLu, Error, LinearSolver, Options, System};
 use kinema_bench::generated::{chain10::Chain10, four_bar::FourBar, slider_crank::SliderCrank};
+use kinema_bench::grid;
 use kinema_runtime::LinalgError;
 
 /// A small deterministic generator (xorshift), uniform in [lo, hi).
@@ -125,7 +126,7 @@ fn solve_before_factor_and_wrong_lengths_are_errors() -> Result<(), LinalgError>
 /// must be the one the runtime's solvers give.
 #[test]
 fn toggle_position_is_diagnosed_through_the_generated_lu() -> Result<(), Error> {
-    let grid: Vec<f64> = (0..=1000).map(|k| f64::from(k) / 1000.0).collect();
+    let grid = grid();
     for options in [Options::default(), Options::same_algorithm()] {
         let system = SliderCrank {
             l2: 0.3,

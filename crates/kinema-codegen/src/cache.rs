@@ -56,7 +56,7 @@ impl Cache {
                 },
                 _ => {
                     kids.clear();
-                    emit::children(arena, n, &mut kids);
+                    arena.children(n, &mut kids);
                     for k in &kids {
                         let c = deps[k.index()];
                         d.time |= c.time;

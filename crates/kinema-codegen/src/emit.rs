@@ -62,20 +62,6 @@ pub(crate) struct Inputs<'a> {
     pub cached: &'a dyn Fn(ExprId) -> Option<TokenStream>,
 }
 
-/// Children of `e` (operands), in canonical order.
-pub(crate) fn children(arena: &Arena, e: ExprId, out: &mut Vec<ExprId>) {
-    match arena.node(e) {
-        NodeRef::Num(_) | NodeRef::Sym(_) => {}
-        NodeRef::Add { terms, .. } => out.extend(terms.iter().map(|t| t.expr)),
-        NodeRef::Mul { factors, .. } => out.extend(factors.iter().map(|f| f.base)),
-        NodeRef::Unary(_, a) => out.push(a),
-        NodeRef::Pow(a, b) | NodeRef::Atan2(a, b) => {
-            out.push(a);
-            out.push(b);
-        }
-    }
-}
-
 /// The nodes `outputs` need, children before parents (depth-first
 /// post-order, first child first), not descending below cached nodes; with
 /// use counts. Like `Arena::schedule`, which cannot stop at given nodes.
@@ -105,7 +91,7 @@ impl Schedule {
                 } else {
                     stack.push((n, true));
                     kids.clear();
-                    children(arena, n, &mut kids);
+                    arena.children(n, &mut kids);
                     for &c in kids.iter().rev() {
                         if position[c.index()] == usize::MAX {
                             stack.push((c, false));
@@ -120,7 +106,7 @@ impl Schedule {
                 continue;
             }
             kids.clear();
-            children(arena, n, &mut kids);
+            arena.children(n, &mut kids);
             kids.sort_unstable();
             kids.dedup();
             for c in &kids {

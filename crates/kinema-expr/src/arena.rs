@@ -287,8 +287,9 @@ impl Arena {
         e == self.zero
     }
 
-    /// The children of `e` (operands), in canonical order.
-    pub(crate) fn children(&self, e: ExprId, out: &mut Vec<ExprId>) {
+    /// Appends the children of `e` (its operands) to `out`, in canonical
+    /// order: what a walk over the expression graph visits below `e`.
+    pub fn children(&self, e: ExprId, out: &mut Vec<ExprId>) {
         match self.node(e) {
             NodeRef::Num(_) | NodeRef::Sym(_) => {}
             NodeRef::Add { terms, .. } => out.extend(terms.iter().map(|t| t.expr)),

@@ -399,12 +399,39 @@ impl Tape {
         registers: &mut [f64],
         out: &mut [f64],
     ) -> Result<(), TapeError> {
+        self.check_inputs(inputs, registers)?;
+        check("outputs", self.outputs, out.len())?;
+        self.run(inputs, registers);
+        out[..self.outputs].copy_from_slice(&registers[..self.outputs]);
+        Ok(())
+    }
+
+    /// Evaluates the tape and returns the outputs where it computed them, the
+    /// first [`outputs`](Self::outputs) registers: [`eval`](Self::eval)
+    /// without the copy, for callers that split the outputs themselves.
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_in_registers<'r>(
+        &self,
+        inputs: &TapeInputs<'_>,
+        registers: &'r mut [f64],
+    ) -> Result<&'r [f64], TapeError> {
+        self.check_inputs(inputs, registers)?;
+        self.run(inputs, registers);
+        Ok(&registers[..self.outputs])
+    }
+
+    fn check_inputs(&self, inputs: &TapeInputs<'_>, registers: &[f64]) -> Result<(), TapeError> {
         check("q", self.need_q, inputs.q.len())?;
         check("qd", self.need_qd, inputs.qd.len())?;
         check("params", self.need_params, inputs.params.len())?;
-        check("registers", self.registers, registers.len())?;
-        check("outputs", self.outputs, out.len())?;
-        let r = registers;
+        check("registers", self.registers, registers.len())
+    }
+
+    /// Loads the inputs and constants, then runs the instructions (slices
+    /// checked by the caller).
+    fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64]) {
         let (q, qd, p) = (
             self.outputs,
             self.outputs + self.need_q,
@@ -446,8 +473,6 @@ impl Tape {
                 Instr::Atan2 { dst, y, x } => r[dst as usize] = r[y as usize].atan2(r[x as usize]),
             }
         }
-        out[..self.outputs].copy_from_slice(&r[..self.outputs]);
-        Ok(())
     }
 }
 
