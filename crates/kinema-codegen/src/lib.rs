@@ -20,7 +20,8 @@
 //!
 //! The struct also has a hidden field `__cache` (module `cache`): sin and
 //! cos of the body angles keyed on the exact angle, and the functions of
-//! time (the drivers' sin, cos, …) keyed on the exact t, so that the
+//! time alone (a driver's `sin(2*t)`, …; not those that also read a
+//! parameter, such as `sin(omega*t)`) keyed on the exact t, so that the
 //! evaluations of one step — and the next step's first, at the same q —
 //! share them. It never changes a result and compares equal to any other
 //! cache; build the mechanism with `..Default::default()` when setting

@@ -26,8 +26,9 @@
 //! # Checks and fallback
 //!
 //! A factorization is accepted under the runtime's criteria (see
-//! `kinema_runtime::linalg`): every value finite, every pivot |u_kk| > τ ·
-//! maxᵢⱼ |aᵢⱼ| and every multiplier |l_ik| ≤ 1/θ. When the static order fails
+//! `kinema_runtime::linalg`): every input value finite, every pivot |u_kk| >
+//! τ · maxᵢⱼ |aᵢⱼ| and every multiplier |l_ik| ≤ 1/θ, where a NaN pivot or
+//! multiplier (finite inputs whose products overflow) fails the test. When the static order fails
 //! them at some q, the generated type factors with the runtime solver it
 //! holds (`DenseLu<N>` or `Auto`), whose partial pivoting also gives the
 //! singularity verdict and so the diagnostics.
@@ -611,7 +612,14 @@ impl Plan {
         for p in &self.pivots {
             if let Val::Var(x) = *p {
                 let v = var(x);
-                pivot_stmts.extend(quote!(min_pivot = min_pivot.min(#v.abs());));
+                // Not `f64::min`, which drops a NaN: a NaN pivot becomes the
+                // minimum and fails the test below.
+                pivot_stmts.extend(quote! {{
+                    let x = #v.abs();
+                    if !(x >= min_pivot) {
+                        min_pivot = x;
+                    }
+                }});
             }
         }
         // Multipliers as |bits| maxima (a NaN exceeds any bound). Those that
@@ -786,7 +794,9 @@ impl Plan {
             " The LU of [`{system}`]'s Jacobian, generated for its pattern: a pivot order \
              chosen at generation time, {} floating-point operations per factorization, \
              straight-line solves; the runtime's `{}` takes over when that order does not \
-             suit the matrix (see the `LinearSolver` trait for the contract).",
+             suit the matrix (see the `LinearSolver` trait for the contract). The \
+             Jacobian's constant entries are folded in and never read from `values`: \
+             this type factors that Jacobian, not any matrix of its pattern.",
             self.operations(),
             fallback
                 .to_string()
