@@ -120,6 +120,8 @@ pub(crate) struct Schedule {
     l_row: Vec<u32>,
     l_slot: Vec<u32>,
     /// Strict U by rows, laid out last row first after `build`: (column, slot) of each entry.
+    /// `u_ptr` keeps the row offsets of the build order (row k had entries
+    /// u_ptr[k]..u_ptr[k+1] before the reversal).
     u_ptr: Vec<u32>,
     u_col: Vec<u32>,
     u_slot: Vec<u32>,
@@ -297,19 +299,18 @@ impl Schedule {
         }
         self.list_a = below;
         self.list_b = right;
-        // Lay U's rows out last row first (each row's entries in place), so
-        // that back substitution reads them front to back.
-        let mut reordered = std::mem::take(&mut self.list_a);
+        // Lay U's rows out last row first (each row's entries in their
+        // order), so that back substitution reads them front to back: reverse
+        // the whole array, then each row's segment back. In place, so a
+        // rebuild on re-pivoting allocates nothing.
+        let len = self.u_col.len();
         for array in [&mut self.u_col, &mut self.u_slot] {
-            reordered.clear();
-            for k in (0..n).rev() {
-                reordered
-                    .extend_from_slice(&array[self.u_ptr[k] as usize..self.u_ptr[k + 1] as usize]);
+            array.reverse();
+            for k in 0..n {
+                let (start, end) = (self.u_ptr[k] as usize, self.u_ptr[k + 1] as usize);
+                array[len - end..len - start].reverse();
             }
-            array.clear();
-            array.extend_from_slice(&reordered);
         }
-        self.list_a = reordered;
         self.l_val.clear();
         self.l_val.resize(self.l_row.len(), 0.0);
         self.u_val.clear();
