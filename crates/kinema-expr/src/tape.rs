@@ -9,7 +9,6 @@
 
 use crate::arena::Arena;
 use crate::build::is_int;
-use crate::eval::{accumulate, scaled};
 use crate::node::{ExprId, NodeRef, SymKind, UnaryOp};
 
 /// Where a tape reads its inputs from.
@@ -111,8 +110,9 @@ struct Regs {
 impl Regs {
     fn take(&mut self) -> Reg {
         self.free.pop().unwrap_or_else(|| {
-            self.count += 1;
-            self.count - 1
+            let r = self.count;
+            self.count = r.checked_add(1).expect("a tape's registers fit in u32");
+            r
         })
     }
 
@@ -153,7 +153,7 @@ impl Tape {
         let t_reg = uses_t.then_some(p_base + need_params);
         let consts_base = p_base + need_params + usize::from(uses_t);
         let reserved = consts_base + consts.len();
-        let as_reg = |r: usize| Reg::try_from(r).unwrap_or(Reg::MAX);
+        let as_reg = |r: usize| Reg::try_from(r).expect("a tape's registers fit in u32");
         let mut regs = Regs {
             free: Vec::new(),
             count: as_reg(reserved),
@@ -163,7 +163,7 @@ impl Tape {
         let mut stores: Vec<Vec<u32>> = vec![Vec::new(); nodes.len()];
         for (k, o) in outputs.iter().enumerate() {
             if let Some(p) = schedule.position(*o) {
-                stores[p].push(k as u32);
+                stores[p].push(as_reg(k));
             }
         }
         let mut tape = Tape {
@@ -179,7 +179,10 @@ impl Tape {
         };
         let mut kids: Vec<ExprId> = Vec::new();
         for (i, &n) in nodes.iter().enumerate() {
-            let reg = |e: ExprId| -> Reg { schedule.position(e).map_or(0, |p| reg_of[p]) };
+            let reg = |e: ExprId| -> Reg {
+                let p = schedule.position(e);
+                reg_of[p.expect("operands are scheduled before their users")]
+            };
             // An output is computed straight into its own register; a
             // temporary is taken before any operand is freed, so it never
             // aliases a live operand.
@@ -190,7 +193,7 @@ impl Tape {
                     SymKind::Coordinate(k) => q_base + k as usize,
                     SymKind::Velocity(k) => qd_base + k as usize,
                     SymKind::Parameter(k) => p_base + k as usize,
-                    SymKind::Time => t_reg.unwrap_or(0),
+                    SymKind::Time => t_reg.expect("t has a register when the tape reads it"),
                 }),
                 NodeRef::Num(_) => {
                     next_const += 1;
@@ -332,8 +335,9 @@ impl Tape {
                 } else if r != dst {
                     self.instrs.push(Instr::Copy { dst, a: r });
                 }
-                regs.free.extend(den_reg);
-                regs.free.extend(tmp);
+                for r in den_reg.into_iter().chain(tmp) {
+                    regs.free(r);
+                }
             }
             NodeRef::Unary(op, a) => {
                 let a = reg(a);
@@ -488,20 +492,18 @@ fn check(which: &'static str, needed: usize, given: usize) -> Result<(), TapeErr
     }
 }
 
-/// `dst = k a`, with the special cases of [`scaled`] resolved at compile time
-/// (so the tape and the tree evaluator agree bit for bit).
+/// `dst = k a` for `k ≠ 1` (callers skip a unit coefficient), with the
+/// special case of `eval::scaled` resolved at compile time, so the tape and the
+/// tree evaluator agree bit for bit.
 fn scale(dst: Reg, a: Reg, k: f64) -> Instr {
     if k == -1.0 {
         Instr::Neg { dst, a }
-    } else if k == 1.0 {
-        Instr::Copy { dst, a }
     } else {
-        debug_assert_eq!(scaled(k, 1.0), k);
         Instr::Scale { dst, a, k }
     }
 }
 
-/// `dst = acc + k a`, with the special cases of [`accumulate`] resolved at
+/// `dst = acc + k a`, with the special cases of `eval::accumulate` resolved at
 /// compile time.
 fn accumulate_into(dst: Reg, acc: Reg, a: Reg, k: f64) -> Instr {
     if k == 1.0 {
@@ -509,7 +511,6 @@ fn accumulate_into(dst: Reg, acc: Reg, a: Reg, k: f64) -> Instr {
     } else if k == -1.0 {
         Instr::Sub { dst, a: acc, b: a }
     } else {
-        debug_assert_eq!(accumulate(0.0, k, 1.0), k);
         Instr::MulAdd { dst, acc, a, k }
     }
 }
