@@ -3,7 +3,7 @@
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
-//! generated, tape, handwritten; mode: same, default, predictor (full
+//! generated, tape, handwritten; mode: same, default (predictor, full
 //! Newton), predictor-modified, modified (no predictor); repetitions).
 
 use kinema::{LinearSolver, Options, Solver, System};
@@ -29,15 +29,15 @@ fn main() {
     let reps: usize = get(3, "1000").parse().unwrap_or(1000);
     let options = match mode.as_str() {
         "same" => Options::same_algorithm(),
-        // Predictor with full Newton.
-        "predictor" => Options::default().with_modified_newton(false),
+        // Predictor with full Newton: the defaults.
+        "default" => Options::default(),
         // Predictor with modified Newton.
         "predictor-modified" => Options::default().with_modified_newton(true),
         // Modified Newton without the predictor.
         "modified" => Options::default()
             .with_predictor(false)
             .with_modified_newton(true),
-        _ => Options::default(),
+        other => panic!("unknown mode {other:?}: same, default, predictor-modified or modified"),
     };
     let ok = |e: kinema::Error| -> ! { panic!("{e}") };
     match (name.as_str(), backend.as_str()) {
