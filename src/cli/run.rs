@@ -124,7 +124,6 @@ impl Grid {
 /// What the run cost, for the summary.
 #[derive(Debug, Clone, Default)]
 struct Stats {
-    recorded: bool,
     assembly_iterations: usize,
     steps: usize,
     iterations: usize,
@@ -134,6 +133,7 @@ struct Stats {
 }
 
 impl Stats {
+    /// Records one analysis; `first` is the assembly, always recorded first.
     fn record(&mut self, first: bool, state: &State) {
         let s = state.stats();
         if first {
@@ -143,11 +143,10 @@ impl Stats {
             self.iterations += s.iterations;
             self.max_iterations = self.max_iterations.max(s.iterations);
         }
-        if !self.recorded || s.residual > self.worst_residual {
+        if first || s.residual > self.worst_residual {
             self.worst_residual = s.residual;
             self.worst_residual_t = state.t();
         }
-        self.recorded = true;
     }
 }
 
@@ -182,7 +181,7 @@ fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
     } else {
         Err(Failure::usage(format_args!(
             "the analysis asks for about {solves:.3e} solves (tend {} / stepSize {} + outputSteps {}); \
-             one run takes at most {MAX_TIMES}",
+             one run takes fewer than {MAX_TIMES}",
             analysis.tend, analysis.step_size, analysis.output_steps
         )))
     }

@@ -122,7 +122,9 @@ pub fn run_grid<S: System, L: kinema::LinearSolver>(solver: &mut Solver<S, L>) -
     let mut updates = 0usize;
     let mut factorizations = 0usize;
     let mut checkpoints = Vec::new();
-    for (k, t) in grid().into_iter().enumerate() {
+    let times = grid();
+    let steps = times.len() as f64;
+    for (k, t) in times.into_iter().enumerate() {
         let state = solver.step(t).unwrap_or_else(|e| panic!("{e}"));
         updates += state.stats().iterations;
         factorizations += state.stats().factorizations;
@@ -136,8 +138,8 @@ pub fn run_grid<S: System, L: kinema::LinearSolver>(solver: &mut Solver<S, L>) -
         }
     }
     Run {
-        mean_updates: updates as f64 / 1001.0,
-        mean_factorizations: factorizations as f64 / 1001.0,
+        mean_updates: updates as f64 / steps,
+        mean_factorizations: factorizations as f64 / steps,
         checkpoints,
     }
 }
