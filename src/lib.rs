@@ -34,8 +34,8 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvWriter, DenseLu, DynDenseLu, Error, LinearSolver, Options, PointKinematics, Solver,
-    SparseLu, State, StepStats, System, Trajectory, point_kinematics,
+    Auto, CsvWriter, DenseLu, DynDenseLu, Error, LinalgError, LinearSolver, Options,
+    PointKinematics, Solver, SparseLu, State, StepStats, System, Trajectory, point_kinematics,
 };
 
 #[cfg(feature = "model")]

@@ -3,10 +3,9 @@
 //! solves, falls back to it when the generated pivot order does not suit a
 //! matrix, and keeps the singular-Jacobian diagnostics.
 
-use kinema::{DenseLu, Error, LinearSolver, Options, System};
+use kinema::{DenseLu, Error, LinalgError, LinearSolver, Options, System};
 use kinema_bench::generated::{chain10::Chain10, four_bar::FourBar, slider_crank::SliderCrank};
 use kinema_bench::grid;
-use kinema_runtime::LinalgError;
 
 /// A small deterministic generator (xorshift), uniform in [lo, hi).
 struct Rng(u64);

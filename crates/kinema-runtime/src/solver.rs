@@ -333,25 +333,39 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // every arithmetic operation of a solve. So only the solutions are
         // checked; on failure the right-hand side is evaluated again (the
         // solve overwrote it) to name the culprit.
-        self.system.nu(q, t, qd);
-        self.lu.solve_in_place(qd)?;
-        if !scale_and_finite(qd).1 {
-            self.system.nu(q, t, qd);
-            check_equations(&self.system, t, Quantity::Nu, qd)?;
-            self.lu.solve_in_place(qd)?;
-            check_coordinates(&self.system, t, Quantity::Velocity, qd)?;
-        }
-        self.system.gamma(q, qd, t, qdd);
-        self.lu.solve_in_place(qdd)?;
-        if !scale_and_finite(qdd).1 {
-            self.system.gamma(q, qd, t, qdd);
-            check_equations(&self.system, t, Quantity::Gamma, qdd)?;
-            self.lu.solve_in_place(qdd)?;
-            check_coordinates(&self.system, t, Quantity::Acceleration, qdd)?;
-        }
+        let (system, lu) = (&mut self.system, &mut self.lu);
+        let quantities = (Quantity::Nu, Quantity::Velocity);
+        solve_checked(system, lu, t, qd, quantities, |s, rhs| s.nu(q, t, rhs))?;
+        let quantities = (Quantity::Gamma, Quantity::Acceleration);
+        solve_checked(system, lu, t, qdd, quantities, |s, rhs| {
+            s.gamma(q, qd, t, rhs)
+        })?;
 
         self.next.t = t;
         self.next.stats = converged.stats;
         Ok(())
     }
+}
+
+/// Fills `x` with a right-hand side (`fill`), solves Φ_q x = rhs in place,
+/// and only if x is not finite evaluates the right-hand side again to name
+/// the culprit: a non-finite equation (`quantities.0`) or else a solution
+/// that overflowed (`quantities.1`).
+fn solve_checked<S: System, L: LinearSolver>(
+    system: &mut S,
+    lu: &mut L,
+    t: f64,
+    x: &mut [f64],
+    quantities: (Quantity, Quantity),
+    mut fill: impl FnMut(&mut S, &mut [f64]),
+) -> Result<(), Error> {
+    fill(system, x);
+    lu.solve_in_place(x)?;
+    if !scale_and_finite(x).1 {
+        fill(system, x);
+        check_equations(system, t, quantities.0, x)?;
+        lu.solve_in_place(x)?;
+        check_coordinates(system, t, quantities.1, x)?;
+    }
+    Ok(())
 }
