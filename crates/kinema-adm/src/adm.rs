@@ -988,6 +988,18 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                 );
                 return None;
             }
+            let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
+            if !crate::emit::length(u).is_finite() {
+                let pos = v.get("sQ1").map_or(v.pos, |x| x.pos);
+                cx.err(
+                    pos,
+                    format!(
+                        "{}: field \"sQ1\": the pitch line from sP1 to sQ1 is longer than the largest number (about 1.8e308)",
+                        e.label
+                    ),
+                );
+                return None;
+            }
             let (body1, body2) = bodies?;
             ConstraintKind::RackPinion {
                 body1,

@@ -294,10 +294,41 @@ fn pair(v: Vec2) -> String {
     format!("({}, {})", format_number(v[0]), format_number(v[1]))
 }
 
-/// `v / |v|`, the engine's normalisation of direction vectors.
-fn normalised(v: Vec2) -> Vec2 {
+/// `|v|`, the engine's formula for ordinary vectors (so that printed
+/// numbers are the engine's); when the sum of squares would overflow
+/// (`[1e200, 1e200]`) or lose a component to underflow (`[1e-200,
+/// 1e-200]`, `[5e-324, 0]`), scaled first (`hypot`), which is exact to
+/// rounding whatever the magnitude. Infinite only if `|v|` exceeds
+/// `f64::MAX`.
+pub(crate) fn length(v: Vec2) -> f64 {
     let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
-    [v[0] / n, v[1] / n]
+    // Below 1e-100 a component that matters at the last bit may have
+    // squared into the subnormals; an infinite n overflowed.
+    if n.is_finite() && n >= 1e-100 {
+        n
+    } else {
+        v[0].hypot(v[1])
+    }
+}
+
+/// `v / |v|`, the engine's normalisation of direction vectors, for any
+/// nonzero finite `v`; `None` for a zero or non-finite vector (the reader
+/// refuses those at their field, so emitted text never holds one).
+pub(crate) fn normalised(v: Vec2) -> Option<Vec2> {
+    let m = v[0].abs().max(v[1].abs());
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    let n = length(v);
+    let u = if n.is_finite() && n >= 1e-100 {
+        [v[0] / n, v[1] / n]
+    } else {
+        // Scaled by the largest component first: |w| is in [1, √2].
+        let w = [v[0] / m, v[1] / m];
+        let n = w[0].hypot(w[1]);
+        [w[0] / n, w[1] / n]
+    };
+    u.iter().all(|x| x.is_finite()).then_some(u)
 }
 
 /// A sum of terms, each with a sign: numbers are folded into the sign
@@ -489,9 +520,9 @@ fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: 
                 out,
                 "    joint {name}: translational({}, {}, {}, {});",
                 point(*body1, *sp1),
-                pair(normalised(*vp1)),
+                pair(normalised(*vp1).unwrap_or(*vp1)),
                 point(*body2, *sp2),
-                pair(normalised(*vp2))
+                pair(normalised(*vp2).unwrap_or(*vp2))
             );
         }
         ConstraintKind::RackPinion {
@@ -507,7 +538,8 @@ fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: 
         } => {
             let (rack, pinion) = (body(*body1), body(*body2));
             let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
-            let l = (u[0] * u[0] + u[1] * u[1]).sqrt();
+            // Finite: the reader refuses a pitch line whose length overflows.
+            let l = length(u);
             let a = format!("rot({rack}.phi, {})", pair(u));
             let alpha = sum(&[
                 Term::Text(false, format!("{rack}.phi")),
@@ -571,6 +603,58 @@ mod tests {
         assert_eq!(camel_identifier("Example3.4.2"), "Example3_4_2");
         assert_eq!(camel_identifier(""), "Model");
         assert_eq!(camel_identifier("4bar"), "Model4bar");
+    }
+
+    /// A unit vector along `v`: length 1 to rounding, same direction
+    /// (cross product zero relative to the larger component), same signs.
+    fn assert_unit_along(v: Vec2) {
+        let u = normalised(v).unwrap_or_else(|| panic!("{v:?} has a direction"));
+        assert!(u.iter().all(|x| x.is_finite()), "{v:?} -> {u:?}");
+        let len = (u[0] * u[0] + u[1] * u[1]).sqrt();
+        assert!((len - 1.0).abs() < 4.0 * f64::EPSILON, "{v:?} -> {u:?}");
+        for k in 0..2 {
+            assert_eq!(u[k] == 0.0, v[k] == 0.0, "{v:?} -> {u:?}");
+            assert_eq!(u[k] < 0.0, v[k] < 0.0, "{v:?} -> {u:?}");
+        }
+        // Ratios u0/u1 = v0/v1 where both are nonzero (compared through
+        // the scaled components, which do not overflow).
+        let m = v[0].abs().max(v[1].abs());
+        let w = [v[0] / m, v[1] / m];
+        let cross = u[0] * w[1] - u[1] * w[0];
+        assert!(cross.abs() < 4.0 * f64::EPSILON, "{v:?} -> {u:?}");
+    }
+
+    #[test]
+    fn directions_normalise_at_any_magnitude() {
+        for v in [
+            [1e-200, 1e-200],
+            [5e-324, 0.0],
+            [0.0, -5e-324],
+            [1e200, 1e200],
+            [f64::MAX, f64::MAX],
+            [-f64::MAX, 1.0],
+            [1e-160, 3e-170],
+            [3.0, 4.0],
+            [2.0, 0.0],
+        ] {
+            assert_unit_along(v);
+        }
+        // The engine's own formula for ordinary vectors, to the bit.
+        assert_eq!(normalised([3.0, 4.0]), Some([0.6, 0.8]));
+        let v: Vec2 = [0.3, -1.7];
+        let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
+        assert_eq!(normalised(v), Some([v[0] / n, v[1] / n]));
+        assert_eq!(normalised([0.0, 0.0]), None);
+        assert_eq!(normalised([f64::NAN, 1.0]), None);
+    }
+
+    #[test]
+    fn lengths_neither_overflow_nor_underflow() {
+        assert_eq!(length([3.0, 4.0]), 5.0);
+        assert!((length([3e200, 4e200]) / 5e200 - 1.0).abs() < 1e-15);
+        assert!((length([3e-200, 4e-200]) / 5e-200 - 1.0).abs() < 1e-15);
+        assert_eq!(length([5e-324, 0.0]), 5e-324);
+        assert!(length([f64::MAX, f64::MAX]).is_infinite());
     }
 
     #[test]
