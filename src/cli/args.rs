@@ -78,13 +78,15 @@ pub struct RunArgs {
     pub model: PathBuf,
     /// Final time [s]; the analysis runs from t = 0. Default 1 for `.kin`
     /// models; for `.adm` models the ACF's `tend`.
-    #[arg(long, value_name = "T")]
+    // Values that start with `-` are taken (and refused with the valid
+    // range by `run`), not mistaken for options.
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
     pub t_end: Option<f64>,
     /// Number of equal time steps from 0 to the final time: N + 1 rows.
     /// Default 100 for `.kin` models; for `.adm` models the ACF's
     /// `outputSteps`.
-    #[arg(long, value_name = "N")]
-    pub steps: Option<usize>,
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub steps: Option<i64>,
     /// simEngine2D analysis file for an `.adm` model (default: the engine's
     /// kinematics.acf — Kinematics, tend 5, stepSize 0.01, 500 output steps).
     #[arg(long, value_name = "ANALYSIS.acf")]

@@ -41,28 +41,45 @@ pub struct Grid {
 impl Grid {
     /// `steps` equal steps from 0 to `t_end` (N + 1 times, all outputs; the
     /// last is exactly `t_end`).
-    pub fn uniform(t_end: f64, steps: usize) -> Grid {
+    ///
+    /// # Errors
+    /// [`Failure::Input`] when the times do not increase: the step is below
+    /// the resolution of the times (`t_end` 5e-324 in 10 steps).
+    pub fn uniform(t_end: f64, steps: usize) -> Result<Grid, Failure> {
         let times: Vec<f64> = (0..=steps)
             .map(|k| {
                 if k == steps {
                     t_end
                 } else {
-                    k as f64 * t_end / steps as f64
+                    let p = k as f64 * t_end;
+                    if p.is_finite() {
+                        p / steps as f64
+                    } else {
+                        (k as f64 / steps as f64) * t_end
+                    }
                 }
             })
             .collect();
-        Grid {
+        check_increasing(&times, &|| {
+            format!("--t-end {t_end:e} with --steps {steps}")
+        })?;
+        Ok(Grid {
             output: vec![true; times.len()],
             description: format!("{steps} equal steps from t = 0 to {}", time(t_end)),
             times,
-        }
+        })
     }
 
     /// simEngine2D's grid: outputs at the ACF's `outputSteps + 1` times,
     /// solves also every `stepSize` in between (warm starts, as the engine
     /// did).
-    pub fn simengine(analysis: &Analysis) -> Grid {
+    ///
+    /// # Errors
+    /// [`Failure::Input`] when the output times do not increase (`source`
+    /// says where `tend` and `outputSteps` came from).
+    pub fn simengine(analysis: &Analysis, source: &dyn Fn() -> String) -> Result<Grid, Failure> {
         let outputs = analysis.output_times();
+        check_increasing(&outputs, source)?;
         let solves = analysis.solve_times();
         let (mut times, mut output) = (Vec::new(), Vec::new());
         let (mut i, mut j) = (0, 0);
@@ -106,7 +123,7 @@ impl Grid {
             }
         }
         let outputs_n = output.iter().filter(|&&o| o).count();
-        Grid {
+        Ok(Grid {
             description: format!(
                 "{} outputs from t = 0 to {} (outputSteps {}), solved at {} times (stepSize {})",
                 outputs_n,
@@ -117,7 +134,7 @@ impl Grid {
             ),
             times,
             output,
-        }
+        })
     }
 }
 
@@ -150,27 +167,76 @@ impl Stats {
     }
 }
 
-/// Checks `--t-end` and `--steps`.
-fn check_grid_args(t_end: Option<f64>, steps: Option<usize>) -> Result<(), Failure> {
+/// Checks `--t-end` and `--steps`; returns the number of steps.
+fn check_grid_args(t_end: Option<f64>, steps: Option<i64>) -> Result<Option<usize>, Failure> {
     if let Some(t) = t_end
         && !(t.is_finite() && t > 0.0)
     {
         return Err(Failure::usage(format_args!(
-            "--t-end must be a positive finite time, found {t}"
+            "--t-end must be a positive finite time (T > 0: the analysis runs from t = 0 to T), found {t}"
         )));
     }
-    if steps == Some(0) {
-        return Err(Failure::usage("--steps must be at least 1"));
-    }
-    if let Some(n) = steps
-        && n >= MAX_TIMES
-    {
+    let Some(n) = steps else {
+        return Ok(None);
+    };
+    if n < 1 {
         return Err(Failure::usage(format_args!(
-            "--steps {n} is more than one run takes (at most {})",
+            "--steps must be at least 1 (a whole number from 1 to {}), found {n}",
             MAX_TIMES - 1
         )));
     }
-    Ok(())
+    match usize::try_from(n) {
+        Ok(n) if n < MAX_TIMES => Ok(Some(n)),
+        _ => Err(Failure::usage(format_args!(
+            "--steps {n} is more than one run takes (at most {})",
+            MAX_TIMES - 1
+        ))),
+    }
+}
+
+/// Refuses a grid whose times are not finite and strictly increasing (a
+/// step below the resolution of the times: `--t-end 5e-324 --steps 10`);
+/// `source` says where the values came from.
+fn check_increasing(times: &[f64], source: &dyn Fn() -> String) -> Result<(), Failure> {
+    let bad = times
+        .windows(2)
+        .position(|w| !(w[1] > w[0] && w[1].is_finite()));
+    match bad {
+        None if times.iter().all(|t| t.is_finite()) => Ok(()),
+        _ => {
+            let k = bad.unwrap_or(0);
+            let (a, b) = (
+                times.get(k).copied().unwrap_or(f64::NAN),
+                times.get(k + 1).copied().unwrap_or(f64::NAN),
+            );
+            Err(Failure::usage(format_args!(
+                "{}: the solve times do not increase (time {k} is {}, time {} is {}); \
+                 the step is below the resolution of the times: use fewer steps or a later final time",
+                source(),
+                time(a),
+                k + 1,
+                time(b)
+            )))
+        }
+    }
+}
+
+/// Where a simEngine2D analysis's `tend` and `outputSteps` came from, for
+/// messages: `--t-end 5e-324 with outputSteps 500 of kinematics.acf`.
+fn analysis_source(args: &RunArgs, analysis: &Analysis) -> String {
+    let acf = args.acf.as_ref().map_or_else(
+        || "the default kinematics.acf".to_string(),
+        |p| format!("`{}`", p.display()),
+    );
+    let tend = match args.t_end {
+        Some(t) => format!("--t-end {t:e}"),
+        None => format!("tend {:e} of {acf}", analysis.tend),
+    };
+    let steps = match args.steps {
+        Some(n) => format!("--steps {n}"),
+        None => format!("outputSteps {} of {acf}", analysis.output_steps),
+    };
+    format!("{tend} with {steps} (stepSize {:e})", analysis.step_size)
 }
 
 /// Refuses a simEngine2D analysis with more solve times than [`MAX_TIMES`].
@@ -196,7 +262,7 @@ fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let start = Instant::now();
     let Backend::Tape = args.backend;
-    check_grid_args(args.t_end, args.steps)?;
+    let steps = check_grid_args(args.t_end, args.steps)?;
     let (grid, analysis) = match Format::of(&args.model)? {
         Format::Kin => {
             if args.acf.is_some() {
@@ -206,8 +272,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             }
             let grid = Grid::uniform(
                 args.t_end.unwrap_or(DEFAULT_T_END),
-                args.steps.unwrap_or(DEFAULT_STEPS),
-            );
+                steps.unwrap_or(DEFAULT_STEPS),
+            )?;
             (grid, None)
         }
         Format::Adm => {
@@ -215,11 +281,15 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             if let Some(t) = args.t_end {
                 analysis.tend = t;
             }
-            if let Some(n) = args.steps {
+            if let Some(n) = steps {
                 analysis.output_steps = n;
             }
             check_analysis_size(&analysis)?;
-            (Grid::simengine(&analysis), Some(analysis))
+            let source = || analysis_source(args, &analysis);
+            if let Err(e) = analysis.check_times() {
+                return Err(Failure::usage(format_args!("{}: {e}", source())));
+            }
+            (Grid::simengine(&analysis, &source)?, Some(analysis))
         }
     };
     let loaded = load(&args.model, analysis.as_ref())?;
@@ -399,7 +469,7 @@ mod tests {
 
     #[test]
     fn uniform_grid_ends_on_t_end() {
-        let g = Grid::uniform(0.3, 3);
+        let g = Grid::uniform(0.3, 3).expect("increasing");
         assert_eq!(g.times.len(), 4);
         assert_eq!(g.times.last().copied(), Some(0.3));
         assert!(g.output.iter().all(|&o| o));
@@ -413,7 +483,7 @@ mod tests {
             output_steps: 4,
             ..Analysis::default()
         };
-        let g = Grid::simengine(&a);
+        let g = Grid::simengine(&a, &String::new).expect("increasing");
         assert!(g.times.windows(2).all(|w| w[1] > w[0]));
         let outs: Vec<f64> = g
             .times

@@ -100,7 +100,8 @@ impl Analysis {
     }
 
     /// The output times t_k = k·tend/outputSteps, k = 0..=outputSteps
-    /// (both ends included; the last is exactly `tend`).
+    /// (both ends included; the last is exactly `tend`). When k·tend would
+    /// overflow (tend near `f64::MAX`), (k/outputSteps)·tend instead.
     #[must_use]
     pub fn output_times(&self) -> Vec<f64> {
         let n = self.output_steps;
@@ -109,10 +110,61 @@ impl Analysis {
                 if k == n {
                     self.tend // k·tend/n may round away from tend
                 } else {
-                    k as f64 * self.tend / n as f64
+                    let p = k as f64 * self.tend;
+                    if p.is_finite() {
+                        p / n as f64
+                    } else {
+                        (k as f64 / n as f64) * self.tend
+                    }
                 }
             })
             .collect()
+    }
+
+    /// Checks that the analysis's times increase: the output spacing
+    /// `tend / outputSteps` and `stepSize` must both be resolvable next to
+    /// `tend` (a few units in the last place of it). Otherwise consecutive
+    /// times would round to the same number (`tend` 5e-324 with 10 output
+    /// steps), or `t + stepSize` back to `t`.
+    ///
+    /// # Errors
+    /// A [`TimesError`] naming the field at fault.
+    pub fn check_times(&self) -> Result<(), TimesError> {
+        let (tend, n, step) = (self.tend, self.output_steps, self.step_size);
+        if !(tend > 0.0 && tend.is_finite() && step > 0.0 && step.is_finite() && n > 0) {
+            return Err(TimesError {
+                field: "tend",
+                message: format!(
+                    "tend {}, stepSize {} and outputSteps {n} must be positive and finite",
+                    crate::fun::format_number(tend),
+                    crate::fun::format_number(step)
+                ),
+            });
+        }
+        // The spacing between representable times just below tend.
+        let ulp = tend - tend.next_down();
+        let spacing = tend / n as f64;
+        if spacing < 4.0 * ulp {
+            return Err(TimesError {
+                field: "outputSteps",
+                message: format!(
+                    "the output times do not increase: tend / outputSteps = {} / {n} = {} is below \
+                     the resolution of times near tend ({ulp:e}); use fewer output steps or a later tend",
+                    crate::fun::format_number(tend),
+                    crate::fun::format_number(spacing)
+                ),
+            });
+        }
+        if step < ulp {
+            return Err(TimesError {
+                field: "stepSize",
+                message: format!(
+                    "the solve times do not increase: stepSize {step:e} is below the resolution of times near tend {} ({ulp:e}), so t + stepSize would round back to t",
+                    crate::fun::format_number(tend)
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// The times at which simEngine2D solved: every `stepSize` from 0 and
@@ -141,6 +193,23 @@ impl Analysis {
         times
     }
 }
+
+/// Why an analysis's times do not increase ([`Analysis::check_times`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TimesError {
+    /// The ACF field at fault: `tend`, `stepSize` or `outputSteps`.
+    pub field: &'static str,
+    /// What is wrong, with the values.
+    pub message: String,
+}
+
+impl std::fmt::Display for TimesError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for TimesError {}
 
 /// A field value with the position of its key and value.
 struct Field {
@@ -334,12 +403,18 @@ fn build(source: &Source<'_>, fields: &[Field], diags: &mut Vec<Diagnostic>) -> 
     let tend = positive("tend", false);
     let step_size = positive("stepSize", false);
     let output_steps = positive("outputSteps", true);
-    Some(Analysis {
+    let analysis = Analysis {
         simulation: simulation?,
         tend: tend?,
         step_size: step_size?,
         output_steps: output_steps? as usize,
-    })
+    };
+    if let Err(e) = analysis.check_times() {
+        let pos = get(e.field).map_or(end, |f| f.pos);
+        err(pos, format!("field \"{}\": {}", e.field, e.message));
+        return None;
+    }
+    Some(analysis)
 }
 
 #[cfg(test)]
@@ -398,6 +473,49 @@ mod tests {
                 .all(|w| w[1] > w[0] && w[1] - w[0] <= 0.01 + 1e-15)
         );
         assert_eq!(s.last().copied(), Some(0.05));
+    }
+
+    #[test]
+    fn times_that_do_not_increase_are_refused_at_their_field() {
+        let e = Analysis::parse(
+            "{\"simulation\": \"Kinematics\", \"tend\": 5e-324,\n \"stepSize\": 1e-3, \"outputSteps\": 10}",
+            "x.acf",
+        )
+        .expect_err("5e-324 / 10 underflows");
+        let d = &e.diagnostics()[0];
+        assert!(
+            d.message
+                .contains("\"outputSteps\": the output times do not increase"),
+            "{e}"
+        );
+        assert_eq!(d.pos.map(|p| (p.line, p.col)), Some((2, 35)), "{e}");
+        let e = Analysis::parse(
+            "simulation: kinematics\ntend: 5\nstepSize: 1e-20\noutputSteps: 5\n",
+            "x.acf",
+        )
+        .expect_err("t + 1e-20 == t near 5");
+        let d = &e.diagnostics()[0];
+        assert!(
+            d.message
+                .contains("\"stepSize\": the solve times do not increase"),
+            "{e}"
+        );
+        assert_eq!(d.pos.map(|p| p.line), Some(3), "{e}");
+        // Tiny but resolvable times are fine, and so are huge ones.
+        for (tend, n) in [(1e-310, 10), (1e-300, 1000), (f64::MAX, 1000)] {
+            let a = Analysis {
+                simulation: Simulation::Kinematics,
+                tend,
+                step_size: tend / 7.0,
+                output_steps: n,
+            };
+            assert_eq!(a.check_times(), Ok(()));
+            let t = a.output_times();
+            assert!(t.iter().all(|x| x.is_finite()), "{tend}");
+            assert!(t.windows(2).all(|w| w[1] > w[0]), "{tend}: {t:?}");
+            let s = a.solve_times();
+            assert!(s.windows(2).all(|w| w[1] > w[0]), "{tend}");
+        }
     }
 
     #[test]

@@ -53,7 +53,7 @@ pub mod error;
 pub mod fun;
 pub mod json;
 
-pub use acf::{Analysis, Simulation};
+pub use acf::{Analysis, Simulation, TimesError};
 pub use adm::{Body, BodyVis, Constraint, ConstraintKind, Force, ForceKind, Model, Rect, SceneVis};
 pub use check::{Counts, Refusal, check_kinematic, ignored_by_kinematics};
 pub use emit::{Names, RowOrigin, to_kin};
