@@ -52,10 +52,10 @@ impl AdmInput {
     /// standard error.
     pub fn print_notes(&self) {
         for w in &self.model.warnings {
-            eprintln!("{}", render(w, "warning"));
+            super::print_stderr(&render(w, "warning"));
         }
         for line in &self.ignored {
-            eprintln!("note: ignored by kinematic analysis: {line}");
+            super::print_stderr(&format!("note: ignored by kinematic analysis: {line}"));
         }
     }
 
@@ -169,10 +169,10 @@ pub fn render(d: &Diagnostic, severity: &str) -> String {
 pub fn import(path: &Path) -> Result<(), Failure> {
     let model = read_model(path)?;
     for w in &model.warnings {
-        eprintln!("{}", render(w, "warning"));
+        super::print_stderr(&render(w, "warning"));
     }
     if let Err(refusal) = kinema_adm::check_kinematic(&model, &Analysis::default()) {
-        eprintln!("note: {refusal}");
+        super::print_stderr(&format!("note: {refusal}"));
     }
     print_stdout(&kinema_adm::to_kin(&model))
 }

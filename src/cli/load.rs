@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinema_adm::Analysis;
+use kinema_adm::{Analysis, ReadError};
 use kinema_model::{CheckedModel, Derivation};
 
 use super::Failure;
@@ -64,7 +64,7 @@ impl Loaded {
     /// ignores) on standard error.
     pub fn print_warnings(&self) {
         for w in &self.warnings {
-            eprintln!("{}", w.trim_end());
+            super::print_stderr(w.trim_end());
         }
         if let Some(adm) = &self.adm {
             adm.print_notes();
@@ -88,8 +88,13 @@ pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure>
     let file = path.display().to_string();
     let (source, adm) = match Format::of(path)? {
         Format::Kin => {
-            let source = std::fs::read_to_string(path).map_err(|e| {
-                Failure::usage(format_args!("cannot read model file `{file}`: {e}"))
+            // At most kinema_adm::MAX_FILE_BYTES: `/dev/zero` is an error,
+            // not an exhausted memory.
+            let source = kinema_adm::read_text(path).map_err(|e| match e {
+                ReadError::Io(e) => {
+                    Failure::usage(format_args!("cannot read model file `{file}`: {e}"))
+                }
+                e => Failure::usage(format_args!("cannot read model file `{file}`: {e}")),
             })?;
             (source, None)
         }

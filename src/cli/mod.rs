@@ -13,8 +13,12 @@
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
 //! | [`plot`] | the SVG figure |
 //!
-//! Exit status: 0 success, 1 the analysis failed (or its results could not
-//! be written), 2 bad arguments or a model that cannot be read.
+//! Exit status: 0 success (also when standard output's reader goes away:
+//! `--out - | head`); 1 the analysis failed, or its results could not be
+//! written once it had started (a full disk); 2 bad arguments — an output
+//! that cannot be created, or is the same file as an input or another
+//! output, included: all detected before the analysis — or a model that
+//! cannot be read.
 
 pub mod adm;
 pub mod args;
@@ -45,6 +49,9 @@ pub enum Failure {
     /// The analysis failed, or its results could not be written: exit
     /// status 1.
     Analysis(String),
+    /// Standard output's reader went away (`kinema run m --out - | head`):
+    /// the command stops quietly with status 0, as Unix tools do.
+    Closed,
 }
 
 impl Failure {
@@ -62,12 +69,14 @@ impl Failure {
         match self {
             Failure::Input(_) => 2,
             Failure::Analysis(_) => 1,
+            Failure::Closed => 0,
         }
     }
 
     fn message(&self) -> &str {
         match self {
             Failure::Input(m) | Failure::Analysis(m) => m,
+            Failure::Closed => "",
         }
     }
 }
@@ -101,10 +110,24 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             let message = failure.message().trim_end();
-            let _ = writeln!(std::io::stderr().lock(), "{message}");
+            if !message.is_empty() {
+                print_stderr(message);
+            }
             ExitCode::from(failure.exit_code())
         }
     }
+}
+
+/// Writes `text` to standard error, ending with a newline. Errors are
+/// ignored: `eprintln!` would panic on a closed pipe (`2>&1 | head`), and
+/// there is nowhere left to report them.
+pub fn print_stderr(text: &str) {
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_all(text.as_bytes());
+    if !text.ends_with('\n') {
+        let _ = err.write_all(b"\n");
+    }
+    let _ = err.flush();
 }
 
 /// Writes `text` to standard output, ending with a newline; a closed pipe

@@ -1,7 +1,17 @@
-//! Writing results: the CSV of the command-line contract, to a file or to
-//! standard output, and small formatting helpers for the summary.
+//! Writing results: output files that never replace a good file with a
+//! bad one ([`Outputs`], [`OutputFile`]), the CSV of the command-line
+//! contract, to a file or to standard output, and small formatting helpers
+//! for the summary.
+//!
+//! Every output file goes through [`Outputs::create`]: it is refused
+//! (exit 2) when it is the same file as an input or as another output
+//! (same inode, or the same canonical path for files that do not exist yet:
+//! `./a.csv`, `a.csv`, hard and symbolic links are all caught), and it is
+//! written to a temporary file in the same directory that is renamed over
+//! the target only by [`OutputFile::commit`]. A run that fails before the
+//! commit leaves the earlier file as it was.
 
-use std::fs::File;
+use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -31,12 +41,276 @@ impl Destination {
     }
 }
 
+/// What a path names, to tell whether two paths are the same file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Identity {
+    /// An existing regular file: its device and inode (Unix), or its
+    /// canonical path.
+    Existing(FileKey),
+    /// A file that does not exist yet: the canonical path of its directory
+    /// joined with its name.
+    New(PathBuf),
+}
+
+#[cfg(unix)]
+type FileKey = (u64, u64);
+#[cfg(not(unix))]
+type FileKey = PathBuf;
+
+#[cfg(unix)]
+fn file_key(_path: &Path, meta: &fs::Metadata) -> Option<FileKey> {
+    use std::os::unix::fs::MetadataExt;
+    Some((meta.dev(), meta.ino()))
+}
+
+#[cfg(not(unix))]
+fn file_key(path: &Path, _meta: &fs::Metadata) -> Option<FileKey> {
+    fs::canonicalize(path).ok()
+}
+
+/// The identity of `path` (symbolic links followed). `None` for things that
+/// are not regular files — `/dev/null`, a terminal, a pipe — which may be
+/// named by several outputs, and for paths whose directory cannot be
+/// resolved (creating them fails with its own message).
+fn identity(path: &Path) -> Option<Identity> {
+    match fs::metadata(path) {
+        Ok(meta) if meta.is_file() => file_key(path, &meta).map(Identity::Existing),
+        Ok(_) => None,
+        Err(_) => {
+            let name = path.file_name()?;
+            let dir = match path.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => Path::new("."),
+            };
+            fs::canonicalize(dir)
+                .ok()
+                .map(|d| Identity::New(d.join(name)))
+        }
+    }
+}
+
+/// The files of one command: its inputs, and the outputs created so far.
+/// Every output of a command is created through [`Outputs::create`] (the CSV,
+/// the plot, any later one), which refuses a path that is an input or an
+/// earlier output.
+#[derive(Debug, Default)]
+pub struct Outputs {
+    /// What each file is for (`the model`, `--out`), its path as given,
+    /// and its identity.
+    files: Vec<(String, PathBuf, Option<Identity>, bool)>,
+}
+
+impl Outputs {
+    /// No files yet.
+    pub fn new() -> Outputs {
+        Outputs::default()
+    }
+
+    /// Records an input file (`what`: `the model`, `the analysis file`),
+    /// which no output may overwrite.
+    pub fn input(&mut self, what: &str, path: &Path) {
+        self.files
+            .push((what.to_string(), path.to_path_buf(), identity(path), false));
+    }
+
+    /// Checks that `path`, the value of `option`, is neither an input nor an
+    /// earlier output, and creates it ([`OutputFile::create`]).
+    ///
+    /// # Errors
+    /// [`Failure::Input`] (exit 2) for the same file as an input or another
+    /// output, or a file that cannot be created.
+    pub fn create(&mut self, option: &str, path: &Path) -> Result<OutputFile, Failure> {
+        let id = identity(path);
+        if let Some(id) = &id
+            && let Some((what, other, _, is_output)) = self
+                .files
+                .iter()
+                .find(|(_, _, o, _)| o.as_ref() == Some(id))
+        {
+            let (p, o) = (path.display(), other.display());
+            return Err(Failure::usage(if *is_output {
+                format!(
+                    "{option} `{p}` and {what} `{o}` are the same file: each output needs a file of its own"
+                )
+            } else {
+                format!(
+                    "{option} `{p}` is {what} (`{o}`): writing it would overwrite {what}; choose another file"
+                )
+            }));
+        }
+        let file = OutputFile::create(path)?;
+        self.files
+            .push((option.to_string(), path.to_path_buf(), id, true));
+        Ok(file)
+    }
+}
+
+/// An output file under construction. A regular file (or a new one) is
+/// written to a temporary file in its directory and renamed over its target
+/// by [`OutputFile::commit`]; dropped without a commit (a failed run, a
+/// write error, a panic), the temporary file is removed and the target is
+/// left as it was. Other targets (`/dev/null`, `/dev/stdout`, a pipe) are
+/// written in place.
+#[derive(Debug)]
+pub struct OutputFile {
+    /// The path as given, for messages.
+    shown: PathBuf,
+    /// Where the result goes (symbolic links resolved).
+    target: PathBuf,
+    /// The temporary file, until the commit; `None` when writing in place.
+    temp: Option<PathBuf>,
+    file: File,
+}
+
+impl OutputFile {
+    /// Opens `path` for writing: checks that an existing file is writable,
+    /// then creates the temporary file beside it.
+    ///
+    /// # Errors
+    /// [`Failure::Input`] (exit 2): a missing directory, a directory, a
+    /// read-only file or directory.
+    pub fn create(path: &Path) -> Result<OutputFile, Failure> {
+        let cannot = |e: &dyn std::fmt::Display| {
+            Failure::usage(format_args!("cannot create `{}`: {e}", path.display()))
+        };
+        let meta = fs::metadata(path);
+        let target = match &meta {
+            // Follow a symbolic link to the file it names.
+            Ok(_) => fs::canonicalize(path).map_err(|e| cannot(&e))?,
+            Err(_) => path.to_path_buf(),
+        };
+        match meta {
+            Ok(m) if m.is_dir() => Err(cannot(&"it is a directory")),
+            Ok(m) if !m.is_file() => {
+                // A device or a pipe: written in place.
+                let file = OpenOptions::new()
+                    .write(true)
+                    .truncate(true)
+                    .open(&target)
+                    .map_err(|e| cannot(&e))?;
+                Ok(OutputFile {
+                    shown: path.to_path_buf(),
+                    target,
+                    temp: None,
+                    file,
+                })
+            }
+            existing => {
+                if existing.is_ok() {
+                    // Writable now, or the rename would replace a file the
+                    // user may not write (rename needs the directory only).
+                    OpenOptions::new()
+                        .append(true)
+                        .open(&target)
+                        .map_err(|e| cannot(&e))?;
+                }
+                let (temp, file) = temp_beside(&target).map_err(|e| cannot(&e))?;
+                if let Ok(m) = &existing {
+                    // The result keeps the permissions of the file it replaces.
+                    let _ = fs::set_permissions(&temp, m.permissions());
+                }
+                Ok(OutputFile {
+                    shown: path.to_path_buf(),
+                    target,
+                    temp: Some(temp),
+                    file,
+                })
+            }
+        }
+    }
+
+    /// The path as given.
+    pub fn path(&self) -> &Path {
+        &self.shown
+    }
+
+    /// Flushes and moves the file into place.
+    ///
+    /// # Errors
+    /// [`Failure::Analysis`] (exit 1): the results could not be written.
+    pub fn commit(mut self) -> Result<(), Failure> {
+        let fail = |e: &io::Error| {
+            Failure::analysis(format_args!("cannot write `{}`: {e}", self.shown.display()))
+        };
+        self.file.flush().map_err(|e| fail(&e))?;
+        if let Some(temp) = self.temp.take()
+            && let Err(e) = fs::rename(&temp, &self.target)
+        {
+            let _ = fs::remove_file(&temp);
+            return Err(fail(&e));
+        }
+        Ok(())
+    }
+}
+
+impl Write for OutputFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.file.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Drop for OutputFile {
+    fn drop(&mut self) {
+        if let Some(temp) = self.temp.take() {
+            let _ = fs::remove_file(temp);
+        }
+    }
+}
+
+/// Creates a new temporary file in the directory of `target`, named after
+/// it (`.results.csv.1234.0.tmp`).
+fn temp_beside(target: &Path) -> io::Result<(PathBuf, File)> {
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = target
+        .file_name()
+        .map_or_else(|| "output".into(), |n| n.to_string_lossy());
+    let mut last = None;
+    for k in 0..100 {
+        let temp = dir.join(format!(".{name}.{}.{k}.tmp", std::process::id()));
+        match OpenOptions::new().write(true).create_new(true).open(&temp) {
+            Ok(file) => return Ok((temp, file)),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| io::Error::other("no free temporary name")))
+}
+
+/// Where the CSV bytes go.
+enum Sink {
+    Stdout(io::Stdout),
+    File(OutputFile),
+}
+
+impl Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match self {
+            Sink::Stdout(s) => s.write(buf),
+            Sink::File(f) => f.write(buf),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        match self {
+            Sink::Stdout(s) => s.flush(),
+            Sink::File(f) => f.flush(),
+        }
+    }
+}
+
 /// Streams states as CSV rows: columns `t`, the coordinate names, the
 /// names suffixed `_dot`, then `_ddot`; numbers in `{:e}`, shortest
 /// round-trip (the text of the runtime's `CsvWriter`, written faster: see
 /// [`super::number`]).
 pub struct CsvSink {
-    out: Box<dyn Write>,
+    out: BufWriter<Sink>,
     line: Vec<u8>,
     buffer: ryu::Buffer,
     destination: Destination,
@@ -54,22 +328,23 @@ impl std::fmt::Debug for CsvSink {
 }
 
 impl CsvSink {
-    /// Creates the destination and writes the header. Called before the
-    /// analysis, so that a bad path fails at once.
+    /// Creates the destination (through `outputs`, as option `--out`) and
+    /// writes the header. Called before the analysis, so that a bad path
+    /// fails at once.
     ///
     /// # Errors
-    /// [`Failure::Input`] if the file cannot be created.
+    /// [`Failure::Input`] if the file cannot be created or is an input or
+    /// another output.
     pub fn create<N: AsRef<str>>(
+        outputs: &mut Outputs,
         destination: Destination,
         names: &[N],
     ) -> Result<CsvSink, Failure> {
-        let out: Box<dyn Write> = match &destination {
-            Destination::Stdout => Box::new(BufWriter::new(io::stdout())),
+        let out = match &destination {
+            Destination::Stdout => BufWriter::new(Sink::Stdout(io::stdout())),
             Destination::File(path) => {
-                let file = File::create(path).map_err(|e| {
-                    Failure::usage(format_args!("cannot create `{}`: {e}", path.display()))
-                })?;
-                Box::new(BufWriter::with_capacity(1 << 16, file))
+                let file = outputs.create("--out", path)?;
+                BufWriter::with_capacity(1 << 16, Sink::File(file))
             }
         };
         let mut header = String::from("t");
@@ -97,7 +372,8 @@ impl CsvSink {
     /// Writes one row.
     ///
     /// # Errors
-    /// [`Failure::Analysis`] on a write error.
+    /// [`Failure::Analysis`] on a write error; [`Failure::Closed`] when
+    /// standard output's reader has gone (`--out - | head`).
     pub fn write(&mut self, state: &State) -> Result<(), Failure> {
         self.line.clear();
         push_e(&mut self.line, &mut self.buffer, state.t());
@@ -113,14 +389,22 @@ impl CsvSink {
         Ok(())
     }
 
-    /// Flushes everything.
+    /// Flushes everything and puts the file in place: the rows written so
+    /// far become the file (also after a failed analysis, whose rows are
+    /// kept).
     ///
     /// # Errors
-    /// [`Failure::Analysis`] on a write error.
-    pub fn finish(&mut self) -> Result<(), Failure> {
-        self.out
-            .flush()
-            .map_err(|e| write_failure(&self.destination, &e))
+    /// [`Failure::Analysis`] on a write error; [`Failure::Closed`] when
+    /// standard output's reader has gone.
+    pub fn finish(self) -> Result<(), Failure> {
+        let CsvSink {
+            out, destination, ..
+        } = self;
+        match out.into_inner() {
+            Ok(Sink::File(file)) => file.commit(),
+            Ok(Sink::Stdout(mut s)) => s.flush().map_err(|e| write_failure(&destination, &e)),
+            Err(e) => Err(write_failure(&destination, e.error())),
+        }
     }
 
     /// Rows written so far (the header not counted).
@@ -141,6 +425,7 @@ impl CsvSink {
 
 fn write_failure(destination: &Destination, e: &io::Error) -> Failure {
     match destination {
+        Destination::Stdout if e.kind() == io::ErrorKind::BrokenPipe => Failure::Closed,
         Destination::Stdout => {
             Failure::analysis(format_args!("cannot write the CSV to standard output: {e}"))
         }

@@ -11,7 +11,7 @@ use kinema_adm::Analysis;
 use super::args::{Backend, RunArgs};
 use super::check::run_error;
 use super::load::{Format, Loaded, load};
-use super::output::{CsvSink, Destination, duration, time};
+use super::output::{CsvSink, Destination, Outputs, duration, time};
 use super::plot::{self, Samples};
 use super::progress::Progress;
 use super::{Failure, adm};
@@ -304,8 +304,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .iter()
         .map(|c| c.name.clone())
         .collect();
-    let mut sink = CsvSink::create(Destination::of(&args.out), &names)?;
-    let plot_target = args.plot.as_deref().map(plot::Target::create).transpose()?;
+    let mut outputs = Outputs::new();
+    outputs.input("the model", &args.model);
+    if let Some(acf) = &args.acf {
+        outputs.input("the analysis file", acf);
+    }
+    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &names)?;
+    let plot_target = args
+        .plot
+        .as_deref()
+        .map(|p| plot::Target::create(&mut outputs, p))
+        .transpose()?;
 
     let analysis_start = Instant::now();
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, Options::default())
@@ -322,10 +331,18 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             Ok(state) => state,
             Err(e) => {
                 progress.finish();
-                let kept = sink.finish().map(|()| sink.rows()).unwrap_or(0);
+                // The rows before the failure are the CSV (the plot, not
+                // drawn, leaves any earlier file in place).
+                let rows = sink.rows();
+                let destination = sink.destination().clone();
+                let kept = match sink.finish() {
+                    Ok(()) => rows,
+                    Err(Failure::Closed) => return Err(Failure::Closed),
+                    Err(_) => 0,
+                };
                 let mut message = format!("error: {}", run_error(&loaded, &e));
                 if kept > 0
-                    && let Destination::File(p) = sink.destination()
+                    && let Destination::File(p) = &destination
                 {
                     let _ = write!(
                         message,
@@ -352,6 +369,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     progress.finish();
     let w = Instant::now();
+    let (rows, columns, destination) = (sink.rows(), sink.columns(), sink.destination().clone());
     sink.finish()?;
     write_time += w.elapsed();
     let analysis_time = analysis_start.elapsed().saturating_sub(write_time);
@@ -371,15 +389,15 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         loaded: &loaded,
         grid: &grid,
         stats: &stats,
-        sink: &sink,
+        csv: (&destination, rows, columns),
         plot: args.plot.as_deref(),
         total: start.elapsed(),
         analysis: analysis_time,
         write: write_time,
         plot_time,
     });
-    if *sink.destination() == Destination::Stdout {
-        eprint!("{summary}");
+    if destination == Destination::Stdout {
+        super::print_stderr(&summary);
         Ok(())
     } else {
         super::print_stdout(&summary)
@@ -399,7 +417,8 @@ struct SummaryInput<'a> {
     loaded: &'a Loaded,
     grid: &'a Grid,
     stats: &'a Stats,
-    sink: &'a CsvSink,
+    /// Where the CSV went, its rows and columns.
+    csv: (&'a Destination, usize, usize),
     plot: Option<&'a Path>,
     total: Duration,
     analysis: Duration,
@@ -446,16 +465,12 @@ fn summary(s: &SummaryInput<'_>) -> String {
         parts.push(format!("plot {}", duration(p)));
     }
     let _ = writeln!(out, "  time: {} ({})", duration(s.total), parts.join(", "));
-    let csv = match s.sink.destination() {
+    let (destination, rows, columns) = s.csv;
+    let csv = match destination {
         Destination::Stdout => "standard output".to_string(),
         Destination::File(p) => format!("`{}`", p.display()),
     };
-    let _ = write!(
-        out,
-        "  wrote {csv} ({} rows × {} columns)",
-        s.sink.rows(),
-        s.sink.columns()
-    );
+    let _ = write!(out, "  wrote {csv} ({rows} rows × {columns} columns)");
     if let Some(p) = s.plot {
         let _ = write!(out, " and `{}`", p.display());
     }

@@ -94,8 +94,8 @@ impl Analysis {
     /// The file cannot be read, or [`Analysis::parse`]'s errors.
     pub fn read(path: &std::path::Path) -> Result<Analysis, Error> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Diagnostic::whole_file(&name, format!("cannot read the file: {e}")))?;
+        let text = crate::error::read_text(path)
+            .map_err(|e| Diagnostic::whole_file(&name, e.to_string()))?;
         Analysis::parse(&text, &name)
     }
 

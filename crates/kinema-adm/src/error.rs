@@ -15,6 +15,82 @@
 //! holds one or more diagnostics.
 
 use std::fmt;
+use std::io::Read as _;
+
+/// The largest ADM or ACF file read: 16 MiB (a thousand-body model is a few
+/// hundred kilobytes). Reading stops there, so that a stream without end
+/// (`/dev/zero`) is an error, not an exhausted memory.
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
+/// Why [`read_text`] could not read a file.
+#[derive(Debug)]
+pub enum ReadError {
+    /// Opening or reading failed.
+    Io(std::io::Error),
+    /// The file is larger than [`MAX_FILE_BYTES`].
+    TooLarge,
+    /// The file is not UTF-8: the first bad byte and its 1-based line and
+    /// column (in characters).
+    NotUtf8 {
+        /// The byte.
+        byte: u8,
+        /// Its line.
+        line: usize,
+        /// Its column.
+        col: usize,
+    },
+}
+
+impl fmt::Display for ReadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ReadError::Io(e) => write!(f, "cannot read the file: {e}"),
+            ReadError::TooLarge => write!(
+                f,
+                "the file is larger than {} MiB, the most kinema reads",
+                MAX_FILE_BYTES >> 20
+            ),
+            ReadError::NotUtf8 { byte, line, col } => write!(
+                f,
+                "the file is not UTF-8 text: byte 0x{byte:02x} at line {line}, column {col}"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ReadError {}
+
+/// Reads the text of `path`, at most [`MAX_FILE_BYTES`] (a stream without
+/// end is read only that far).
+///
+/// # Errors
+/// The file cannot be opened or read, is larger than the limit, or is not
+/// UTF-8.
+pub fn read_text(path: &std::path::Path) -> Result<String, ReadError> {
+    let file = std::fs::File::open(path).map_err(ReadError::Io)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(ReadError::Io)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(ReadError::TooLarge);
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let good = bytes
+            .get(..e.utf8_error().valid_up_to())
+            .unwrap_or_default();
+        let start = good.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        ReadError::NotUtf8 {
+            byte: bytes.get(good.len()).copied().unwrap_or(0),
+            line: good.iter().filter(|&&b| b == b'\n').count() + 1,
+            col: String::from_utf8_lossy(good.get(start..).unwrap_or_default())
+                .chars()
+                .count()
+                + 1,
+        }
+    })
+}
 
 /// A position in a source text: 1-based line and column (columns count
 /// characters, a tab is one column), and the 0-based character offset.

@@ -57,4 +57,4 @@ pub use acf::{Analysis, Simulation, TimesError};
 pub use adm::{Body, BodyVis, Constraint, ConstraintKind, Force, ForceKind, Model, Rect, SceneVis};
 pub use check::{Counts, Refusal, check_kinematic, ignored_by_kinematics};
 pub use emit::{Names, RowOrigin, to_kin};
-pub use error::{Diagnostic, Error, Pos};
+pub use error::{Diagnostic, Error, MAX_FILE_BYTES, Pos, ReadError, read_text};

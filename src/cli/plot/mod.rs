@@ -10,9 +10,8 @@
 //! hide a curve.
 
 use std::error::Error;
-use std::fs::File;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use kinema::{PointKinematics, State, System, point_kinematics};
 use plotters::coord::Shift;
@@ -24,6 +23,7 @@ mod mechanism;
 
 use super::Failure;
 use super::load::Loaded;
+use super::output::{OutputFile, Outputs};
 use super::scene::Scene;
 
 use charts::{draw_driven, draw_points};
@@ -131,24 +131,22 @@ impl Samples {
     }
 }
 
-/// The plot file, created before the run so that a bad path fails early.
+/// The plot file, created before the run so that a bad path fails early;
+/// it replaces an earlier file only once the figure is written.
 #[derive(Debug)]
 pub struct Target {
-    path: PathBuf,
-    file: File,
+    file: OutputFile,
 }
 
 impl Target {
-    /// Creates the file.
+    /// Creates the file through `outputs` (as option `--plot`).
     ///
     /// # Errors
-    /// [`Failure::Input`] if it cannot be created.
-    pub fn create(path: &Path) -> Result<Target, Failure> {
-        let file = File::create(path)
-            .map_err(|e| Failure::usage(format_args!("cannot create `{}`: {e}", path.display())))?;
+    /// [`Failure::Input`] if it cannot be created, or is an input or
+    /// another output.
+    pub fn create(outputs: &mut Outputs, path: &Path) -> Result<Target, Failure> {
         Ok(Target {
-            path: path.to_path_buf(),
-            file,
+            file: outputs.create("--plot", path)?,
         })
     }
 
@@ -164,15 +162,13 @@ impl Target {
         title: &str,
     ) -> Result<(), Failure> {
         let scene = Scene::of(loaded, system);
-        let svg = render(&scene, samples, title, &subtitle(loaded, samples)).map_err(|e| {
-            Failure::analysis(format_args!("cannot draw `{}`: {e}", self.path.display()))
-        })?;
+        let path = self.file.path().display().to_string();
+        let svg = render(&scene, samples, title, &subtitle(loaded, samples))
+            .map_err(|e| Failure::analysis(format_args!("cannot draw `{path}`: {e}")))?;
         self.file
             .write_all(svg.as_bytes())
-            .and_then(|()| self.file.flush())
-            .map_err(|e| {
-                Failure::analysis(format_args!("cannot write `{}`: {e}", self.path.display()))
-            })
+            .map_err(|e| Failure::analysis(format_args!("cannot write `{path}`: {e}")))?;
+        self.file.commit()
     }
 }
 
