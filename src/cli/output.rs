@@ -447,11 +447,15 @@ pub fn duration(d: Duration) -> String {
     }
 }
 
-/// A time value, short: `0`, `0.25`, `1.5e-7`.
+/// A time value, short: `0`, `0.25`, `1.5e-7`, `1.7e308` (never the
+/// hundreds of digits of a large number written out).
 pub fn time(t: f64) -> String {
+    if t.abs() >= 1e6 || !t.is_finite() {
+        return format!("{t:e}");
+    }
     let short = format!("{t:.6}");
     let short = short.trim_end_matches('0').trim_end_matches('.');
-    if short.parse::<f64>().ok() == Some(t) || (t.abs() >= 1e-3 && t.abs() < 1e6) {
+    if short.parse::<f64>().ok() == Some(t) || t.abs() >= 1e-3 {
         short.to_string()
     } else {
         format!("{t:e}")
@@ -472,5 +476,8 @@ mod tests {
         assert_eq!(time(5.0), "5");
         assert_eq!(time(1.5e-7), "1.5e-7");
         assert_eq!(time(-0.0), "-0");
+        assert_eq!(time(1.7e308), "1.7e308");
+        assert_eq!(time(-2.5e6), "-2.5e6");
+        assert_eq!(time(123456.5), "123456.5");
     }
 }

@@ -5,7 +5,8 @@ use plotters::prelude::*;
 
 use super::legend::{Swatch, draw_legend_row};
 use super::{
-    Area, Drawn, MAX_DRIVEN, PALETTE, Samples, Series, length_label, text, thinned, tick, units,
+    Area, Drawn, MAX_DRIVEN, PALETTE, SafeAxis, Samples, Series, check_axis, check_extent,
+    length_label, skip_panel, text, thinned, tick, units,
 };
 use crate::cli::scene::{Driven, Scene};
 
@@ -16,6 +17,7 @@ pub(super) fn draw_driven(
     scene: &Scene,
     samples: &Samples,
     horizontal: bool,
+    warnings: &mut Vec<String>,
 ) -> Drawn {
     let area = area.titled("Driven coordinates", text(16))?;
     let (legend, charts) = area.split_vertically(30);
@@ -104,10 +106,12 @@ pub(super) fn draw_driven(
         };
         time_chart(
             panel,
+            &format!("driven {}", names[order]),
             &y_desc,
             horizontal || order == 2,
             series,
             reference[order],
+            warnings,
         )?;
     }
     Ok(())
@@ -120,6 +124,7 @@ pub(super) fn draw_points(
     scene: &Scene,
     samples: &Samples,
     series: &[&Series],
+    warnings: &mut Vec<String>,
 ) -> Drawn {
     let area = area.titled(
         "Joint points against time: x (left) and y (right) components",
@@ -174,7 +179,15 @@ pub(super) fn draw_points(
         let (order, component) = (p / 2, p % 2);
         let axis = ["x", "y"][component];
         let y_desc = format!("{axis} {} [{}]", names[order], u[order]);
-        time_chart(panel, &y_desc, order == 2, lines, reference[order])?;
+        time_chart(
+            panel,
+            &format!("the joint points' {axis} {}", names[order]),
+            &y_desc,
+            order == 2,
+            lines,
+            reference[order],
+            warnings,
+        )?;
     }
     Ok(())
 }
@@ -207,13 +220,17 @@ fn references(lines: &[Lines], samples: &Samples) -> [f64; 3] {
 }
 
 /// One panel against time; `reference` is a typical magnitude of the
-/// quantity (see [`references`]).
+/// quantity (see [`references`]). A panel whose values cannot be drawn
+/// (beyond ±[`super::MAX_AXIS`]) shows why, and `what` is named in a
+/// warning.
 pub(super) fn time_chart(
     area: &Area<'_>,
+    what: &str,
     y_desc: &str,
     x_desc: bool,
     series: &[(RGBColor, Vec<(f64, f64)>)],
     reference: f64,
+    warnings: &mut Vec<String>,
 ) -> Drawn {
     let mut t = [f64::INFINITY, f64::NEG_INFINITY];
     let mut y = [f64::INFINITY, f64::NEG_INFINITY];
@@ -234,23 +251,47 @@ pub(super) fn time_chart(
     if !(y[0].is_finite() && y[1].is_finite()) {
         y = [-1.0, 1.0];
     }
+    // Huge values are refused before any padding can overflow.
+    if let Err(why) = check_extent(t[0], t[1]) {
+        return skip_panel(area, what, &format!("the time axis: {why}"), warnings);
+    }
+    if let Err(why) = check_extent(y[0], y[1]) {
+        return skip_panel(area, what, &why, warnings);
+    }
+    // A reference from other, undrawable panels must not widen this one
+    // beyond what can be drawn.
+    let reference = if reference.is_finite() {
+        reference.min(super::MAX_AXIS)
+    } else {
+        0.0
+    };
     let span = y[1] - y[0];
     let reference = reference.max(y[0].abs()).max(y[1].abs());
     if span <= 1e-9 * reference || span == 0.0 {
         // Constant up to roundoff: centred on its value, with room around.
         let mid = 0.5 * (y[0] + y[1]);
         let pad = (0.1 * mid.abs()).max(1e-3 * reference);
-        let pad = if pad > 0.0 { pad } else { 1.0 };
+        let pad = if pad > 0.0 {
+            pad.max(10.0 * super::MIN_SPAN)
+        } else {
+            1.0
+        };
         y = [mid - pad, mid + pad];
     } else {
         y = [y[0] - 0.06 * span, y[1] + 0.06 * span];
+    }
+    if let Err(why) = check_axis(t) {
+        return skip_panel(area, what, &format!("the time axis: {why}"), warnings);
+    }
+    if let Err(why) = check_axis(y) {
+        return skip_panel(area, what, &why, warnings);
     }
     let mut chart = ChartBuilder::on(area)
         .margin(8)
         .margin_right(16)
         .x_label_area_size(if x_desc { 40 } else { 24 })
         .y_label_area_size(76)
-        .build_cartesian_2d(t[0]..t[1], y[0]..y[1])?;
+        .build_cartesian_2d(SafeAxis::new(t), SafeAxis::new(y))?;
     let y_ticks = |v: &f64| tick(*v, y[1] - y[0]);
     let mut mesh = chart.configure_mesh();
     mesh.y_desc(y_desc)

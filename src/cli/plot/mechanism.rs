@@ -4,7 +4,10 @@
 use plotters::prelude::*;
 
 use super::legend::{Swatch, draw_legend_column};
-use super::{Area, Drawn, Samples, Series, length_label, spread, text, thinned, tick};
+use super::{
+    Area, Drawn, SafeAxis, Samples, Series, check_axis, check_extent, length_label, skip_panel,
+    spread, text, thinned, tick,
+};
 use crate::cli::output::time;
 use crate::cli::scene::{BodyShape, Rgb, Scene, Traced};
 
@@ -116,6 +119,16 @@ impl Bounds {
         !(self.x[0] <= self.x[1] && self.y[0] <= self.y[1])
     }
 
+    /// Whether the box can be drawn: finite, within ±[`super::MAX_AXIS`]
+    /// (so that no padding overflows); the reason otherwise.
+    pub(super) fn check(&self) -> Result<(), String> {
+        if self.is_empty() {
+            return Err("there is no finite point to draw".to_string());
+        }
+        check_extent(self.x[0], self.x[1]).map_err(|w| format!("x: {w}"))?;
+        check_extent(self.y[0], self.y[1]).map_err(|w| format!("y: {w}"))
+    }
+
     fn size(&self) -> f64 {
         if self.is_empty() {
             0.0
@@ -187,7 +200,13 @@ pub(super) fn hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
 pub(super) fn equal_aspect(b: Bounds, w: f64, h: f64) -> ([f64; 2], [f64; 2]) {
     let (mut dx, mut dy) = (b.x[1] - b.x[0], b.y[1] - b.y[0]);
     let size = dx.max(dy);
-    let pad = if size > 0.0 { 0.06 * size } else { 1.0 };
+    // A margin of 6 %, and at least a millionth of the coordinates'
+    // magnitude (one point far from the origin) or 1 (one point at it).
+    let magnitude = [b.x[0], b.x[1], b.y[0], b.y[1]]
+        .iter()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let pad = (0.06 * size).max(1e-6 * magnitude);
+    let pad = if pad > 0.0 { pad } else { 1.0 };
     dx += 2.0 * pad;
     dy += 2.0 * pad;
     let scale = (dx / w).max(dy / h);
@@ -207,7 +226,12 @@ pub(super) fn mechanism_bounds(
     instants: &[usize],
 ) -> Bounds {
     if let Some((x, y)) = scene.limits {
-        return Bounds { x, y };
+        // Limits as written in the file: in either order, possibly equal
+        // (a zero-width limit is widened by `equal_aspect`).
+        return Bounds {
+            x: [x[0].min(x[1]), x[0].max(x[1])],
+            y: [y[0].min(y[1]), y[0].max(y[1])],
+        };
     }
     let mut b = Bounds::default();
     for &k in instants {
@@ -237,9 +261,12 @@ pub(super) fn mechanism_bounds(
             y: [-1.0, 1.0],
         };
     }
-    // Room below the lowest point for the ground symbols.
-    let s = 0.05 * b.size();
-    b.y[0] -= s;
+    // Room below the lowest point for the ground symbols (none when the
+    // box is beyond what can be drawn: the view is skipped).
+    if b.check().is_ok() {
+        let s = 0.05 * b.size();
+        b.y[0] -= s;
+    }
     b
 }
 
@@ -254,8 +281,14 @@ pub(super) struct Mechanism<'a> {
 }
 
 impl Mechanism<'_> {
-    /// Draws the view on `view` and its legend on `legend`.
-    pub(super) fn draw(&self, view: &Area<'_>, legend: &Area<'_>) -> Drawn {
+    /// Draws the view on `view` and its legend on `legend`; a view whose
+    /// coordinates cannot be drawn shows why, with a warning.
+    pub(super) fn draw(
+        &self,
+        view: &Area<'_>,
+        legend: &Area<'_>,
+        warnings: &mut Vec<String>,
+    ) -> Drawn {
         let Mechanism {
             scene,
             samples,
@@ -264,7 +297,6 @@ impl Mechanism<'_> {
             instants,
             bounds: b,
         } = *self;
-        let size = b.size().max(1e-12);
 
         let area = view.titled(
             "Mechanism at several instants, with the paths of its joint points",
@@ -274,12 +306,28 @@ impl Mechanism<'_> {
         let (w, h) = area.dim_in_pixel();
         let plot_w = f64::from(w.saturating_sub(2 * margin + y_label).max(10));
         let plot_h = f64::from(h.saturating_sub(2 * margin + x_label).max(10));
+        const WHAT: &str = "the mechanism view";
+        if let Err(why) = b.check() {
+            return skip_panel(&area, WHAT, &why, warnings);
+        }
         let (xr, yr) = equal_aspect(b, plot_w, plot_h);
+        if let Err(why) = check_axis(xr) {
+            return skip_panel(&area, WHAT, &format!("x: {why}"), warnings);
+        }
+        if let Err(why) = check_axis(yr) {
+            return skip_panel(&area, WHAT, &format!("y: {why}"), warnings);
+        }
+        // Symbol sizes follow what is drawn (a tenth of the view for a
+        // single point), whatever its scale.
+        let size = match b.size() {
+            s if s > 0.0 => s,
+            _ => 0.1 * (xr[1] - xr[0]).min(yr[1] - yr[0]),
+        };
         let mut chart = ChartBuilder::on(&area)
             .margin(margin)
             .x_label_area_size(x_label)
             .y_label_area_size(y_label)
-            .build_cartesian_2d(xr[0]..xr[1], yr[0]..yr[1])?;
+            .build_cartesian_2d(SafeAxis::new(xr), SafeAxis::new(yr))?;
         let unit = length_label(scene);
         chart
             .configure_mesh()
@@ -385,11 +433,8 @@ pub(super) fn rect_corners(loc: [f64; 2], size: [f64; 2]) -> [[f64; 2]; 4] {
     ]
 }
 
-pub(super) type MechChart<'a, 'b> = ChartContext<
-    'a,
-    SVGBackend<'b>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
+pub(super) type MechChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<SafeAxis, SafeAxis>>;
 
 /// One body at state `k`: simEngine2D rectangles if it has any; then the
 /// link between its joint points (a bar for two, a plate for more, a block

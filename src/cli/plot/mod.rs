@@ -15,6 +15,8 @@ use std::path::Path;
 
 use kinema::{PointKinematics, State, System, point_kinematics};
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 mod charts;
@@ -48,6 +50,16 @@ const MAX_DRIVEN: usize = 4;
 const MAX_POINTS: usize = 1200;
 /// Font family of every text.
 const FONT: &str = "sans-serif";
+/// Largest magnitude an axis may reach. Beyond it the plotting library's
+/// tick search overflows (and loops without end); a panel whose values go
+/// further is not drawn, with a warning.
+const MAX_AXIS: f64 = 1e300;
+/// Narrowest axis relative to its magnitude: below, the ticks cannot be
+/// told apart in f64 (and the tick search loops without end).
+const MIN_RELATIVE_SPAN: f64 = 1e-9;
+/// Narrowest axis in absolute terms (its tick spacing must stay a normal
+/// number).
+const MIN_SPAN: f64 = 1e-300;
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 type Drawn = Result<(), Box<dyn Error>>;
@@ -163,8 +175,11 @@ impl Target {
     ) -> Result<(), Failure> {
         let scene = Scene::of(loaded, system);
         let path = self.file.path().display().to_string();
-        let svg = render(&scene, samples, title, &subtitle(loaded, samples))
+        let (svg, warnings) = render(&scene, samples, title, &subtitle(loaded, samples))
             .map_err(|e| Failure::analysis(format_args!("cannot draw `{path}`: {e}")))?;
+        for w in warnings {
+            super::print_stderr(&format!("warning: `{path}`: {w}"));
+        }
         self.file
             .write_all(svg.as_bytes())
             .map_err(|e| Failure::analysis(format_args!("cannot write `{path}`: {e}")))?;
@@ -202,7 +217,9 @@ struct Series {
     color: RGBColor,
 }
 
-/// Draws the whole figure as SVG text.
+/// Draws the whole figure as SVG text, with the warnings about panels
+/// that could not be drawn (values beyond what a figure can show: see
+/// [`MAX_AXIS`]).
 ///
 /// A wide mechanism gets the full width with the driven coordinates in a
 /// row below it; a compact one sits beside them.
@@ -214,7 +231,7 @@ pub fn render(
     samples: &Samples,
     title: &str,
     subtitle: &str,
-) -> Result<String, Box<dyn Error>> {
+) -> Result<(String, Vec<String>), Box<dyn Error>> {
     if samples.is_empty() {
         return Err("there is no state to plot".into());
     }
@@ -231,8 +248,13 @@ pub fn render(
         .collect();
     let instants = instants(samples.len());
     let bounds = mechanism_bounds(scene, samples, &paths, &fixed, &instants);
-    let aspect = (bounds.x[1] - bounds.x[0]) / (bounds.y[1] - bounds.y[0]).max(1e-300);
-    let wide = aspect >= 1.4;
+    let mut warnings = Vec::new();
+    // The layout of a view that cannot be drawn is that of a square.
+    let aspect = match bounds.check() {
+        Ok(()) => (bounds.x[1] - bounds.x[0]) / (bounds.y[1] - bounds.y[0]).max(1e-300),
+        Err(_) => 1.0,
+    };
+    let wide = aspect.is_finite() && aspect >= 1.4;
     let legend_w = 240;
     let mech_h = if wide {
         // Plot width over aspect, plus title, margins and axis labels.
@@ -272,18 +294,119 @@ pub fn render(
         if wide {
             let (top, driven_area) = upper.split_vertically(mech_h);
             let (view, legend) = top.split_horizontally(WIDTH - legend_w);
-            mechanism.draw(&view, &legend)?;
-            draw_driven(&driven_area, scene, samples, true)?;
+            mechanism.draw(&view, &legend, &mut warnings)?;
+            draw_driven(&driven_area, scene, samples, true, &mut warnings)?;
         } else {
             let (left, driven_area) = upper.split_horizontally(800);
             let (view, legend) = left.split_horizontally(800 - legend_w);
-            mechanism.draw(&view, &legend)?;
-            draw_driven(&driven_area, scene, samples, false)?;
+            mechanism.draw(&view, &legend, &mut warnings)?;
+            draw_driven(&driven_area, scene, samples, false, &mut warnings)?;
         }
-        draw_points(&lower, scene, samples, &series)?;
+        draw_points(&lower, scene, samples, &series, &mut warnings)?;
         root.present()?;
     }
-    Ok(svg)
+    Ok((svg, warnings))
+}
+
+/// How far outside its range, in range widths, a coordinate is drawn at
+/// most: further points are moved to that distance, which keeps the
+/// plotting library's pixel arithmetic (i32) from overflowing on a point
+/// far outside the view (a vis `xlim` much narrower than the motion).
+const GUARD: f64 = 1e4;
+
+/// An f64 axis (plotters' own inside) whose mapping to pixels never
+/// overflows: coordinates beyond [`GUARD`] widths outside the range are
+/// drawn at that distance, far outside the figure. Its range must have
+/// passed [`check_axis`].
+#[derive(Clone)]
+pub(super) struct SafeAxis {
+    inner: RangedCoordf64,
+    lo: f64,
+    hi: f64,
+}
+
+impl SafeAxis {
+    /// The axis over `r`, checked by [`check_axis`].
+    pub(super) fn new(r: [f64; 2]) -> SafeAxis {
+        SafeAxis {
+            inner: (r[0]..r[1]).into(),
+            lo: r[0],
+            hi: r[1],
+        }
+    }
+}
+
+impl Ranged for SafeAxis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let span = self.hi - self.lo;
+        let v = if value.is_nan() {
+            *value
+        } else {
+            value
+                .max(self.lo - GUARD * span)
+                .min(self.hi + GUARD * span)
+        };
+        self.inner.map(&v, limit)
+    }
+
+    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        self.inner.key_points(hint)
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.inner.range()
+    }
+}
+
+/// Checks the values an axis must show, `[lo, hi]` before padding:
+/// finite and within [`MAX_AXIS`]. The reason, for a warning, otherwise.
+fn check_extent(lo: f64, hi: f64) -> Result<(), String> {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err("its values are not finite".to_string());
+    }
+    let m = lo.abs().max(hi.abs());
+    if m > MAX_AXIS {
+        return Err(format!(
+            "its values reach {m:.1e}, beyond the ±{MAX_AXIS:.0e} a figure can show"
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a padded axis range before it reaches the plotting library:
+/// finite, within [`MAX_AXIS`], increasing, and wide enough for its
+/// magnitude that ticks can be told apart. The reason otherwise.
+fn check_axis(r: [f64; 2]) -> Result<(), String> {
+    let m = r[0].abs().max(r[1].abs());
+    // Padding may take an extent of MAX_AXIS a little further.
+    if !(m <= 10.0 * MAX_AXIS) {
+        return Err(format!(
+            "its range [{:.3e}, {:.3e}] is beyond what a figure can show",
+            r[0], r[1]
+        ));
+    }
+    let span = r[1] - r[0];
+    if !(span >= MIN_SPAN && span >= MIN_RELATIVE_SPAN * m) {
+        return Err(format!(
+            "its range [{:.3e}, {:.3e}] is too narrow to draw",
+            r[0], r[1]
+        ));
+    }
+    Ok(())
+}
+
+/// Draws, in a panel that cannot be drawn, why, and records the warning.
+fn skip_panel(area: &Area<'_>, what: &str, why: &str, warnings: &mut Vec<String>) -> Drawn {
+    area.draw_text(
+        &format!("({what} not drawn: {why})"),
+        &text(13).color(&RGBColor(150, 40, 40)),
+        (70, 40),
+    )?;
+    warnings.push(format!("{what} is not drawn: {why}"));
+    Ok(())
 }
 
 fn text(size: u32) -> TextStyle<'static> {
