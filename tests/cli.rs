@@ -8,116 +8,12 @@
 
 use std::f64::consts::{FRAC_PI_4, PI};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::process::Output;
 
 use kinema::System;
 
-type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
-
-/// Runs the binary in the repository root with `args`.
-fn kinema(args: &[&str]) -> Output {
-    kinema_in(Path::new(ROOT), args)
-}
-
-fn kinema_in(dir: &Path, args: &[&str]) -> Output {
-    match Command::new(env!("CARGO_BIN_EXE_kinema"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-    {
-        Ok(output) => output,
-        Err(e) => panic!("cannot run kinema: {e}"),
-    }
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Asserts the exit status, showing both streams on failure.
-fn assert_status(o: &Output, code: i32) {
-    assert_eq!(
-        o.status.code(),
-        Some(code),
-        "stdout:\n{}\nstderr:\n{}",
-        stdout(o),
-        stderr(o)
-    );
-}
-
-/// A fresh directory under the system's temporary directory, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        static COUNT: AtomicUsize = AtomicUsize::new(0);
-        let k = COUNT.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("kinema-cli-{}-{k}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        if let Err(e) = std::fs::create_dir_all(&dir) {
-            panic!("cannot create {}: {e}", dir.display());
-        }
-        TempDir(dir)
-    }
-
-    fn path(&self, file: &str) -> String {
-        self.0.join(file).display().to_string()
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-/// A CSV of the contract: header and rows of numbers.
-struct Csv {
-    header: Vec<String>,
-    rows: Vec<Vec<f64>>,
-}
-
-impl Csv {
-    fn read(path: &str) -> Result<Csv, Box<dyn std::error::Error>> {
-        Csv::parse(&std::fs::read_to_string(path)?)
-    }
-
-    fn parse(text: &str) -> Result<Csv, Box<dyn std::error::Error>> {
-        let mut lines = text.lines();
-        let header: Vec<String> = lines
-            .next()
-            .ok_or("empty CSV")?
-            .split(',')
-            .map(String::from)
-            .collect();
-        let mut rows = Vec::new();
-        for line in lines {
-            let row: Vec<f64> = line.split(',').map(str::parse).collect::<Result<_, _>>()?;
-            assert_eq!(row.len(), header.len(), "row length: {line}");
-            assert!(
-                row.iter().all(|v| v.is_finite()),
-                "non-finite number: {line}"
-            );
-            rows.push(row);
-        }
-        Ok(Csv { header, rows })
-    }
-
-    fn column(&self, name: &str) -> Result<usize, String> {
-        self.header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| format!("no column {name} in {:?}", self.header))
-    }
-}
+mod common;
+use common::*;
 
 /// The header the contract prescribes for these coordinate names.
 fn contract_header(names: &[String]) -> Vec<String> {
