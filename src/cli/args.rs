@@ -13,8 +13,9 @@ Examples:
   kinema run sliderCrankKIN.adm --acf kinematics.acf --out results.csv
   kinema import sliderCrankKIN.adm > slider_crank.kin
 
-Exit status: 0 success; 1 the analysis failed (no convergence, lock-up, results not written);
-2 bad arguments, or a model that cannot be read.";
+Exit status: 0 success; 1 the analysis failed (no convergence, lock-up) or its results could
+not be written once it had started; 2 bad arguments (an output that cannot be created or is an
+input or another output included), or a model that cannot be read.";
 
 /// Planar kinematic analysis of mechanisms in absolute coordinates.
 ///

@@ -466,6 +466,71 @@ pub fn time(t: f64) -> String {
 mod tests {
     use super::*;
 
+    /// A fresh directory for one test.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("kinema-output-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("a temporary directory");
+        dir
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .expect("readable")
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn an_output_replaces_its_target_only_on_commit() {
+        let dir = scratch("commit");
+        let target = dir.join("r.csv");
+        fs::write(&target, "old\n").expect("writable");
+        // Dropped without a commit: the target is as it was, no temporary
+        // file is left.
+        let mut f = OutputFile::create(&target).expect("created");
+        f.write_all(b"half").expect("written");
+        drop(f);
+        assert_eq!(fs::read_to_string(&target).expect("read"), "old\n");
+        assert_eq!(names(&dir), ["r.csv"]);
+        // Committed: replaced.
+        let mut f = OutputFile::create(&target).expect("created");
+        f.write_all(b"new\n").expect("written");
+        f.commit().expect("committed");
+        assert_eq!(fs::read_to_string(&target).expect("read"), "new\n");
+        assert_eq!(names(&dir), ["r.csv"]);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn outputs_refuse_inputs_and_each_other() {
+        let dir = scratch("same");
+        let model = dir.join("m.kin");
+        fs::write(&model, "mechanism M {}\n").expect("writable");
+        let mut outputs = Outputs::new();
+        outputs.input("the model", &model);
+        let dotted = dir.join(".").join("m.kin");
+        assert!(outputs.create("--out", &dotted).is_err());
+        let _csv = outputs
+            .create("--out", &dir.join("a.csv"))
+            .expect("a new file");
+        let again = dir.join("sub").join("..").join("a.csv");
+        let _ = fs::create_dir_all(dir.join("sub"));
+        match outputs.create("--plot", &again) {
+            Err(Failure::Input(m)) => assert!(m.contains("are the same file"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        assert!(outputs.create("--plot", &dir.join("b.svg")).is_ok());
+        assert_eq!(
+            fs::read_to_string(&model).expect("read"),
+            "mechanism M {}\n"
+        );
+        let _ = fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn durations_and_times() {
         assert_eq!(duration(Duration::from_micros(850)), "850 µs");
