@@ -177,7 +177,11 @@ impl OutputFile {
         let target = match &meta {
             // Follow a symbolic link to the file it names.
             Ok(_) => fs::canonicalize(path).map_err(|e| cannot(&e))?,
-            Err(_) => path.to_path_buf(),
+            // A link to a file not yet created: the file it names.
+            Err(_) => match fs::read_link(path) {
+                Ok(dest) => path.parent().map_or(dest.clone(), |dir| dir.join(&dest)),
+                Err(_) => path.to_path_buf(),
+            },
         };
         match meta {
             Ok(m) if m.is_dir() => Err(cannot(&"it is a directory")),

@@ -254,7 +254,7 @@ pub fn render(
         Ok(()) => (bounds.x[1] - bounds.x[0]) / (bounds.y[1] - bounds.y[0]).max(1e-300),
         Err(_) => 1.0,
     };
-    let wide = aspect.is_finite() && aspect >= 1.4;
+    let wide = aspect >= 1.4; // NaN: not wide
     let legend_w = 240;
     let mech_h = if wide {
         // Plot width over aspect, plus title, margins and axis labels.
@@ -382,7 +382,7 @@ fn check_extent(lo: f64, hi: f64) -> Result<(), String> {
 fn check_axis(r: [f64; 2]) -> Result<(), String> {
     let m = r[0].abs().max(r[1].abs());
     // Padding may take an extent of MAX_AXIS a little further.
-    if !(m <= 10.0 * MAX_AXIS) {
+    if m.is_nan() || m > 10.0 * MAX_AXIS {
         return Err(format!(
             "its range [{:.3e}, {:.3e}] is beyond what a figure can show",
             r[0], r[1]
