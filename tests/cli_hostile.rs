@@ -487,6 +487,8 @@ fn outputs_that_cannot_be_created_are_usage_errors_and_failed_writes_analysis_er
         vec!["run", model, "--out", missing.as_str()],
         vec!["run", model, "--out", "-", "--plot", missing.as_str()],
         vec!["run", model, "--out", directory.as_str()],
+        vec!["run", model, "--out", "no_such_dir/"],
+        vec!["run", model, "--out", "-", "--plot", "models/.."],
     ] {
         let o = kinema(&args);
         assert_status(&o, 2);

@@ -173,6 +173,17 @@ impl OutputFile {
         let cannot = |e: &dyn std::fmt::Display| {
             Failure::usage(format_args!("cannot create `{}`: {e}", path.display()))
         };
+        // `""`, `/`, `dir/..`, `dir/`: no file name to create.
+        let trailing = path
+            .as_os_str()
+            .to_string_lossy()
+            .ends_with(std::path::is_separator);
+        if path.file_name().is_none() || trailing {
+            return Err(match fs::metadata(path) {
+                Ok(m) if m.is_dir() => cannot(&"it is a directory"),
+                _ => cannot(&"not a file name"),
+            });
+        }
         let meta = fs::metadata(path);
         let target = match &meta {
             // Follow a symbolic link to the file it names.
