@@ -7,7 +7,7 @@
 //! | [`adm`] | simEngine2D specifics: the analysis, ignored forces, ADM names in messages |
 //! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
 //! | [`run`] | `kinema run`: the time loop and its summary |
-//! | [`output`] | the CSV sink; durations and times for people |
+//! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
 //! | [`number`] | fast `{:e}` formatting of the CSV's numbers |
 //! | [`progress`] | the progress bar on standard error |
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
