@@ -337,7 +337,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 let destination = sink.destination().clone();
                 let kept = match sink.finish() {
                     Ok(()) => rows,
-                    Err(Failure::Closed) => return Err(Failure::Closed),
+                    // The analysis error is the one to report, even when
+                    // standard output's reader has gone too.
                     Err(_) => 0,
                 };
                 let mut message = format!("error: {}", run_error(&loaded, &e));
@@ -356,7 +357,11 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         stats.record(k == 0, state);
         if is_output {
             let w = Instant::now();
-            sink.write(state)?;
+            if let Err(failure) = sink.write(state) {
+                // A write error, or standard output closed: the run stops.
+                progress.finish();
+                return Err(failure);
+            }
             if let Some(s) = &mut samples
                 && (written.is_multiple_of(stride) || written + 1 == outputs)
             {
