@@ -15,6 +15,14 @@ pub(crate) fn index(name: &Ident, k: usize) -> TokenStream {
 /// the token trees handed to rustc stay shallow however deep the model.
 const MAX_INLINE_DEPTH: u32 = 8;
 
+/// Most operands one emitted sum or product chains together. A longer one
+/// is split into partial results bound in turn (`v1 = v0 + a + b + …`),
+/// which keeps the left-to-right order of the operations — so the same
+/// bits — while every statement stays a shallow expression: rustc and
+/// prettyplease recurse on the nesting of a binary-operator chain, and a
+/// 20 000-term sum emitted as one expression overflows their stacks.
+const MAX_CHAIN: usize = 32;
+
 /// Operator precedence of an emitted expression, for minimal parentheses.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug)]
 enum Prec {
@@ -140,6 +148,79 @@ pub(crate) struct Used {
     pub t: bool,
 }
 
+/// The `let` bindings of one generated body: named locals `v0, v1, …`, or,
+/// past [`crate::lu::MAX_LETS`] of them, slots of one local array `v`.
+struct Binder {
+    statements: Vec<TokenStream>,
+    large: bool,
+}
+
+impl Binder {
+    /// Binds `value` and returns the place that now holds it.
+    fn bind(&mut self, value: &TokenStream) -> Code {
+        let k = self.statements.len();
+        let place = if self.large {
+            let k = Literal::usize_unsuffixed(k);
+            quote!(v[#k])
+        } else {
+            let name = format_ident!("v{}", k);
+            quote!(#name)
+        };
+        self.statements.push(if self.large {
+            quote! { #place = #value; }
+        } else {
+            quote! { let #place = #value; }
+        });
+        Code::atom(place)
+    }
+
+    /// The bindings as statements (with the array's declaration first when
+    /// they live in one).
+    fn into_statements(self) -> TokenStream {
+        let mut stmts = TokenStream::new();
+        if self.large {
+            let k = Literal::usize_unsuffixed(self.statements.len());
+            stmts.extend(quote! { let mut v = [0.0f64; #k]; });
+        }
+        stmts.extend(self.statements);
+        stmts
+    }
+}
+
+/// An operator chain `a ∘ b ∘ c …` built operand by operand, at most
+/// [`MAX_CHAIN`] operands per emitted expression: when a chain is full, it
+/// is bound and the binding becomes the first operand of the rest.
+struct Chain {
+    tokens: TokenStream,
+    operands: usize,
+}
+
+impl Chain {
+    fn new() -> Self {
+        Chain {
+            tokens: TokenStream::new(),
+            operands: 0,
+        }
+    }
+
+    /// Appends one operand with its operator (`op` is empty for the first
+    /// operand of the chain, e.g. a leading coefficient).
+    fn push(&mut self, op: TokenStream, operand: TokenStream, binder: &mut Binder) {
+        if self.operands == MAX_CHAIN {
+            let partial = binder.bind(&self.tokens);
+            self.tokens = partial.tokens;
+            self.operands = 1;
+        }
+        self.tokens.extend(op);
+        self.tokens.extend(operand);
+        self.operands += 1;
+    }
+
+    fn is_empty(&self) -> bool {
+        self.operands == 0
+    }
+}
+
 /// Emits statements computing `outputs` and writing each into the place
 /// `target(k)` names (e.g. `out[k]`). Returns the statements and the inputs
 /// they read.
@@ -152,55 +233,36 @@ pub(crate) fn body(
     let schedule = Schedule::new(arena, outputs, &|e| (inputs.cached)(e).is_some());
     let nodes = &schedule.nodes;
     let mut code: Vec<Code> = Vec::with_capacity(nodes.len());
-    let mut bindings: Vec<TokenStream> = Vec::new();
     let mut used = Used::default();
     // Past `MAX_LETS` bindings, values live in one local array (see
     // `lu::MAX_LETS`); decided up front from the binding count.
-    let large = count_bindings(arena, &schedule, inputs) > crate::lu::MAX_LETS;
+    let mut binder = Binder {
+        statements: Vec::new(),
+        large: count_bindings(arena, &schedule, inputs) > crate::lu::MAX_LETS,
+    };
     for (i, &n) in nodes.iter().enumerate() {
         if let Some(tokens) = (inputs.cached)(n) {
             code.push(Code::atom(tokens));
             continue;
         }
-        let child = |e: ExprId| -> &Code {
-            // Children always precede their parents in a schedule.
-            let p = schedule.position(e).unwrap_or(0);
-            &code[p]
+        let c = {
+            let child = |e: ExprId| -> &Code {
+                let p = schedule
+                    .position(e)
+                    .expect("children precede their parents in a schedule");
+                &code[p]
+            };
+            node(arena, n, &child, inputs, &mut used, &mut binder)
         };
-        let c = node(arena, n, &child, inputs, &mut used);
         let uses = schedule.uses[i];
         let leaf = matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_));
         let bind = !leaf && (uses > 1 || c.depth > MAX_INLINE_DEPTH);
-        if bind {
-            let value = &c.tokens;
-            let place = if large {
-                let k = Literal::usize_unsuffixed(bindings.len());
-                quote!(v[#k])
-            } else {
-                let name = format_ident!("v{}", bindings.len());
-                quote!(#name)
-            };
-            bindings.push(if large {
-                quote! { #place = #value; }
-            } else {
-                quote! { let #place = #value; }
-            });
-            code.push(Code::atom(place));
-        } else {
-            code.push(c);
-        }
+        code.push(if bind { binder.bind(&c.tokens) } else { c });
     }
-    let mut stmts = TokenStream::new();
-    if large {
-        let k = Literal::usize_unsuffixed(bindings.len());
-        stmts.extend(quote! { let mut v = [0.0f64; #k]; });
-    }
-    stmts.extend(bindings);
+    let mut stmts = binder.into_statements();
     for (k, &o) in outputs.iter().enumerate() {
-        let value = match schedule.position(o) {
-            Some(p) => code[p].tokens.clone(),
-            None => quote!(0.0),
-        };
+        let p = schedule.position(o).expect("every output is scheduled");
+        let value = &code[p].tokens;
         let place = target(k);
         stmts.extend(quote! { #place = #value; });
     }
@@ -303,6 +365,7 @@ fn node<'c>(
     child: &dyn Fn(ExprId) -> &'c Code,
     inputs: &Inputs<'_>,
     used: &mut Used,
+    binder: &mut Binder,
 ) -> Code {
     match arena.node(n) {
         NodeRef::Num(v) => number(v),
@@ -317,119 +380,20 @@ fn node<'c>(
                 let i = Literal::usize_unsuffixed(i as usize);
                 quote!(qd[#i])
             }
-            SymKind::Parameter(i) => match inputs.params.get(i as usize) {
-                Some(name) => quote!(self.#name),
-                None => quote!(f64::NAN),
-            },
+            SymKind::Parameter(i) => {
+                let name = inputs
+                    .params
+                    .get(i as usize)
+                    .expect("every parameter symbol of a derivation has a field");
+                quote!(self.#name)
+            }
             SymKind::Time => {
                 used.t = true;
                 quote!(t)
             }
         }),
-        NodeRef::Add { constant, terms } => {
-            let mut tokens = TokenStream::new();
-            let depth = depth_of(terms.iter().map(|t| child(t.expr)));
-            for (i, term) in terms.iter().enumerate() {
-                let c = child(term.expr);
-                let (neg, k) = (term.coeff < 0.0, term.coeff.abs());
-                let value = if k == 1.0 {
-                    // The right operand of `-` must bind tighter than `+`.
-                    c.at(if neg && i > 0 { Prec::Mul } else { Prec::Add })
-                } else {
-                    let k = number(k).tokens;
-                    let v = c.at(Prec::Mul);
-                    quote!(#k * #v)
-                };
-                tokens.extend(match (i, neg) {
-                    (0, false) => value,
-                    (0, true) => {
-                        if k == 1.0 {
-                            let v = c.at(Prec::Mul);
-                            quote!(-#v)
-                        } else {
-                            quote!(-#value)
-                        }
-                    }
-                    (_, false) => quote!(+ #value),
-                    (_, true) => quote!(- #value),
-                });
-            }
-            if constant != 0.0 {
-                let k = number(constant.abs()).tokens;
-                tokens.extend(if constant < 0.0 {
-                    quote!(- #k)
-                } else {
-                    quote!(+ #k)
-                });
-            }
-            Code {
-                tokens,
-                prec: Prec::Add,
-                depth,
-            }
-        }
-        NodeRef::Mul { coeff, factors } => {
-            let depth = depth_of(factors.iter().map(|f| child(f.base)));
-            let power = |f: &Factor, p: f64| -> Code { raise(child(f.base), p) };
-            let num: Vec<Code> = factors
-                .iter()
-                .filter(|f| f.exp > 0.0)
-                .map(|f| power(f, f.exp))
-                .collect();
-            let den: Vec<Code> = factors
-                .iter()
-                .filter(|f| f.exp < 0.0)
-                .map(|f| power(f, -f.exp))
-                .collect();
-            let mut tokens = TokenStream::new();
-            let k = coeff.abs();
-            let mut wrote = false;
-            if k != 1.0 || num.is_empty() {
-                tokens.extend(number(k).tokens);
-                wrote = true;
-            }
-            for c in &num {
-                let v = c.at(Prec::Mul);
-                tokens.extend(if wrote { quote!(* #v) } else { v });
-                wrote = true;
-            }
-            match den.as_slice() {
-                [] => {}
-                [d] => {
-                    let v = d.at(Prec::Atom);
-                    tokens.extend(quote!(/ #v));
-                }
-                _ => {
-                    let mut group = TokenStream::new();
-                    for (i, d) in den.iter().enumerate() {
-                        let v = d.at(Prec::Mul);
-                        group.extend(if i == 0 { v } else { quote!(* #v) });
-                    }
-                    tokens.extend(quote!(/ (#group)));
-                }
-            }
-            let single = num.len() == 1 && den.is_empty() && k == 1.0;
-            let prec = if single { num[0].prec } else { Prec::Mul };
-            if coeff < 0.0 {
-                let inner = Code {
-                    tokens,
-                    prec,
-                    depth,
-                };
-                let v = inner.at(Prec::Mul);
-                Code {
-                    tokens: quote!(-#v),
-                    prec: Prec::Mul,
-                    depth,
-                }
-            } else {
-                Code {
-                    tokens,
-                    prec,
-                    depth,
-                }
-            }
-        }
+        NodeRef::Add { constant, terms } => sum(constant, terms, child, binder),
+        NodeRef::Mul { coeff, factors } => product(coeff, factors, child, binder),
         NodeRef::Unary(op, a) => {
             let c = child(a);
             let depth = c.depth + 1;
@@ -467,6 +431,120 @@ fn node<'c>(
                 depth: depth_of([cy, cx]),
             }
         }
+    }
+}
+
+/// `±k₁ t₁ ± k₂ t₂ … ± c`, left to right, in chains of at most
+/// [`MAX_CHAIN`] operands.
+fn sum<'c>(
+    constant: f64,
+    terms: &[kinema_expr::Term],
+    child: &dyn Fn(ExprId) -> &'c Code,
+    binder: &mut Binder,
+) -> Code {
+    let mut chain = Chain::new();
+    let depth = depth_of(terms.iter().map(|t| child(t.expr)));
+    for (i, term) in terms.iter().enumerate() {
+        let c = child(term.expr);
+        let (neg, k) = (term.coeff < 0.0, term.coeff.abs());
+        let value = if k == 1.0 {
+            // The right operand of `-` must bind tighter than `+`.
+            c.at(if neg && i > 0 { Prec::Mul } else { Prec::Add })
+        } else {
+            let k = number(k).tokens;
+            let v = c.at(Prec::Mul);
+            quote!(#k * #v)
+        };
+        let (op, operand) = match (i, neg) {
+            (0, false) => (quote!(), value),
+            (0, true) if k == 1.0 => {
+                let v = c.at(Prec::Mul);
+                (quote!(), quote!(-#v))
+            }
+            (0, true) => (quote!(), quote!(-#value)),
+            (_, false) => (quote!(+), value),
+            (_, true) => (quote!(-), value),
+        };
+        chain.push(op, operand, binder);
+    }
+    if constant != 0.0 {
+        let k = number(constant.abs()).tokens;
+        let op = if constant < 0.0 { quote!(-) } else { quote!(+) };
+        chain.push(op, k, binder);
+    }
+    Code {
+        tokens: chain.tokens,
+        prec: Prec::Add,
+        depth,
+    }
+}
+
+/// `±k · n₁ · n₂ … / (d₁ · d₂ …)`, left to right, in chains of at most
+/// [`MAX_CHAIN`] operands.
+fn product<'c>(
+    coeff: f64,
+    factors: &[Factor],
+    child: &dyn Fn(ExprId) -> &'c Code,
+    binder: &mut Binder,
+) -> Code {
+    let depth = depth_of(factors.iter().map(|f| child(f.base)));
+    let power = |f: &Factor, p: f64| -> Code { raise(child(f.base), p) };
+    let num: Vec<Code> = factors
+        .iter()
+        .filter(|f| f.exp > 0.0)
+        .map(|f| power(f, f.exp))
+        .collect();
+    let den: Vec<Code> = factors
+        .iter()
+        .filter(|f| f.exp < 0.0)
+        .map(|f| power(f, -f.exp))
+        .collect();
+    let k = coeff.abs();
+    let mut chain = Chain::new();
+    if k != 1.0 || num.is_empty() {
+        chain.push(quote!(), number(k).tokens, binder);
+    }
+    for c in &num {
+        let op = if chain.is_empty() {
+            quote!()
+        } else {
+            quote!(*)
+        };
+        chain.push(op, c.at(Prec::Mul), binder);
+    }
+    match den.as_slice() {
+        [] => {}
+        [d] => chain.push(quote!(/), d.at(Prec::Atom), binder),
+        _ => {
+            let mut group = Chain::new();
+            for d in &den {
+                let op = if group.is_empty() {
+                    quote!()
+                } else {
+                    quote!(*)
+                };
+                group.push(op, d.at(Prec::Mul), binder);
+            }
+            let g = group.tokens;
+            chain.push(quote!(/), quote!((#g)), binder);
+        }
+    }
+    let single = num.len() == 1 && den.is_empty() && k == 1.0;
+    let prec = if single { num[0].prec } else { Prec::Mul };
+    let code = Code {
+        tokens: chain.tokens,
+        prec,
+        depth,
+    };
+    if coeff < 0.0 {
+        let v = code.at(Prec::Mul);
+        Code {
+            tokens: quote!(-#v),
+            prec: Prec::Mul,
+            depth,
+        }
+    } else {
+        code
     }
 }
 

@@ -73,17 +73,58 @@ impl Default for Options {
     }
 }
 
-/// The generated items for `derivation` as tokens.
+/// The generated items for `derivation` as tokens: the parameter struct
+/// with its constants and `solver()`, the `System` impl, the per-step
+/// cache and the generated LU.
 #[must_use]
 pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     let d = derivation;
-    let rt = &options.runtime;
     let name = Ident::new(&type_name(&d.name), Span::call_site());
-    let nc = d.nc();
-    let nnz = d.phi_q.entries.len();
-    let nc_lit = Literal::usize_unsuffixed(nc);
-    let nnz_lit = Literal::usize_unsuffixed(nnz);
+    let params: Vec<Ident> = d.params.iter().map(|p| field_name(&p.name)).collect();
+    let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
+    // sin/cos of the angles and the functions of time, cached per step.
+    let everything: Vec<_> = d
+        .phi
+        .iter()
+        .chain(&jac_exprs)
+        .chain(&d.nu)
+        .chain(&d.gamma)
+        .copied()
+        .collect();
+    let cache = cache::Cache::find(&d.arena, &everything);
+    let cache_name = format_ident!("{}Cache", name);
+    let cache_items = if cache.is_empty() {
+        quote!()
+    } else {
+        cache.items(&d.arena, &cache_name, &params)
+    };
+    let (solver, lu_items) = solver_items(d, &name, options);
+    let item = struct_item(
+        d,
+        &name,
+        &params,
+        (!cache.is_empty()).then_some(&cache_name),
+    );
+    let inherent = inherent_items(d, &name, &solver);
+    let system = system_impl(d, &name, &params, &cache, &options.runtime);
+    quote! {
+        #item
+        #inherent
+        #system
+        #cache_items
+        #lu_items
+    }
+}
 
+/// The struct: the parameters as public fields (documented from the model),
+/// the hidden per-step cache if there is one, and `Default` from the
+/// declared values.
+fn struct_item(
+    d: &Derivation,
+    name: &Ident,
+    params: &[Ident],
+    cache: Option<&Ident>,
+) -> TokenStream {
     // Generated items are always documented (users may deny missing_docs).
     let docs = if d.docs.is_empty() {
         doc_attrs(&[format!(
@@ -93,8 +134,7 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     } else {
         doc_attrs(&d.docs)
     };
-    let params: Vec<Ident> = d.params.iter().map(|p| field_name(&p.name)).collect();
-    let fields = d.params.iter().zip(&params).map(|(p, f)| {
+    let fields = d.params.iter().zip(params).map(|(p, f)| {
         let docs = if p.docs.is_empty() {
             doc_attrs(&[format!(
                 "Parameter `{}` (declared value {}).",
@@ -105,81 +145,13 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
         };
         quote! { #docs pub #f: f64, }
     });
-    let defaults = d.params.iter().zip(&params).map(|(p, f)| {
+    let defaults = d.params.iter().zip(params).map(|(p, f)| {
         let v = emit::number(p.value).tokens;
         quote! { #f: #v, }
     });
-
-    let coordinate_names = d.coordinates.iter().map(|c| c.name.as_str());
-    let equation_names = d.rows.iter().map(|r| r.name.as_str());
-    let body_names = d.bodies.iter().map(String::as_str);
-    let nb = Literal::usize_unsuffixed(d.bodies.len());
-    let pattern = d.phi_q.entries.iter().map(|e| {
-        let (r, c) = (
-            Literal::u32_unsuffixed(e.row),
-            Literal::u32_unsuffixed(e.col),
-        );
-        quote!((#r, #c))
-    });
-    let derivation_text = d.render();
-
-    let a = &d.arena;
-    let out = format_ident!("out");
-    let to_out = |k: usize| emit::index(&out, k);
-    let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
-    let guess_exprs: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
-
-    // sin/cos of the angles and the functions of time, cached per step.
-    let everything: Vec<_> = d
-        .phi
-        .iter()
-        .chain(&jac_exprs)
-        .chain(&d.nu)
-        .chain(&d.gamma)
-        .copied()
-        .collect();
-    let cache = cache::Cache::find(a, &everything);
-    let lookup = |e| cache.lookup(e);
-    let no_cache = |_| None;
-    let inputs = emit::Inputs {
-        params: &params,
-        cached: &lookup,
-    };
-    // The body of a method computing `outputs`, the cache refreshed first.
-    let method = |outputs: &[kinema_expr::ExprId], target: &dyn Fn(usize) -> TokenStream| {
-        let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
-        let (body, mut used) = emit::body(a, outputs, target, &inputs);
-        used.q |= reads_q;
-        used.t |= reads_t;
-        (quote!(#refresh #body), used)
-    };
-
-    let q_name = format_ident!("q");
-    let guess_inputs = emit::Inputs {
-        params: &params,
-        cached: &no_cache,
-    };
-    let (guess_body, _) = emit::body(a, &guess_exprs, &|k| emit::index(&q_name, k), &guess_inputs);
-    let (phi_body, phi_used) = method(&d.phi, &to_out);
-    let (jac_body, jac_used) = method(&jac_exprs, &to_out);
-    let (nu_body, nu_used) = method(&d.nu, &to_out);
-    let (gamma_body, gamma_used) = method(&d.gamma, &to_out);
-    // Φ and Φ_q together: one schedule, so sin/cos are computed once per body.
-    let both: Vec<_> = d.phi.iter().chain(&jac_exprs).copied().collect();
-    let (phi_name, values_name) = (format_ident!("phi"), format_ident!("values"));
-    let to_both = |k: usize| {
-        if k < nc {
-            emit::index(&phi_name, k)
-        } else {
-            emit::index(&values_name, k - nc)
-        }
-    };
-    let (both_body, both_used) = method(&both, &to_both);
-    let (cache_field, cache_default, cache_items) = if cache.is_empty() {
-        (quote!(), quote!(), quote!())
-    } else {
-        let cache_name = format_ident!("{}Cache", name);
-        (
+    let (cache_field, cache_default) = match cache {
+        None => (quote!(), quote!()),
+        Some(cache_name) => (
             quote! {
                 /// Per-step cache (sin and cos of the body angles, functions of
                 /// time). Not a parameter: construct the mechanism with
@@ -188,113 +160,8 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
                 pub __cache: #cache_name,
             },
             quote!(__cache: ::core::default::Default::default(),),
-            cache.items(a, &cache_name, &params),
-        )
-    };
-
-    let arg = |used: bool, name: &str| {
-        if used {
-            format_ident!("{}", name)
-        } else {
-            format_ident!("_{}", name)
-        }
-    };
-    let sized = |used: bool, name: &str, len: &Literal, mutable: bool| -> TokenStream {
-        let n = format_ident!("{}", name);
-        match (used, mutable) {
-            (false, _) => quote!(),
-            (true, false) => quote! { let Ok(#n) = <&[f64; #len]>::try_from(#n) else { return; }; },
-            (true, true) => {
-                quote! { let Ok(#n) = <&mut [f64; #len]>::try_from(#n) else { return; }; }
-            }
-        }
-    };
-    let phi_q = arg(phi_used.q, "q");
-    let phi_t = arg(phi_used.t, "t");
-    let phi_q_check = sized(phi_used.q, "q", &nc_lit, false);
-    let jac_q = arg(jac_used.q, "q");
-    let jac_t = arg(jac_used.t, "t");
-    let jac_q_check = sized(jac_used.q, "q", &nc_lit, false);
-    let both_q = arg(both_used.q, "q");
-    let both_t = arg(both_used.t, "t");
-    let both_q_check = sized(both_used.q, "q", &nc_lit, false);
-    let nu_q = arg(nu_used.q, "q");
-    let nu_t = arg(nu_used.t, "t");
-    let nu_q_check = sized(nu_used.q, "q", &nc_lit, false);
-    let gamma_q = arg(gamma_used.q, "q");
-    let gamma_qd = arg(gamma_used.qd, "qd");
-    let gamma_t = arg(gamma_used.t, "t");
-    let gamma_q_check = sized(gamma_used.q, "q", &nc_lit, false);
-    let gamma_qd_check = sized(gamma_used.qd, "qd", &nc_lit, false);
-
-    let fallback = if nc <= options.static_dense_limit {
-        quote!(#rt::DenseLu<#nc_lit>)
-    } else {
-        quote!(#rt::Auto)
-    };
-    let plan = if options.static_lu {
-        static_lu_plan(d)
-    } else {
-        None
-    };
-    let (solver, lu_items) = match plan {
-        Some(plan) => {
-            let lu_name = format_ident!("{}Lu", name);
-            let items = plan.emit(&lu::Names {
-                rt,
-                ty: &lu_name,
-                system: &name,
-                fallback: fallback.clone(),
-            });
-            let doc = format!(
-                " velocity and acceleration, with [`{lu_name}`], the LU generated for this"
-            );
-            let solver = quote! {
-                /// The solver for this mechanism: Newton–Raphson position analysis,
-                #[doc = #doc]
-                /// Jacobian's pattern.
-                ///
-                /// # Errors
-                /// If the runtime rejects the Jacobian pattern (it cannot for
-                /// generated code).
-                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #lu_name>, #rt::Error> {
-                    #rt::Solver::with_options(self, options)
-                }
-            };
-            (solver, items)
-        }
-        None if nc <= options.static_dense_limit => (
-            quote! {
-                /// The solver for this mechanism: Newton–Raphson position analysis,
-                /// velocity and acceleration, with a dense LU sized at compile time.
-                ///
-                /// # Errors
-                /// If the runtime rejects the Jacobian pattern (it cannot for
-                /// generated code).
-                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #fallback>, #rt::Error> {
-                    #rt::Solver::with_options(self, options)
-                }
-            },
-            quote!(),
-        ),
-        None => (
-            quote! {
-                /// The solver for this mechanism: Newton–Raphson position analysis,
-                /// velocity and acceleration, with a sparse LU whose symbolic
-                /// analysis is done once.
-                ///
-                /// # Errors
-                /// If the runtime rejects the Jacobian pattern (it cannot for
-                /// generated code).
-                pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #fallback>, #rt::Error> {
-                    #rt::Solver::with_options(self, options)
-                }
-            },
-            quote!(),
         ),
     };
-
-    let nc_doc = format!(" Number of generalized coordinates (and equations): {nc}.");
     quote! {
         #docs
         // Field names are the model's parameter names, as the user wrote them.
@@ -310,7 +177,29 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
                 Self { #(#defaults)* #cache_default }
             }
         }
+    }
+}
 
+/// The inherent impl: counts, names, the Jacobian pattern, the derivation
+/// text, and `solver()`.
+fn inherent_items(d: &Derivation, name: &Ident, solver: &TokenStream) -> TokenStream {
+    let nc = d.nc();
+    let nc_lit = Literal::usize_unsuffixed(nc);
+    let nnz_lit = Literal::usize_unsuffixed(d.phi_q.entries.len());
+    let coordinate_names = d.coordinates.iter().map(|c| c.name.as_str());
+    let equation_names = d.rows.iter().map(|r| r.name.as_str());
+    let body_names = d.bodies.iter().map(String::as_str);
+    let nb = Literal::usize_unsuffixed(d.bodies.len());
+    let pattern = d.phi_q.entries.iter().map(|e| {
+        let (r, c) = (
+            Literal::u32_unsuffixed(e.row),
+            Literal::u32_unsuffixed(e.col),
+        );
+        quote!((#r, #c))
+    });
+    let derivation_text = d.render();
+    let nc_doc = format!(" Number of generalized coordinates (and equations): {nc}.");
+    quote! {
         // Literals are the exact values the derivation computed; some of them
         // happen to be close to named constants.
         #[allow(clippy::approx_constant)]
@@ -337,7 +226,120 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
 
             #solver
         }
+    }
+}
 
+/// The body of one generated `System` method and the inputs it reads.
+struct Method {
+    body: TokenStream,
+    used: emit::Used,
+}
+
+impl Method {
+    /// A slice argument's name: `name`, or `_name` when the body ignores it.
+    fn arg(used: bool, name: &str) -> Ident {
+        if used {
+            format_ident!("{}", name)
+        } else {
+            format_ident!("_{}", name)
+        }
+    }
+
+    /// `let Ok(name) = <&[f64; len]>::try_from(name) else { return; };`
+    /// (`&mut` if `mutable`): one conversion per slice, after which indexing
+    /// cannot panic. Nothing when the body does not read it.
+    fn sized(used: bool, name: &str, len: usize, mutable: bool) -> TokenStream {
+        let n = format_ident!("{}", name);
+        let len = Literal::usize_unsuffixed(len);
+        match (used, mutable) {
+            (false, _) => quote!(),
+            (true, false) => quote! { let Ok(#n) = <&[f64; #len]>::try_from(#n) else { return; }; },
+            (true, true) => {
+                quote! { let Ok(#n) = <&mut [f64; #len]>::try_from(#n) else { return; }; }
+            }
+        }
+    }
+
+    /// `(q, t)` arguments and the conversion of `q`, for a method of
+    /// q and t.
+    fn q_t(&self, nc: usize) -> (Ident, Ident, TokenStream) {
+        (
+            Self::arg(self.used.q, "q"),
+            Self::arg(self.used.t, "t"),
+            Self::sized(self.used.q, "q", nc, false),
+        )
+    }
+}
+
+/// `impl System`: the evaluation methods as straight-line code over the
+/// cache, plus names, pattern and initial guess.
+fn system_impl(
+    d: &Derivation,
+    name: &Ident,
+    params: &[Ident],
+    cache: &cache::Cache,
+    rt: &syn::Path,
+) -> TokenStream {
+    let a = &d.arena;
+    let nc = d.nc();
+    let nc_lit = Literal::usize_unsuffixed(nc);
+    let nnz_lit = Literal::usize_unsuffixed(d.phi_q.entries.len());
+    let out = format_ident!("out");
+    let to_out = |k: usize| emit::index(&out, k);
+    let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
+    let lookup = |e| cache.lookup(e);
+    let inputs = emit::Inputs {
+        params,
+        cached: &lookup,
+    };
+    // The body of a method computing `outputs`, the cache refreshed first.
+    let method = |outputs: &[kinema_expr::ExprId], target: &dyn Fn(usize) -> TokenStream| {
+        let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
+        let (body, mut used) = emit::body(a, outputs, target, &inputs);
+        used.q |= reads_q;
+        used.t |= reads_t;
+        Method {
+            body: quote!(#refresh #body),
+            used,
+        }
+    };
+
+    let guess = {
+        let q = format_ident!("q");
+        let no_cache = |_| None;
+        let guess_inputs = emit::Inputs {
+            params,
+            cached: &no_cache,
+        };
+        let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
+        emit::body(a, &guesses, &|k| emit::index(&q, k), &guess_inputs).0
+    };
+    let phi = method(&d.phi, &to_out);
+    let jac = method(&jac_exprs, &to_out);
+    let nu = method(&d.nu, &to_out);
+    let gamma = method(&d.gamma, &to_out);
+    // Φ and Φ_q together: one schedule, so sin/cos are computed once per body.
+    let both_exprs: Vec<_> = d.phi.iter().chain(&jac_exprs).copied().collect();
+    let (phi_name, values_name) = (format_ident!("phi"), format_ident!("values"));
+    let to_both = |k: usize| {
+        if k < nc {
+            emit::index(&phi_name, k)
+        } else {
+            emit::index(&values_name, k - nc)
+        }
+    };
+    let both = method(&both_exprs, &to_both);
+
+    let (phi_q, phi_t, phi_check) = phi.q_t(nc);
+    let (jac_q, jac_t, jac_check) = jac.q_t(nc);
+    let (both_q, both_t, both_check) = both.q_t(nc);
+    let (nu_q, nu_t, nu_check) = nu.q_t(nc);
+    let (gamma_q, gamma_t, gamma_q_check) = gamma.q_t(nc);
+    let gamma_qd = Method::arg(gamma.used.qd, "qd");
+    let gamma_qd_check = Method::sized(gamma.used.qd, "qd", nc, false);
+    let (phi_body, jac_body, both_body) = (&phi.body, &jac.body, &both.body);
+    let (nu_body, gamma_body) = (&nu.body, &gamma.body);
+    quote! {
         #[allow(clippy::approx_constant)]
         impl #rt::System for #name {
             fn len(&self) -> usize {
@@ -354,7 +356,7 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
 
             fn initial_guess(&self, q: &mut [f64]) {
                 let Ok(q) = <&mut [f64; #nc_lit]>::try_from(q) else { return; };
-                #guess_body
+                #guess
             }
 
             fn jacobian_pattern(&self) -> &[(u32, u32)] {
@@ -362,26 +364,26 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
             }
 
             fn phi(&mut self, #phi_q: &[f64], #phi_t: f64, out: &mut [f64]) {
-                #phi_q_check
+                #phi_check
                 let Ok(out) = <&mut [f64; #nc_lit]>::try_from(out) else { return; };
                 #phi_body
             }
 
             fn jacobian(&mut self, #jac_q: &[f64], #jac_t: f64, out: &mut [f64]) {
-                #jac_q_check
+                #jac_check
                 let Ok(out) = <&mut [f64; #nnz_lit]>::try_from(out) else { return; };
                 #jac_body
             }
 
             fn phi_and_jacobian(&mut self, #both_q: &[f64], #both_t: f64, phi: &mut [f64], values: &mut [f64]) {
-                #both_q_check
+                #both_check
                 let Ok(phi) = <&mut [f64; #nc_lit]>::try_from(phi) else { return; };
                 let Ok(values) = <&mut [f64; #nnz_lit]>::try_from(values) else { return; };
                 #both_body
             }
 
             fn nu(&mut self, #nu_q: &[f64], #nu_t: f64, out: &mut [f64]) {
-                #nu_q_check
+                #nu_check
                 let Ok(out) = <&mut [f64; #nc_lit]>::try_from(out) else { return; };
                 #nu_body
             }
@@ -393,11 +395,69 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
                 #gamma_body
             }
         }
-
-        #cache_items
-
-        #lu_items
     }
+}
+
+/// `solver()` and the generated LU it uses (if one is generated): the
+/// generated LU when `options.static_lu` and a usable pivot order exists,
+/// else a dense LU sized at compile time up to `static_dense_limit`
+/// coordinates, else the runtime's automatic choice.
+fn solver_items(d: &Derivation, name: &Ident, options: &Options) -> (TokenStream, TokenStream) {
+    let rt = &options.runtime;
+    let nc = d.nc();
+    let nc_lit = Literal::usize_unsuffixed(nc);
+    let fallback = if nc <= options.static_dense_limit {
+        quote!(#rt::DenseLu<#nc_lit>)
+    } else {
+        quote!(#rt::Auto)
+    };
+    let plan = options.static_lu.then(|| static_lu_plan(d)).flatten();
+    let (lu_type, lu_items, doc) = match plan {
+        Some(plan) => {
+            let lu_name = format_ident!("{}Lu", name);
+            let items = plan.emit(&lu::Names {
+                rt,
+                ty: &lu_name,
+                system: name,
+                fallback,
+            });
+            let line = format!(
+                " velocity and acceleration, with [`{lu_name}`], the LU generated for this"
+            );
+            let doc = quote! {
+                #[doc = #line]
+                /// Jacobian's pattern.
+            };
+            (quote!(#lu_name), items, doc)
+        }
+        None if nc <= options.static_dense_limit => (
+            fallback,
+            quote!(),
+            quote! {
+                /// velocity and acceleration, with a dense LU sized at compile time.
+            },
+        ),
+        None => (
+            fallback,
+            quote!(),
+            quote! {
+                /// velocity and acceleration, with a sparse LU whose symbolic
+                /// analysis is done once.
+            },
+        ),
+    };
+    let solver = quote! {
+        /// The solver for this mechanism: Newton–Raphson position analysis,
+        #doc
+        ///
+        /// # Errors
+        /// If the runtime rejects the Jacobian pattern (it cannot for
+        /// generated code).
+        pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #lu_type>, #rt::Error> {
+            #rt::Solver::with_options(self, options)
+        }
+    };
+    (solver, lu_items)
 }
 
 /// The generated LU's plan: Φ_q's pattern, which entries are numbers, and
@@ -408,8 +468,14 @@ fn static_lu_plan(d: &Derivation) -> Option<lu::Plan> {
     let params: Vec<f64> = d.params.iter().map(|p| p.value).collect();
     let value = |q: &[f64], s: kinema_expr::SymId| -> f64 {
         match a.symbol(s).kind {
-            SymKind::Parameter(i) => params.get(i as usize).copied().unwrap_or(0.0),
-            SymKind::Coordinate(i) => q.get(i as usize).copied().unwrap_or(0.0),
+            SymKind::Parameter(i) => *params
+                .get(i as usize)
+                .expect("every parameter symbol of a derivation is a declared param"),
+            // Guesses read parameters only (the checker refuses coordinates
+            // there), so with q = [] this arm is reached for Φ_q alone.
+            SymKind::Coordinate(i) => *q
+                .get(i as usize)
+                .expect("guesses do not read coordinates; Φ_q reads them at the guess"),
             SymKind::Velocity(_) | SymKind::Time => 0.0,
         }
     };

@@ -63,3 +63,67 @@ fn model_errors_render_with_file_line_and_column() {
     let text = err.to_string();
     assert!(text.contains("bad.kin:3:15"), "{text}");
 }
+
+/// The longest operator chains in one statement of `tokens` (groups are
+/// searched too): (additive operators, multiplicative operators between two
+/// additive ones). Each chain of n operators nests n deep when parsed.
+fn longest_operator_chains(tokens: proc_macro2::TokenStream) -> (usize, usize) {
+    use proc_macro2::TokenTree;
+    let (mut additive, mut multiplicative) = (0, 0);
+    let mut stack = vec![tokens];
+    while let Some(tokens) = stack.pop() {
+        let (mut sum, mut product) = (0, 0);
+        for tree in tokens {
+            match tree {
+                TokenTree::Punct(p) if matches!(p.as_char(), '+' | '-') => {
+                    sum += 1;
+                    product = 0;
+                    additive = additive.max(sum);
+                }
+                TokenTree::Punct(p) if matches!(p.as_char(), '*' | '/') => {
+                    product += 1;
+                    multiplicative = multiplicative.max(product);
+                }
+                TokenTree::Punct(p) if matches!(p.as_char(), ';' | '=' | ',') => {
+                    (sum, product) = (0, 0);
+                }
+                TokenTree::Group(g) => stack.push(g.stream()),
+                _ => {}
+            }
+        }
+    }
+    (additive, multiplicative)
+}
+
+/// Long sums and products are emitted as chains of partial results bound
+/// in turn, so no statement is deep enough to overflow rustc's or
+/// prettyplease's stack (both recurse on the nesting of an operator chain:
+/// a 20 000-term sum emitted as one expression overflowed both). 1 000
+/// terms keep the debug-build test short; BENCHMARKS.md has the 20 000-term
+/// model through `kinema codegen` and `mechanism!`.
+#[test]
+fn long_sums_and_products_are_emitted_in_bounded_chains() {
+    let terms: Vec<String> = (1..=1_000)
+        .map(|k| format!("sin({k} * b.y) / {}", k * k))
+        .collect();
+    let factors: Vec<String> = (1..=40).map(|k| format!("(b.y + {k})")).collect();
+    let text = format!(
+        "mechanism Big {{\n    body b {{ guess: (0.1, 0.2, 0) }}\n    \
+         constraint sum: b.x == 1e-3 * ({});\n    \
+         constraint product: b.phi == 1e-300 * {};\n    \
+         driver drive: b.y == t;\n}}\n",
+        terms.join(" + "),
+        factors.join(" * ")
+    );
+    let derivation = kinema_codegen::build::derive_source(&text, "big.kin").expect("model derives");
+    let tokens = expand(&derivation, &Options::default());
+    // Chains of 32 operands (a leading sign may add one operator); without
+    // the partial results these would be 1 000 and 40 long.
+    let longest = longest_operator_chains(tokens);
+    assert!(
+        (31..=34).contains(&longest.0) && (31..=34).contains(&longest.1),
+        "longest operator chains {longest:?}"
+    );
+    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    assert!(source.contains("impl ::kinema::__private::System for Big"));
+}
