@@ -42,6 +42,8 @@ pub use kinema_runtime::{
 mod model;
 #[cfg(feature = "model")]
 pub use model::{Model, ModelError, TapeSystem};
+#[cfg(feature = "parallel")]
+pub mod sweep;
 
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]

@@ -129,6 +129,40 @@ impl Model {
         kinema_codegen::generate_source(&self.derivation, &kinema_codegen::Options::default())
     }
 
+    /// A parameter sweep of this model: each row gives values for the
+    /// parameters `names`, in that order (the others keep their declared
+    /// values). The tapes are compiled once, here.
+    ///
+    /// # Errors
+    /// [`ParamError`](crate::sweep::ParamError) for a name the model does
+    /// not have, or one named twice.
+    #[cfg(feature = "parallel")]
+    pub fn sweep<N: AsRef<str>>(
+        &self,
+        names: &[N],
+    ) -> Result<crate::sweep::ModelSweep, crate::sweep::ParamError> {
+        use crate::sweep::{ParamError, Sweep, TapeParams};
+        let system = self.system();
+        let mut indices: Vec<usize> = Vec::with_capacity(names.len());
+        for name in names {
+            let name = name.as_ref();
+            let Some(i) = system.param_names.iter().position(|p| p == name) else {
+                return Err(ParamError::Unknown {
+                    name: name.to_owned(),
+                    known: system.param_names.clone(),
+                });
+            };
+            if indices.contains(&i) {
+                return Err(ParamError::Duplicate {
+                    name: name.to_owned(),
+                });
+            }
+            indices.push(i);
+        }
+        let width = indices.len();
+        Ok(Sweep::new(system, TapeParams { indices }).with_row_width(width))
+    }
+
     /// Compiles the derivation to tapes: a [`System`] for the runtime, with
     /// the parameters at their declared values.
     #[must_use]
@@ -209,6 +243,18 @@ impl TapeSystem {
         match self.param_names.iter().position(|p| p == name) {
             Some(i) => {
                 self.params[i] = value;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Sets the parameter at `index` (declaration order); returns `false`
+    /// if there is no such parameter.
+    pub fn set_param_at(&mut self, index: usize, value: f64) -> bool {
+        match self.params.get_mut(index) {
+            Some(p) => {
+                *p = value;
                 true
             }
             None => false,
