@@ -40,6 +40,11 @@ pub enum Command {
     /// as CSV, a summary, and optionally an SVG plot.
     #[command(after_help = RUN_EXAMPLES)]
     Run(RunArgs),
+    /// Run a `.kin` model over every row of a parameter table, on every
+    /// core, into one CSV (columns `row`, the swept parameters, then those of
+    /// `run`).
+    #[command(after_help = SWEEP_EXAMPLES)]
+    Sweep(SweepArgs),
     /// Print the symbolic derivation: Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ.
     #[command(after_help = "Example:\n  kinema derive models/pendulum.kin")]
     Derive(ModelArg),
@@ -62,6 +67,49 @@ Examples:
 
 The CSV has the columns t; every body's B.x, B.y, B.phi in declaration order; the same
 names suffixed _dot (velocities); then suffixed _ddot (accelerations).";
+
+const SWEEP_EXAMPLES: &str = "\
+Examples:
+  kinema sweep models/slider_crank.kin --params lengths.csv --out sweep.csv
+  kinema sweep models/slider_crank.kin --params lengths.csv --shard 3/8 --out part3.csv
+
+lengths.csv names some of the model's params in its header, then holds one variant per row:
+  l1, l2
+  0.30, 1.0
+  0.25, 1.1
+Lines starting with # and blank lines are skipped. A variant that fails keeps its rows up to
+the failure and is named in a warning; the exit status is then 1.";
+
+/// Arguments of `kinema sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// The model: a `.kin` file.
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+    /// The parameter table (CSV): a header naming params of the model, then
+    /// one row of values per variant.
+    #[arg(long, value_name = "TABLE.csv")]
+    pub params: PathBuf,
+    /// Final time [s]; each variant runs from t = 0. Default 1.
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
+    pub t_end: Option<f64>,
+    /// Number of equal time steps from 0 to the final time: N + 1 rows per
+    /// variant. Default 100.
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub steps: Option<i64>,
+    /// Where to write the CSV; `-` for standard output (the summary then
+    /// goes to standard error).
+    #[arg(long, value_name = "FILE", default_value = "sweep.csv")]
+    pub out: PathBuf,
+    /// Run only part I of N of the table (contiguous rows, 1 ≤ I ≤ N), for
+    /// spreading a sweep over machines: the parts' outputs, concatenated in
+    /// order without their headers, are the whole sweep's.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
+}
 
 /// A model file.
 #[derive(Debug, Args)]

@@ -30,6 +30,7 @@ pub mod plot;
 pub mod progress;
 pub mod run;
 pub mod scene;
+pub mod sweep;
 
 use std::fmt;
 use std::io::Write;
@@ -96,6 +97,7 @@ pub fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Check(a) => check::check(&a.model),
         Command::Run(a) => run::run(a),
+        Command::Sweep(a) => sweep::sweep(a),
         Command::Derive(a) => load::load(&a.model, None).and_then(|m| {
             m.print_warnings();
             print_stdout(&m.model.derivation_text())

@@ -298,8 +298,8 @@ fn temp_beside(target: &Path) -> io::Result<(PathBuf, File)> {
     Err(last.unwrap_or_else(|| io::Error::other("no free temporary name")))
 }
 
-/// Where the CSV bytes go.
-enum Sink {
+/// Where the CSV bytes go: standard output or an [`OutputFile`].
+pub enum Sink {
     Stdout(io::Stdout),
     File(OutputFile),
 }
@@ -316,6 +316,40 @@ impl Write for Sink {
         match self {
             Sink::Stdout(s) => s.flush(),
             Sink::File(f) => f.flush(),
+        }
+    }
+}
+
+impl Sink {
+    /// Opens `destination` (a file through `outputs`, as option `option`),
+    /// buffered.
+    ///
+    /// # Errors
+    /// [`Failure::Input`] if the file cannot be created or is an input or
+    /// another output.
+    pub fn open(
+        outputs: &mut Outputs,
+        option: &str,
+        destination: &Destination,
+    ) -> Result<BufWriter<Sink>, Failure> {
+        Ok(match destination {
+            Destination::Stdout => BufWriter::new(Sink::Stdout(io::stdout())),
+            Destination::File(path) => {
+                BufWriter::with_capacity(1 << 16, Sink::File(outputs.create(option, path)?))
+            }
+        })
+    }
+
+    /// Flushes `out` and puts a file in place (see [`OutputFile::commit`]).
+    ///
+    /// # Errors
+    /// [`Failure::Analysis`] on a write error; [`Failure::Closed`] when
+    /// standard output's reader has gone.
+    pub fn finish(out: BufWriter<Sink>, destination: &Destination) -> Result<(), Failure> {
+        match out.into_inner() {
+            Ok(Sink::File(file)) => file.commit(),
+            Ok(Sink::Stdout(mut s)) => s.flush().map_err(|e| write_failure(destination, &e)),
+            Err(e) => Err(write_failure(destination, e.error())),
         }
     }
 }
@@ -355,13 +389,7 @@ impl CsvSink {
         destination: Destination,
         names: &[N],
     ) -> Result<CsvSink, Failure> {
-        let out = match &destination {
-            Destination::Stdout => BufWriter::new(Sink::Stdout(io::stdout())),
-            Destination::File(path) => {
-                let file = outputs.create("--out", path)?;
-                BufWriter::with_capacity(1 << 16, Sink::File(file))
-            }
-        };
+        let out = Sink::open(outputs, "--out", &destination)?;
         let mut header = String::from("t");
         for suffix in ["", "_dot", "_ddot"] {
             for name in names {
@@ -415,11 +443,7 @@ impl CsvSink {
         let CsvSink {
             out, destination, ..
         } = self;
-        match out.into_inner() {
-            Ok(Sink::File(file)) => file.commit(),
-            Ok(Sink::Stdout(mut s)) => s.flush().map_err(|e| write_failure(&destination, &e)),
-            Err(e) => Err(write_failure(&destination, e.error())),
-        }
+        Sink::finish(out, &destination)
     }
 
     /// Rows written so far (the header not counted).
@@ -438,7 +462,8 @@ impl CsvSink {
     }
 }
 
-fn write_failure(destination: &Destination, e: &io::Error) -> Failure {
+/// The failure for a write error on `destination`.
+pub fn write_failure(destination: &Destination, e: &io::Error) -> Failure {
     match destination {
         Destination::Stdout if e.kind() == io::ErrorKind::BrokenPipe => Failure::Closed,
         Destination::Stdout => {

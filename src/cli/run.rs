@@ -168,7 +168,7 @@ impl Stats {
 }
 
 /// Checks `--t-end` and `--steps`; returns the number of steps.
-fn check_grid_args(t_end: Option<f64>, steps: Option<i64>) -> Result<Option<usize>, Failure> {
+pub fn check_grid_args(t_end: Option<f64>, steps: Option<i64>) -> Result<Option<usize>, Failure> {
     if let Some(t) = t_end
         && !(t.is_finite() && t > 0.0)
     {

@@ -1,0 +1,352 @@
+//! `kinema sweep MODEL --params TABLE.csv`: one model run over every row of
+//! a parameter table, on every core, into one long CSV.
+//!
+//! The table is CSV: a header naming some of the model's parameters, then
+//! one row of values per variant (blank lines and lines starting with `#`
+//! are skipped). The output has the columns `row` (the variant's 1-based
+//! number in the table), the swept parameters, then the columns of
+//! `kinema run` (`t`, coordinates, `_dot`, `_ddot`), the variants one after
+//! the other in table order. A variant whose analysis fails keeps the rows
+//! computed before the failure, a warning names it, and the exit status is
+//! then 1. `--shard I/N` runs the I-th of N contiguous parts of the table:
+//! concatenating the parts' outputs (headers aside) in order gives the
+//! whole sweep.
+
+use std::io::Write as _;
+use std::time::Instant;
+
+use kinema::Error;
+use kinema::sweep::{ModelSweep, shard};
+
+use super::args::SweepArgs;
+use super::load::{Format, load};
+use super::number::push_e;
+use super::output::{Destination, Outputs, Sink, duration, time, write_failure};
+use super::run::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
+use super::{Failure, print_stderr};
+
+/// Most rows a parameter table may have.
+pub const MAX_ROWS: usize = 10_000_000;
+
+/// Variants solved per batch: the workers fill a batch's CSV text in
+/// parallel, then it is written in order.
+const BATCH_PER_THREAD: usize = 16;
+
+/// A parameter table: names and rows of values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// The parameter names of the header.
+    pub names: Vec<String>,
+    /// The rows, each as long as `names`.
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl Table {
+    /// Parses the table's text; `file` names it in messages.
+    ///
+    /// # Errors
+    /// [`Failure::Input`] at `file:line:column` for a missing header, an
+    /// empty name, a value that is not a finite number, or a row of the
+    /// wrong length.
+    pub fn parse(text: &str, file: &str) -> Result<Table, Failure> {
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l))
+            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+        let Some((header_line, header)) = lines.next() else {
+            return Err(Failure::usage(format_args!(
+                "{file}: the parameter table is empty: expected a header naming parameters, \
+                 then one row of values per variant"
+            )));
+        };
+        let mut names = Vec::new();
+        for (column, name) in fields(header) {
+            if name.is_empty() {
+                return Err(Failure::usage(format_args!(
+                    "{file}:{header_line}:{column}: empty parameter name in the header"
+                )));
+            }
+            names.push(name.to_owned());
+        }
+        let mut rows = Vec::new();
+        for (line, text) in lines {
+            if rows.len() == MAX_ROWS {
+                return Err(Failure::usage(format_args!(
+                    "{file}:{line}: more than {MAX_ROWS} rows"
+                )));
+            }
+            let mut row = Vec::with_capacity(names.len());
+            for (column, field) in fields(text) {
+                let value = field.parse::<f64>().ok().filter(|v| v.is_finite());
+                let Some(value) = value else {
+                    return Err(Failure::usage(format_args!(
+                        "{file}:{line}:{column}: expected a finite number, found `{}`",
+                        field.escape_debug()
+                    )));
+                };
+                row.push(value);
+            }
+            if row.len() != names.len() {
+                return Err(Failure::usage(format_args!(
+                    "{file}:{line}: {} values for {} parameters ({})",
+                    row.len(),
+                    names.len(),
+                    names.join(", ")
+                )));
+            }
+            rows.push(row);
+        }
+        Ok(Table { names, rows })
+    }
+}
+
+/// The comma-separated fields of a line, trimmed, with the 1-based column
+/// (in characters) where each starts.
+fn fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
+    let mut start = 0;
+    line.split(',').map(move |field| {
+        let lead = field.len() - field.trim_start().len();
+        let column = line[..start + lead].chars().count() + 1;
+        start += field.len() + 1;
+        (column, field.trim())
+    })
+}
+
+/// `I/N` with 1 ≤ I ≤ N.
+///
+/// # Errors
+/// [`Failure::Input`] naming the option and the valid form.
+pub fn parse_shard(text: &str) -> Result<(usize, usize), Failure> {
+    let parsed = text
+        .split_once('/')
+        .and_then(|(i, n)| Some((i.trim().parse().ok()?, n.trim().parse().ok()?)));
+    match parsed {
+        Some((i, n)) if 1 <= i && i <= n => Ok((i, n)),
+        _ => Err(Failure::usage(format_args!(
+            "--shard: expected I/N with 1 ≤ I ≤ N (e.g. 2/8, the second of eight parts), \
+             found `{}`",
+            text.escape_debug()
+        ))),
+    }
+}
+
+/// Runs `kinema sweep`.
+pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
+    let start = Instant::now();
+    if Format::of(&args.model)? == Format::Adm {
+        return Err(Failure::usage(
+            "kinema sweep takes .kin models: a simEngine2D model has no parameters \
+             (`kinema import` it and declare the values to sweep as params)",
+        ));
+    }
+    let steps = check_grid_args(args.t_end, args.steps)?;
+    let grid = Grid::uniform(
+        args.t_end.unwrap_or(DEFAULT_T_END),
+        steps.unwrap_or(DEFAULT_STEPS),
+    )?;
+    let table_file = args.params.display().to_string();
+    let text = kinema_adm::read_text(&args.params)
+        .map_err(|e| Failure::usage(format_args!("cannot read `{table_file}`: {e}")))?;
+    let table = Table::parse(&text, &table_file)?;
+    let (part, parts) = match &args.shard {
+        Some(s) => parse_shard(s)?,
+        None => (1, 1),
+    };
+    let range = shard(table.rows.len(), part, parts).expect("parse_shard accepts only 1 ≤ I ≤ N");
+
+    let loaded = load(&args.model, None)?;
+    loaded.print_warnings();
+    let mut sweep = loaded
+        .model
+        .sweep(&table.names)
+        .map_err(|e| Failure::usage(format_args!("{table_file}: {e}")))?;
+    if let Some(jobs) = args.jobs {
+        sweep = sweep.with_threads(usize::from(jobs));
+    }
+
+    let mut outputs = Outputs::new();
+    outputs.input("the model", &args.model);
+    outputs.input("the parameter table", &args.params);
+    let destination = Destination::of(&args.out);
+    let mut out = Sink::open(&mut outputs, "--out", &destination)?;
+    let coordinates: Vec<&str> = loaded
+        .model
+        .derivation()
+        .coordinates
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
+    let header = header(&table.names, &coordinates);
+    out.write_all(header.as_bytes())
+        .map_err(|e| write_failure(&destination, &e))?;
+
+    let rows = &table.rows[range.clone()];
+    let threads = args.jobs.map_or_else(
+        || std::thread::available_parallelism().map_or(1, usize::from),
+        usize::from,
+    );
+    let batch = (threads * BATCH_PER_THREAD).max(1);
+    let mut failures: Vec<String> = Vec::new();
+    for (b, chunk) in rows.chunks(batch).enumerate() {
+        let first = range.start + b * batch;
+        let texts = sweep_chunk(&sweep, chunk, first, &grid.times);
+        for (k, result) in texts.into_iter().enumerate() {
+            let (bytes, failure) = match result {
+                Ok(done) => done,
+                Err(e) => (Vec::new(), Some(e)),
+            };
+            out.write_all(&bytes)
+                .map_err(|e| write_failure(&destination, &e))?;
+            if let Some(e) = failure {
+                let index = first + k;
+                let values = describe(&table.names, &table.rows[index]);
+                failures.push(format!("variant {} ({values}): {e}", index + 1));
+            }
+        }
+    }
+    Sink::finish(out, &destination)?;
+
+    let summary = format!(
+        "{} ({}): {} of {} variants{}, {} each; {} failed; {}",
+        loaded.name(),
+        loaded.file,
+        rows.len(),
+        table.rows.len(),
+        if parts > 1 {
+            format!(" (part {part} of {parts})")
+        } else {
+            String::new()
+        },
+        grid.description,
+        failures.len(),
+        duration(start.elapsed()),
+    );
+    for f in &failures {
+        print_stderr(&format!("warning: {f}\n"));
+    }
+    let to_stdout = destination == Destination::Stdout;
+    if to_stdout {
+        print_stderr(&format!("{summary}\n"));
+    } else {
+        println!("{summary}");
+    }
+    match failures.len() {
+        0 => Ok(()),
+        n => Err(Failure::analysis(format_args!(
+            "{n} of {} variants failed (their rows up to the failure are written)",
+            rows.len()
+        ))),
+    }
+}
+
+/// A variant's CSV text, and the error that stopped it (its rows before
+/// the error are in the text).
+type VariantText = (Vec<u8>, Option<Error>);
+
+/// One batch: each variant's CSV text, and the error that stopped it (its
+/// rows before the error are in the text).
+fn sweep_chunk(
+    sweep: &ModelSweep,
+    rows: &[Vec<f64>],
+    first: usize,
+    times: &[f64],
+) -> Vec<Result<VariantText, Error>> {
+    sweep.map(rows, |k, solver| {
+        let row = &rows[k];
+        let mut prefix = Vec::new();
+        let mut buffer = ryu::Buffer::new();
+        prefix.extend_from_slice((first + k + 1).to_string().as_bytes());
+        for &v in row {
+            prefix.push(b',');
+            push_e(&mut prefix, &mut buffer, v);
+        }
+        let mut text = Vec::new();
+        for &t in times {
+            let state = match solver.step(t) {
+                Ok(state) => state,
+                Err(e) => return Ok((text, Some(e))),
+            };
+            text.extend_from_slice(&prefix);
+            text.push(b',');
+            push_e(&mut text, &mut buffer, state.t());
+            for &v in state.q().iter().chain(state.qd()).chain(state.qdd()) {
+                text.push(b',');
+                push_e(&mut text, &mut buffer, v);
+            }
+            text.push(b'\n');
+        }
+        Ok((text, None))
+    })
+}
+
+/// `row,<params>,t,<coordinates>,<_dot>,<_ddot>`.
+fn header(params: &[String], coordinates: &[&str]) -> String {
+    let mut header = String::from("row");
+    for p in params {
+        header.push(',');
+        header.push_str(p);
+    }
+    header.push_str(",t");
+    for suffix in ["", "_dot", "_ddot"] {
+        for c in coordinates {
+            header.push(',');
+            header.push_str(c);
+            header.push_str(suffix);
+        }
+    }
+    header.push('\n');
+    header
+}
+
+/// `l1 = 0.3, l2 = 1` for messages.
+fn describe(names: &[String], values: &[f64]) -> String {
+    names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| format!("{n} = {}", time(*v)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tables_parse_with_comments_and_blank_lines() {
+        let table = Table::parse("# lengths\nl1, l2\n\n0.3, 1\n0.25,1.1\n", "t.csv")
+            .expect("a valid table");
+        assert_eq!(table.names, ["l1", "l2"]);
+        assert_eq!(table.rows, [vec![0.3, 1.0], vec![0.25, 1.1]]);
+    }
+
+    #[test]
+    fn table_errors_point_at_line_and_column() {
+        let message = |text: &str| match Table::parse(text, "t.csv") {
+            Err(Failure::Input(m)) => m,
+            other => panic!("expected an input failure, got {other:?}"),
+        };
+        assert_eq!(
+            message("l1,l2\n0.3, nan\n"),
+            "error: t.csv:2:6: expected a finite number, found `nan`"
+        );
+        assert_eq!(
+            message("l1,l2\n0.3\n"),
+            "error: t.csv:2: 1 values for 2 parameters (l1, l2)"
+        );
+        assert_eq!(
+            message("l1,,l2\n"),
+            "error: t.csv:1:4: empty parameter name in the header"
+        );
+        assert!(message("# only a comment\n").contains("the parameter table is empty"));
+    }
+
+    #[test]
+    fn shards_are_i_of_n() {
+        assert_eq!(parse_shard("2/8").ok(), Some((2, 8)));
+        for bad in ["0/3", "4/3", "1", "a/b", "-1/2"] {
+            assert!(parse_shard(bad).is_err(), "{bad}");
+        }
+    }
+}
