@@ -5,7 +5,7 @@ use std::fmt;
 use std::path::Path;
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
-use kinema_model::{Derivation, Diagnostics, Severity};
+use kinema_model::{Derivation, Diagnostics};
 use kinema_runtime::System;
 
 /// A mechanism read from model text and derived, ready to run without a
@@ -51,15 +51,8 @@ impl fmt::Display for ModelError {
 impl std::error::Error for ModelError {}
 
 fn render(diagnostics: &Diagnostics, source: &str, file: &str) -> ModelError {
-    let rendered = diagnostics
-        .iter()
-        .map(|d| d.render(source, file))
-        .collect::<Vec<_>>()
-        .join("\n");
-    let errors = diagnostics
-        .iter()
-        .filter(|d| d.severity == Severity::Error)
-        .count();
+    let rendered = diagnostics.render_each(source, file).join("\n");
+    let errors = diagnostics.error_count();
     ModelError { rendered, errors }
 }
 
@@ -71,11 +64,7 @@ impl Model {
     pub fn from_source(source: &str, file: &str) -> Result<Model, ModelError> {
         let model = kinema_model::Model::parse_str(source).map_err(|d| render(&d, source, file))?;
         let checked = model.check().map_err(|d| render(&d, source, file))?;
-        let warnings = checked
-            .warnings
-            .iter()
-            .map(|d| d.render(source, file))
-            .collect();
+        let warnings = checked.warnings.render_each(source, file);
         Ok(Model {
             derivation: Derivation::new(&checked),
             warnings,
@@ -89,11 +78,14 @@ impl Model {
     pub fn from_file(path: impl AsRef<Path>) -> Result<Model, ModelError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let source = std::fs::read_to_string(path).map_err(|e| ModelError {
+        let bytes = std::fs::read(path).map_err(|e| ModelError {
             rendered: format!("error: cannot read model file `{file}`: {e}"),
             errors: 1,
         })?;
-        Model::from_source(&source, &file)
+        // Not UTF-8: say where, shown on the text read lossily.
+        let source = kinema_model::source::decode(&bytes)
+            .map_err(|d| render(&d, &String::from_utf8_lossy(&bytes), &file))?;
+        Model::from_source(source, &file)
     }
 
     /// A model from a derivation made elsewhere.

@@ -113,11 +113,7 @@ pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure>
     let checked = kinema_model::Model::parse_str(&source)
         .and_then(|m| m.check())
         .map_err(|d| Failure::Input(d.render(&source, &shown)))?;
-    let warnings = checked
-        .warnings
-        .iter()
-        .map(|d| d.render(&source, &shown))
-        .collect();
+    let warnings = checked.warnings.render_each(&source, &shown);
     let model = kinema::Model::from_derivation(Derivation::new(&checked));
     Ok(Loaded {
         file,

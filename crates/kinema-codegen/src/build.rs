@@ -67,11 +67,7 @@ pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
     match checked {
         Ok(checked) => Ok(Derivation::new(&checked)),
         Err(diagnostics) => Err(Error::Model {
-            rendered: diagnostics
-                .iter()
-                .map(|d| d.render(source, file))
-                .collect::<Vec<_>>()
-                .join("\n"),
+            rendered: diagnostics.render_each(source, file).join("\n"),
         }),
     }
 }

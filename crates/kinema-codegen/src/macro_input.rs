@@ -77,8 +77,15 @@ fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
 
 fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
     let full = resolve(path, span);
-    let source = match std::fs::read_to_string(&full) {
-        Ok(s) => s,
+    let source = match std::fs::read(&full) {
+        Ok(bytes) => match kinema_model::source::decode(&bytes) {
+            Ok(text) => text.to_owned(),
+            Err(d) => {
+                // Not UTF-8: where, shown on the text read lossily.
+                let rendered = d.render(&String::from_utf8_lossy(&bytes), path);
+                return syn::Error::new(span, rendered).to_compile_error();
+            }
+        },
         Err(e) => {
             let msg = format!("cannot read model file `{}`: {e}", full.display());
             return syn::Error::new(span, msg).to_compile_error();
@@ -99,17 +106,29 @@ fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
         .map(|i| i.to_string());
     let outcome = match Model::parse_str(&source).and_then(|m| m.check()) {
         Ok(checked) => Ok(Derivation::new(&checked)),
-        Err(diagnostics) => Err(diagnostics
-            .iter()
-            .filter(|d| d.severity == Severity::Error)
-            .map(|d| {
-                let rendered = d.render(&source, path);
-                // rustc prints its own "error: " before the message.
-                rendered
-                    .strip_prefix("error: ")
-                    .map_or(rendered.clone(), str::to_owned)
-            })
-            .collect::<Vec<String>>()),
+        Err(diagnostics) => {
+            let renderer = kinema_model::Renderer::new(&source, path);
+            let mut messages: Vec<String> = diagnostics
+                .iter()
+                .filter(|d| d.severity == Severity::Error)
+                .map(|d| {
+                    let rendered = renderer.render(d);
+                    // rustc prints its own "error: " before the message.
+                    rendered
+                        .strip_prefix("error: ")
+                        .map_or(rendered.clone(), str::to_owned)
+                })
+                .collect();
+            let kept = messages.len();
+            let total = diagnostics.error_count();
+            if total > kept {
+                messages.push(format!(
+                    "… and {} more errors in `{path}` not shown",
+                    total - kept
+                ));
+            }
+            Err(messages)
+        }
     };
     proc_macro2::fallback::unforce();
     match outcome {

@@ -1045,7 +1045,17 @@ fn show_nonfinite(v: f64) -> &'static str {
 fn unknown_body(span: Span, name: &str, bodies: &[String]) -> Diagnostic {
     // error: unknown body `crnk`
     //  = help: the bodies are `crank`, `rod`, `slider`, and `ground`
-    let mut list: Vec<String> = bodies.iter().map(|b| format!("`{b}`")).collect();
+    // A model may declare thousands of bodies: name a few, count the rest,
+    // so that each error costs the same whatever the model's size.
+    const SHOWN: usize = 8;
+    let mut list: Vec<String> = bodies
+        .iter()
+        .take(SHOWN)
+        .map(|b| format!("`{b}`"))
+        .collect();
+    if bodies.len() > SHOWN {
+        list.push(format!("… ({} more)", bodies.len() - SHOWN));
+    }
     list.push("`ground`".to_string());
     Diagnostic::error(span, format!("unknown body `{name}`"))
         .with_help(format!("expected one of: {}", list.join(", ")))

@@ -125,12 +125,13 @@ mod library;
 mod lower;
 mod points;
 mod render;
+pub mod source;
 pub mod span;
 pub mod syntax;
 
 pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind};
 pub use derive::{Coordinate, Derivation, ParamInfo, Row, RowKind};
-pub use diagnostic::{Diagnostic, Diagnostics, Severity};
+pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use points::EquationPoint;
 pub use span::Span;
 pub use syntax::EquationKeyword;

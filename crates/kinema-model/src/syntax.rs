@@ -24,7 +24,8 @@ use proc_macro2::TokenStream;
 use syn::parse::{Parse, ParseStream};
 use syn::{Ident, Token, braced, bracketed, parenthesized};
 
-use crate::diagnostic::Diagnostics;
+use crate::diagnostic::{Diagnostic, Diagnostics};
+use crate::source::LineIndex;
 use crate::span::Span;
 
 /// Custom keywords of the language.
@@ -329,16 +330,119 @@ fn parse_postfix(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
     let mut e = parse_primary(input, b, depth)?;
     while input.peek(Token![.]) && !input.peek(Token![..]) {
         input.parse::<Token![.]>()?;
-        let field: Ident = input.parse().map_err(|err| {
-            syn::Error::new(
-                err.span(),
-                "expected a field name after `.` (`x`, `y`, `phi` or a point name)",
-            )
-        })?;
+        let field: Ident = expect(
+            input,
+            "a field name after `.` (`x`, `y`, `phi` or a point name)",
+        )?;
         let span = b.span(e).to(Span::new(field.span()));
+        if let ExprKind::Num { value, suffix } = &b.nodes[e as usize].kind
+            && suffix.is_empty()
+        {
+            return Err(exponent_error(input, *value, &field, span));
+        }
         e = b.push(ExprKind::Field(e, field), span);
     }
     Ok(e)
+}
+
+/// The error for a field after a number: `1.e5` lexes as the field `e5` of
+/// the integer `1` (as in Rust), which the user meant as a number.
+fn exponent_error(input: ParseStream<'_>, value: f64, field: &Ident, span: Span) -> syn::Error {
+    let name = field.to_string();
+    let digits = name
+        .strip_prefix(['e', 'E'])
+        .filter(|d| d.chars().all(|c| c.is_ascii_digit() || c == '_'));
+    let Some(digits) = digits else {
+        // error: a number has no fields: expected a body or a vector before `.x`
+        return syn::Error::new_spanned(
+            span.tokens(),
+            format!("a number has no fields: expected a body or a vector before `.{name}`"),
+        );
+    };
+    let mut span = span;
+    let mut exponent = digits.to_string();
+    let mut tail = String::new();
+    if digits.is_empty() {
+        // `1.e-5`: the sign and the exponent are separate tokens.
+        let sign = if input.peek(Token![-]) {
+            Some('-')
+        } else if input.peek(Token![+]) {
+            Some('+')
+        } else {
+            None
+        };
+        if let Some(sign) = sign
+            && input.peek2(syn::LitInt)
+        {
+            let fork = input.fork();
+            if let (Ok(_), Ok(lit)) = (
+                fork.parse::<proc_macro2::Punct>(),
+                fork.parse::<syn::LitInt>(),
+            ) {
+                exponent = format!("{sign}{}", lit.base10_digits());
+                tail.clone_from(&exponent);
+                span = span.to(Span::new(lit.span()));
+            }
+        }
+    }
+    let exponent = if exponent.is_empty() {
+        "…".to_string()
+    } else {
+        exponent
+    };
+    let written = if value.fract() == 0.0 && value.abs() < 1e15 {
+        format!("{value:.0}")
+    } else {
+        format!("{value}")
+    };
+    // error: `1.e5` is not a number: write `1e5` or `1.0e5`
+    syn::Error::new_spanned(
+        span.tokens(),
+        format!(
+            "`{written}.{name}{tail}` is not a number (it reads as the field `{name}` of `{written}`): write `{written}e{exponent}` or `{written}.0e{exponent}`"
+        ),
+    )
+}
+
+/// The next token as a message shows it (`` `body` ``, "the end of the
+/// item"), or `None` at the end of the input or group (where syn itself
+/// says "unexpected end of input").
+fn found(input: ParseStream<'_>) -> Option<String> {
+    use proc_macro2::{Delimiter, TokenTree};
+    let (tt, _) = input.cursor().token_tree()?;
+    Some(match tt {
+        TokenTree::Punct(p) if p.as_char() == '$' => "the end of the item".to_string(),
+        TokenTree::Group(g) => match g.delimiter() {
+            Delimiter::Parenthesis => "`(`".to_string(),
+            Delimiter::Bracket => "`[`".to_string(),
+            Delimiter::Brace => "`{`".to_string(),
+            Delimiter::None => "a group".to_string(),
+        },
+        tt => {
+            let text = tt.to_string();
+            match text.char_indices().nth(40) {
+                Some((cut, _)) => format!("`{}…`", &text[..cut]),
+                None => format!("`{text}`"),
+            }
+        }
+    })
+}
+
+/// "expected `what`, found `…`" at the next token.
+fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
+    match found(input) {
+        Some(f) => input.error(format!("expected {what}, found {f}")),
+        None => input.error(format!("expected {what}")),
+    }
+}
+
+/// Parses a `T` (a token or a name), or says what was expected and found.
+fn expect<T: Parse>(input: ParseStream<'_>, what: &str) -> syn::Result<T> {
+    if let Ok(t) = input.fork().parse::<T>() {
+        input.parse::<T>()?;
+        return Ok(t);
+    }
+    Err(expected(input, what))
 }
 
 fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> syn::Result<u32> {
@@ -395,12 +499,9 @@ fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
             [single] => Ok(*single),
             _ => Ok(b.push(ExprKind::Tuple(args), span)),
         }
-    } else if input.is_empty() || input.peek(Token![$]) || input.peek(Token![;]) {
-        // error: expected an expression
-        Err(input.error("expected an expression"))
     } else {
-        // error: expected one of: floating point literal, integer literal, identifier, parentheses
-        Err(lookahead.error())
+        // error: expected an expression (a number, a name or `(`), found `;`
+        Err(expected(input, "an expression (a number, a name or `(`)"))
     }
 }
 
@@ -416,7 +517,7 @@ fn parse_args(
         if content.is_empty() {
             break;
         }
-        content.parse::<Token![,]>()?;
+        expect::<Token![,]>(content, "`,` or the closing `)`")?;
     }
     Ok(args)
 }
@@ -467,9 +568,12 @@ impl Parse for Mechanism {
         // `//!` comments at the top of a file, then `///` comments.
         let mut docs = parse_inner_docs(input)?;
         docs.extend(parse_docs(input)?);
-        // error: expected `mechanism`
-        input.parse::<kw::mechanism>()?;
-        let name: Ident = input.parse()?;
+        // error: expected `mechanism Name { … }`, found `param`
+        expect::<kw::mechanism>(input, "`mechanism Name { … }`")?;
+        let name: Ident = expect(input, "the mechanism's name after `mechanism`")?;
+        if !input.peek(syn::token::Brace) {
+            return Err(expected(input, "`{` after the mechanism's name"));
+        }
         let content;
         braced!(content in input);
         // `//!` comments at the start of the mechanism's body.
@@ -500,7 +604,10 @@ impl Parse for Mechanism {
         }
         if !input.is_empty() {
             // error: unexpected tokens after the mechanism
-            return Err(input.error("expected the end of input after the mechanism's `}`"));
+            return Err(expected(
+                input,
+                "the end of the text after the mechanism's `}`",
+            ));
         }
         Ok(Mechanism {
             docs,
@@ -536,8 +643,8 @@ fn split_items(body: TokenStream) -> Vec<TokenStream> {
 fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
     let item = parse_item_inner(input)?;
     if !input.peek(Token![$]) {
-        // error: unexpected tokens after the end of this item
-        return Err(input.error("unexpected tokens after the end of this item"));
+        // error: expected the end of the item, found `x`
+        return Err(expected(input, "the end of the item"));
     }
     input.parse::<Token![$]>()?;
     Ok(item)
@@ -548,14 +655,14 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
     let lookahead = input.lookahead1();
     if lookahead.peek(kw::param) {
         let keyword = Span::new(input.parse::<kw::param>()?.span);
-        let name: Ident = input.parse()?;
+        let name: Ident = expect(input, "the param's name after `param`")?;
         let value = if input.peek(Token![=]) {
             input.parse::<Token![=]>()?;
             Some(input.parse::<Expr>()?)
         } else {
             None
         };
-        input.parse::<Token![;]>()?;
+        expect::<Token![;]>(input, "`;` at the end of the param")?;
         Ok(Item::Param(ParamDecl {
             docs,
             keyword,
@@ -564,7 +671,7 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         }))
     } else if lookahead.peek(kw::body) {
         input.parse::<kw::body>()?;
-        let name: Ident = input.parse()?;
+        let name: Ident = expect(input, "the body's name after `body`")?;
         let lookahead = input.lookahead1();
         let guess = if lookahead.peek(Token![;]) {
             input.parse::<Token![;]>()?;
@@ -574,44 +681,51 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
             braced!(content in input);
             let mut guess = None;
             if !content.is_empty() {
-                content.parse::<kw::guess>()?;
-                content.parse::<Token![:]>()?;
+                expect::<kw::guess>(&content, "`guess` or `}`")?;
+                expect::<Token![:]>(&content, "`:` after `guess`")?;
+                if !content.peek(syn::token::Paren) {
+                    return Err(expected(&content, "`(x, y, phi)` after `guess:`"));
+                }
                 let inner;
                 parenthesized!(inner in content);
                 let x: Expr = inner.parse()?;
-                inner.parse::<Token![,]>()?;
+                expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
                 let y: Expr = inner.parse()?;
-                inner.parse::<Token![,]>()?;
+                expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
                 let phi: Expr = inner.parse()?;
                 if inner.peek(Token![,]) {
                     inner.parse::<Token![,]>()?;
                 }
                 if !inner.is_empty() {
-                    // error: expected `)`: a guess is `(x, y, phi)`
-                    return Err(inner.error("expected `)`: a guess is `(x, y, phi)`"));
+                    // error: expected `)`: a guess is `(x, y, phi)`, found `,`
+                    return Err(expected(&inner, "`)`: a guess is `(x, y, phi)`"));
                 }
                 if content.peek(Token![,]) {
                     content.parse::<Token![,]>()?;
                 }
                 if !content.is_empty() {
-                    return Err(content.error("expected `}`: a body has only a `guess`"));
+                    return Err(expected(&content, "`}`: a body has only a `guess`"));
                 }
                 guess = Some([x, y, phi]);
             }
             guess
         } else {
-            // error: expected one of: `;`, curly braces
-            return Err(lookahead.error());
+            // error: expected `;` or `{ guess: (x, y, phi) }` after the body's name, found `(`
+            return Err(expected(
+                input,
+                "`;` or `{ guess: (x, y, phi) }` after the body's name",
+            ));
         };
         Ok(Item::Body(BodyDecl { docs, name, guess }))
     } else if lookahead.peek(kw::point) {
         input.parse::<kw::point>()?;
-        let body: Ident = input.parse()?;
-        input.parse::<Token![.]>()?;
-        let name: Ident = input.parse()?;
-        input.parse::<Token![=]>()?;
+        // point body.name = (sx, sy);
+        let body: Ident = expect(input, "a body's name after `point`")?;
+        expect::<Token![.]>(input, "`.`: a point is `point body.name = (sx, sy);`")?;
+        let name: Ident = expect(input, "the point's name after `.`")?;
+        expect::<Token![=]>(input, "`=`: a point is `point body.name = (sx, sy);`")?;
         let value: Expr = input.parse()?;
-        input.parse::<Token![;]>()?;
+        expect::<Token![;]>(input, "`;` at the end of the point")?;
         Ok(Item::Point(PointDecl {
             docs,
             body,
@@ -632,8 +746,8 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         } else {
             (EquationKeyword::Driver, input.parse::<kw::driver>()?.span)
         };
-        let name: Ident = input.parse()?;
-        input.parse::<Token![:]>()?;
+        let name: Ident = expect(input, "the equation's name")?;
+        expect::<Token![:]>(input, "`:` after the equation's name")?;
         let lhs: Expr = input.parse()?;
         let rhs = if input.peek(Token![==]) {
             input.parse::<Token![==]>()?;
@@ -643,11 +757,14 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         };
         if !input.peek(Token![;]) {
             // error: expected `==` or `;`
-            return Err(input.error(if rhs.is_none() {
-                "expected `==` or `;`"
-            } else {
-                "expected `;`"
-            }));
+            return Err(expected(
+                input,
+                if rhs.is_none() {
+                    "an operator, `==` or `;`"
+                } else {
+                    "an operator or `;`"
+                },
+            ));
         }
         input.parse::<Token![;]>()?;
         Ok(Item::Equation(EquationDecl {
@@ -659,8 +776,11 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
             rhs,
         }))
     } else {
-        // error: expected one of: `param`, `body`, `point`, `joint`, `constraint`, `driver`
-        Err(lookahead.error())
+        // error: expected an item (`param`, `body`, `point`, `joint`, `constraint` or `driver`), found `bdy`
+        Err(expected(
+            input,
+            "an item (`param`, `body`, `point`, `joint`, `constraint` or `driver`)",
+        ))
     }
 }
 
@@ -670,14 +790,9 @@ pub fn parse_str(source: &str) -> Result<Mechanism, Diagnostics> {
     if let Some(d) = nesting_error(source) {
         return Err(d);
     }
-    let tokens: TokenStream = source.parse().map_err(|e: proc_macro2::LexError| {
-        let mut d = Diagnostics::new();
-        d.push(crate::diagnostic::Diagnostic::error(
-            Span::new(e.span()),
-            format!("cannot read the model text: unclosed delimiter or unterminated literal ({e})"),
-        ));
-        d
-    })?;
+    let tokens: TokenStream = source
+        .parse()
+        .map_err(|e: proc_macro2::LexError| lex_error(source, e.span().start()))?;
     parse_tokens(tokens)
 }
 
@@ -686,23 +801,143 @@ pub fn parse_tokens(tokens: TokenStream) -> Result<Mechanism, Diagnostics> {
     syn::parse2::<Mechanism>(tokens).map_err(Diagnostics::from)
 }
 
+/// One error saying why the lexer stopped at `at` (where proc-macro2 gave
+/// up: an unknown character, the opening bracket that is never closed, a
+/// closing bracket that matches nothing, a literal that does not end).
+fn lex_error(source: &str, at: proc_macro2::LineColumn) -> Diagnostics {
+    let index = LineIndex::new(source);
+    let offset = index.offset(at).unwrap_or(source.len());
+    let rest = source.get(offset..).unwrap_or_default();
+    let mut chars = rest.chars();
+    let c = chars.next();
+    let next = chars.next();
+    let span = index.span(offset, c.map_or(1, char::len_utf8));
+    let closer = |open| match open {
+        '(' => ')',
+        '[' => ']',
+        _ => '}',
+    };
+    let d = match c {
+        // error: unclosed delimiter `(`: expected `)` before the end of the text
+        Some(open @ ('(' | '[' | '{')) => Diagnostic::error(
+            span,
+            format!(
+                "unclosed delimiter `{open}`: expected `{}` before the end of the text",
+                closer(open)
+            ),
+        )
+        .with_label("never closed"),
+        Some(close @ (')' | ']' | '}')) => {
+            // The text before the closer lexes except for the brackets
+            // still open; the innermost of those is what `close` should
+            // have matched.
+            let before = source.get(..offset).unwrap_or_default();
+            match before.parse::<TokenStream>() {
+                Err(e) => {
+                    let open_at = e.span().start();
+                    let open = index
+                        .offset(open_at)
+                        .and_then(|o| source.get(o..))
+                        .and_then(|s| s.chars().next())
+                        .unwrap_or('(');
+                    // error: mismatched closing delimiter `]`: expected `)` to close the `(` at 3:7
+                    Diagnostic::error(
+                        span,
+                        format!(
+                            "mismatched closing delimiter `{close}`: expected `{}` to close the `{open}` at {}:{}",
+                            closer(open),
+                            open_at.line,
+                            open_at.column + 1
+                        ),
+                    )
+                    .with_label(format!("expected `{}`", closer(open)))
+                }
+                // error: unexpected closing delimiter `)`: no bracket is open here
+                Ok(_) => Diagnostic::error(
+                    span,
+                    format!("unexpected closing delimiter `{close}`: no bracket is open here"),
+                )
+                .with_label("unexpected"),
+            }
+        }
+        Some('"') => {
+            let closed = rest.get(1..).is_some_and(|r| r.contains('"'));
+            if closed {
+                Diagnostic::error(
+                    span,
+                    "invalid string literal (an unknown escape such as `\\q`?)",
+                )
+            } else {
+                Diagnostic::error(span, "unterminated string literal: expected a closing `\"`")
+                    .with_label("starts here")
+            }
+        }
+        Some('/') if next == Some('*') => {
+            Diagnostic::error(span, "unterminated block comment: expected `*/`")
+                .with_label("starts here")
+        }
+        Some(d) if d.is_ascii_digit() => {
+            let word: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || matches!(c, '.' | '_'))
+                .take(40)
+                .collect();
+            Diagnostic::error(span, format!("invalid number `{word}`"))
+                .with_help("numbers are written `2`, `0.5`, `1e-3`")
+        }
+        Some(c) => {
+            // error: unexpected character '`' (U+0060)
+            let what = describe_char(c);
+            Diagnostic::error(span, format!("unexpected character {what}")).with_help(
+                "expected a name, a number, an operator (`+ - * / . , : ; = ==`) or a bracket",
+            )
+        }
+        None => Diagnostic::error(span, "the model text ends unexpectedly"),
+    };
+    let mut out = Diagnostics::new();
+    out.push(d);
+    out
+}
+
+/// A character for a message: `'c' (U+0063)` when printable, `U+0000`
+/// alone otherwise.
+fn describe_char(c: char) -> String {
+    let code = format!("U+{:04X}", u32::from(c));
+    if c.is_control() || c.is_whitespace() || c == '\u{fffd}' || is_invisible(c) {
+        code
+    } else {
+        format!("'{c}' ({code})")
+    }
+}
+
+/// Format characters that print as nothing (zero-width, bidirectional).
+fn is_invisible(c: char) -> bool {
+    matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
+}
+
 /// Rejects text whose bracket nesting is deeper than the lexer and token
 /// trees should see (deeply nested groups are built and dropped
-/// recursively by proc-macro2). A rough scan: brackets inside comments or
-/// string literals also count, which only matters for absurd input.
+/// recursively by proc-macro2), pointing at the first bracket past the
+/// limit. A rough scan: brackets inside comments or string literals also
+/// count, which only matters for absurd input.
 fn nesting_error(source: &str) -> Option<Diagnostics> {
     let limit = 4 * MAX_NESTING;
     let mut depth = 0usize;
-    for c in source.chars() {
+    for (offset, c) in source.char_indices() {
         match c {
             '(' | '[' | '{' => {
                 depth += 1;
                 if depth > limit {
+                    let index = LineIndex::new(source);
                     let mut d = Diagnostics::new();
-                    d.push(crate::diagnostic::Diagnostic::error(
-                        Span::new(proc_macro2::Span::call_site()),
-                        format!("brackets nested too deeply (more than {limit} levels)"),
-                    ));
+                    // error: brackets nested too deeply (more than 512 levels)
+                    d.push(
+                        Diagnostic::error(
+                            index.span(offset, 1),
+                            format!("brackets nested too deeply (more than {limit} levels)"),
+                        )
+                        .with_label(format!("level {depth}")),
+                    );
                     return Some(d);
                 }
             }
