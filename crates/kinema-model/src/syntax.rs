@@ -590,7 +590,8 @@ impl Parse for Mechanism {
         // neither stops nor disturbs the others: independent mistakes are
         // all reported.
         for mut chunk in split_items(body) {
-            let last = chunk.clone().into_iter().last().map_or(close, |t| t.span());
+            let tokens: Vec<proc_macro2::TokenTree> = chunk.clone().into_iter().collect();
+            let last = tokens.last().map_or(close, proc_macro2::TokenTree::span);
             // A `$` sentinel carrying the span of the item's last token ends
             // every item: "expected `;`" then points at the item instead of
             // at nowhere (the end of a token stream has no location).
@@ -599,7 +600,11 @@ impl Parse for Mechanism {
             chunk.extend([proc_macro2::TokenTree::Punct(end)]);
             match syn::parse::Parser::parse2(parse_item, chunk) {
                 Ok(item) => items.push(item),
-                Err(e) => errors.extend(Diagnostics::from(e)),
+                Err(e) => {
+                    for d in Diagnostics::from(e) {
+                        errors.push(missing_semicolon(d, &tokens));
+                    }
+                }
             }
         }
         if !input.is_empty() {
@@ -616,6 +621,34 @@ impl Parse for Mechanism {
             errors,
         })
     }
+}
+
+/// A missing `;` is found at the first token of the next line; the error
+/// is more useful at the end of the line where the `;` belongs (as rustc
+/// does): when the token before the one found ends on an earlier line, the
+/// error moves there.
+fn missing_semicolon(mut d: Diagnostic, tokens: &[proc_macro2::TokenTree]) -> Diagnostic {
+    if !d.message.starts_with("expected") || !d.message.contains("`;`") {
+        return d;
+    }
+    let at = d.span.start();
+    let key = |p: proc_macro2::LineColumn| (p.line, p.column);
+    // The last token before the error; of a group, its closing bracket.
+    let before = tokens
+        .iter()
+        .take_while(|t| key(t.span().end()) <= key(at))
+        .last()
+        .map(|t| match t {
+            proc_macro2::TokenTree::Group(g) => g.span_close(),
+            t => t.span(),
+        });
+    if let Some(before) = before
+        && before.end().line < at.line
+    {
+        d.span = Span::new(before);
+        d.label = Some("expected `;` after this".to_string());
+    }
+    d
 }
 
 /// Splits the tokens of the mechanism's body into items: an item ends after
