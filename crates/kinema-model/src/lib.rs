@@ -58,7 +58,8 @@
 //! ```
 //!
 //! - Numbers are written as in maths: `2`, `0.3`, `1e-3`. Type suffixes
-//!   (`2f64`) are errors, so are non-finite values (`1e999`).
+//!   (`2f64`) are errors, so are non-finite values (`1e999`) and `1.e5`
+//!   (Rust reads it as the field `e5` of `1`; write `1e5` or `1.0e5`).
 //! - Names: `pi`; `t` (time); `ground` (the fixed body, no coordinates; a
 //!   point on ground `ground(x, y)` is a global point); params; bodies.
 //! - Scalars: numbers, params, `pi`, `t`, coordinates `B.x`, `B.y`,

@@ -428,10 +428,27 @@ fn found(input: ParseStream<'_>) -> Option<String> {
     })
 }
 
-/// "expected `what`, found `…`" at the next token.
+/// "expected `what`, found `…`" at the next token, with a hint for the
+/// usual confusions (a Rust keyword as a name, `^` or `**` for a power).
 fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
+    use proc_macro2::TokenTree;
+    let hint = match input.cursor().token_tree() {
+        // An identifier that syn does not take as a name is a keyword.
+        Some((TokenTree::Ident(_), _)) if !input.peek(Ident) => {
+            " (a Rust keyword, which cannot be a name)"
+        }
+        Some((TokenTree::Punct(p), _)) if p.as_char() == '^' => {
+            " (a power is `powi(x, 2)` or `pow(x, y)`)"
+        }
+        Some((TokenTree::Punct(p), _))
+            if p.as_char() == '*' && what.starts_with("an expression") =>
+        {
+            " (a power is `powi(x, 2)` or `pow(x, y)`)"
+        }
+        _ => "",
+    };
     match found(input) {
-        Some(f) => input.error(format!("expected {what}, found {f}")),
+        Some(f) => input.error(format!("expected {what}, found {f}{hint}")),
         None => input.error(format!("expected {what}")),
     }
 }
