@@ -65,8 +65,9 @@ impl Model {
         let model = kinema_model::Model::parse_str(source).map_err(|d| render(&d, source, file))?;
         let checked = model.check().map_err(|d| render(&d, source, file))?;
         let warnings = checked.warnings.render_each(source, file);
+        let derivation = Derivation::new(&checked).map_err(|d| render(&d, source, file))?;
         Ok(Model {
-            derivation: Derivation::new(&checked),
+            derivation,
             warnings,
         })
     }

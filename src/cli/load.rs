@@ -114,7 +114,9 @@ pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure>
         .and_then(|m| m.check())
         .map_err(|d| Failure::Input(d.render(&source, &shown)))?;
     let warnings = checked.warnings.render_each(&source, &shown);
-    let model = kinema::Model::from_derivation(Derivation::new(&checked));
+    let derivation =
+        Derivation::new(&checked).map_err(|d| Failure::Input(d.render(&source, &shown)))?;
+    let model = kinema::Model::from_derivation(derivation);
     Ok(Loaded {
         file,
         checked,

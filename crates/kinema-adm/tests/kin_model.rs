@@ -102,7 +102,8 @@ fn check(name: &str, m: &Model) {
     let checked = parsed
         .check()
         .unwrap_or_else(|d| panic!("{name}: {}\n{kin}", d.render(&kin, name)));
-    let d = kinema_model::Derivation::new(&checked);
+    let d = kinema_model::Derivation::new(&checked)
+        .unwrap_or_else(|d| panic!("{name}: {}\n{kin}", d.render(&kin, name)));
     assert_eq!(d.bodies.len(), m.bodies.len(), "{name}");
     assert_eq!(d.phi.len(), Counts::of(m).m, "{name}");
     // Guesses are the q0 of the file.

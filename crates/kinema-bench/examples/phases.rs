@@ -10,7 +10,7 @@ fn main() {
         let t2 = Instant::now();
         let checked = model.check().expect("checks");
         let t3 = Instant::now();
-        let d = kinema_model::Derivation::new(&checked);
+        let d = kinema_model::Derivation::new(&checked).expect("derives");
         let t4 = Instant::now();
         let _sys = kinema::Model::from_derivation(d).system();
         let t5 = Instant::now();

@@ -63,9 +63,11 @@ impl std::error::Error for Error {
 /// # Errors
 /// [`Error::Model`] with every diagnostic rendered.
 pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
-    let checked = kinema_model::Model::parse_str(source).and_then(|m| m.check());
-    match checked {
-        Ok(checked) => Ok(Derivation::new(&checked)),
+    let derived = kinema_model::Model::parse_str(source)
+        .and_then(|m| m.check())
+        .and_then(|checked| Derivation::new(&checked));
+    match derived {
+        Ok(derivation) => Ok(derivation),
         Err(diagnostics) => Err(Error::Model {
             rendered: diagnostics.render_each(source, file).join("\n"),
         }),

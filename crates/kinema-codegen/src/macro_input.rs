@@ -60,9 +60,11 @@ fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
 
 fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
     let model = Model::parse_tokens(input.clone());
-    let checked = model.and_then(|m| m.check());
-    match checked {
-        Ok(checked) => expand(&Derivation::new(&checked), options),
+    let derived = model
+        .and_then(|m| m.check())
+        .and_then(|checked| Derivation::new(&checked));
+    match derived {
+        Ok(derivation) => expand(&derivation, options),
         Err(diagnostics) => {
             let errors: TokenStream = diagnostics
                 .iter()
@@ -104,8 +106,11 @@ fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
         .ok()
         .and_then(|t| mechanism_name(&t))
         .map(|i| i.to_string());
-    let outcome = match Model::parse_str(&source).and_then(|m| m.check()) {
-        Ok(checked) => Ok(Derivation::new(&checked)),
+    let derived = Model::parse_str(&source)
+        .and_then(|m| m.check())
+        .and_then(|checked| Derivation::new(&checked));
+    let outcome = match derived {
+        Ok(derivation) => Ok(derivation),
         Err(diagnostics) => {
             let renderer = kinema_model::Renderer::new(&source, path);
             let mut messages: Vec<String> = diagnostics

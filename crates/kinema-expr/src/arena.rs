@@ -33,6 +33,10 @@ pub struct Arena {
     pub(crate) shash: Vec<u64>,
     /// Bloom mask of the symbols each node depends on (bit = symbol index mod 64).
     pub(crate) mask: Vec<u64>,
+    /// Whether each node contains an undefined constant: a number that is not
+    /// finite, or a fold that would not be (a power of the number 0 with a
+    /// negative exponent, `ln 0`, …). See [`Arena::is_undefined`].
+    undefined: Vec<bool>,
     /// Sort keys of the first symbol each node depends on (`u64::MAX` for
     /// constants): `[in sums, in products]`. In sums coordinates come first so
     /// that terms group by body; in products parameters come first, as
@@ -128,6 +132,7 @@ impl Arena {
             nodes: Vec::with_capacity(nodes),
             shash: Vec::with_capacity(nodes),
             mask: Vec::with_capacity(nodes),
+            undefined: Vec::with_capacity(nodes),
             lead: Vec::with_capacity(nodes),
             terms: Vec::with_capacity(nodes),
             factors: Vec::with_capacity(nodes),
@@ -427,6 +432,8 @@ impl Arena {
         self.nodes.push(node);
         self.shash.push(h);
         self.mask.push(m);
+        let undefined = self.node_undefined(&node);
+        self.undefined.push(undefined);
         self.lead.push(lead);
         self.next.push(prev);
         ExprId(id)
@@ -529,6 +536,51 @@ impl Arena {
                 a1 == a2 && b1 == b2
             }
             _ => false,
+        }
+    }
+
+    /// Whether `e` contains an undefined constant: a number that is not
+    /// finite (an overflowed fold such as `1e308 * 1e308`), or a constant
+    /// operation the constructors could not fold to a finite number (a
+    /// division by an expression that is identically zero, `ln 0`, …).
+    ///
+    /// The constructors never simplify such a part away (`0 · u`, `u − u`,
+    /// `u / u` stay undefined, as NaN), so an expression whose value is
+    /// undefined everywhere never looks defined.
+    #[must_use]
+    pub fn is_undefined(&self, e: ExprId) -> bool {
+        self.undefined[e.index()]
+    }
+
+    fn node_undefined(&self, node: &Node) -> bool {
+        let num = |e: ExprId| matches!(self.nodes[e.index()], Node::Num(_));
+        match *node {
+            Node::Num(v) => !v.is_finite(),
+            Node::Sym(_) => false,
+            Node::Add {
+                constant,
+                start,
+                len,
+            } => {
+                !constant.is_finite()
+                    || self.terms[start as usize..(start + len) as usize]
+                        .iter()
+                        .any(|t| self.undefined[t.expr.index()])
+            }
+            // A number left as a factor is a power whose fold was not finite
+            // (0^-1, an overflowed coefficient).
+            Node::Mul { coeff, start, len } => {
+                !coeff.is_finite()
+                    || self.factors[start as usize..(start + len) as usize]
+                        .iter()
+                        .any(|f| self.undefined[f.base.index()] || num(f.base))
+            }
+            // A function of a number is left unfolded only when its value is not finite.
+            Node::Unary(_, a) => self.undefined[a.index()] || num(a),
+            Node::Pow(a, b) => self.undefined[a.index()] || self.undefined[b.index()],
+            Node::Atan2(a, b) => {
+                self.undefined[a.index()] || self.undefined[b.index()] || (num(a) && num(b))
+            }
         }
     }
 

@@ -11,10 +11,27 @@
 //!   `c · x^1`, and `1 · x^1` is `x`.
 //!
 //! Simplification never changes a value where the original expression is
-//! defined (it may define a value where the original was not, e.g. `x/x → 1`).
+//! defined (it may define a value where the original was not, e.g. `x/x → 1`
+//! where `x` may vanish). It never makes an expression with an undefined
+//! constant look defined ([`Arena::is_undefined`]): `0 · u`, `u − u` and
+//! `u / u` with such a `u` are NaN, not 0 or 1, and numbers are folded only
+//! while they stay finite.
+//!
+//! A product of more than [`FLATTEN_MAX`] factors is kept as one factor when
+//! it is multiplied further instead of being flattened into its parent, so
+//! that nested products (the prefix and suffix products of a long product's
+//! derivative) cost O(1) each instead of a copy of their factors.
 
 use crate::arena::Arena;
 use crate::node::{ExprId, Factor, Node, NodeRef, Term, UnaryOp};
+
+/// Products of at most this many factors are flattened into a product they
+/// are a factor of (with an integer exponent); larger ones stay one factor.
+///
+/// Every product of a hand-written model is far smaller, so their canonical
+/// forms are those of full flattening; the bound only matters for very long
+/// products, whose derivatives it keeps linear in size.
+pub const FLATTEN_MAX: usize = 8;
 
 /// Whether `p` is an integer small enough for `powi`.
 pub(crate) fn is_int(p: f64) -> bool {
@@ -71,7 +88,18 @@ impl Weighted for Factor {
 
 /// Sorts operands into canonical order, merges equal expressions (adding
 /// their weights: like terms, like bases) and drops zero weights.
-fn merge_like<T: Weighted>(buf: &mut Vec<T>, order: impl Fn(ExprId, ExprId) -> std::cmp::Ordering) {
+/// Operands already at weight 0 are slots the caller consumed (folded or
+/// flattened) and are simply dropped.
+///
+/// Returns whether an undefined operand (`undefined`) merged to a zero
+/// weight (`u − u`, `u / u`): the caller's result is then NaN, not the
+/// simplified form.
+#[must_use]
+fn merge_like<T: Weighted>(
+    buf: &mut Vec<T>,
+    order: impl Fn(ExprId, ExprId) -> std::cmp::Ordering,
+    undefined: impl Fn(ExprId) -> bool,
+) -> bool {
     buf.retain(|o| o.weight() != 0.0);
     buf.sort_by(|a, b| order(a.expr(), b.expr()));
     let mut w: usize = 0;
@@ -85,7 +113,9 @@ fn merge_like<T: Weighted>(buf: &mut Vec<T>, order: impl Fn(ExprId, ExprId) -> s
         }
     }
     buf.truncate(w);
+    let lost = buf.iter().any(|o| o.weight() == 0.0 && undefined(o.expr()));
     buf.retain(|o| o.weight() != 0.0);
+    lost
 }
 
 fn finite_or(v: f64) -> Option<f64> {
@@ -155,6 +185,13 @@ impl Arena {
 
     /// `constant + Σ coeff·expr`, canonicalized.
     pub fn linear(&mut self, constant: f64, terms: &[Term]) -> ExprId {
+        // 0 · u is not 0 when u is undefined.
+        if terms
+            .iter()
+            .any(|t| t.coeff == 0.0 && self.is_undefined(t.expr))
+        {
+            return self.num(f64::NAN);
+        }
         let mut buf = std::mem::take(&mut self.scratch_terms);
         buf.clear();
         buf.extend_from_slice(terms);
@@ -199,9 +236,14 @@ impl Arena {
             }
             i += 1;
         }
-        merge_like(&mut buf, |a, b| self.term_cmp(a, b));
+        let lost = merge_like(
+            &mut buf,
+            |a, b| self.term_cmp(a, b),
+            |e| self.is_undefined(e),
+        );
         let constant = if constant == 0.0 { 0.0 } else { constant };
         let result = match (buf.as_slice(), constant == 0.0) {
+            _ if lost => self.num(f64::NAN),
             ([], _) => self.num(constant),
             ([t], true) if t.coeff == 1.0 => t.expr,
             ([t], true) => {
@@ -268,7 +310,7 @@ impl Arena {
 
     /// `a^p` for a constant real `p` (for non-integer `p`, defined for `a ≥ 0`).
     pub fn powf(&mut self, a: ExprId, p: f64) -> ExprId {
-        if p == 0.0 {
+        if p == 0.0 && !self.is_undefined(a) {
             return self.one;
         }
         self.product_of(1.0, &[Factor { base: a, exp: p }])
@@ -284,7 +326,7 @@ impl Arena {
         if let Some(p) = self.as_num(b) {
             return self.powf(a, p);
         }
-        if a == self.one {
+        if a == self.one && !self.is_undefined(b) {
             return self.one;
         }
         self.intern(Node::Pow(a, b))
@@ -302,6 +344,13 @@ impl Arena {
 
     /// [`product_of`](Self::product_of) working in (and clobbering) `buf`.
     fn product_from(&mut self, coeff: f64, buf: &mut Vec<Factor>) -> ExprId {
+        // u^0 is not 1 when u is undefined.
+        if buf
+            .iter()
+            .any(|f| f.exp == 0.0 && self.is_undefined(f.base))
+        {
+            return self.num(f64::NAN);
+        }
         let mut coeff = coeff;
         // Expand in place: numbers fold into the coefficient, products raised
         // to integer powers are flattened (their factors are examined again).
@@ -314,7 +363,9 @@ impl Arena {
             }
             match self.node(base) {
                 NodeRef::Num(v) => {
-                    if let Some(r) = finite_or(powv(v, exp)) {
+                    if v.is_finite()
+                        && let Some(r) = finite_or(powv(v, exp))
+                    {
                         coeff *= r;
                         buf[i].exp = 0.0;
                     }
@@ -322,7 +373,7 @@ impl Arena {
                 NodeRef::Mul {
                     coeff: c,
                     factors: inner,
-                } if is_int(exp) => {
+                } if is_int(exp) && inner.len() <= FLATTEN_MAX => {
                     buf[i].exp = 0.0;
                     buf.extend(inner.iter().map(|f| Factor {
                         base: f.base,
@@ -345,10 +396,20 @@ impl Arena {
             }
             i += 1;
         }
+        // A factor left unfolded or undefined: 0 times it is not 0.
+        let undefined = |arena: &Self, f: &Factor| {
+            f.exp != 0.0 && (arena.is_undefined(f.base) || arena.as_num(f.base).is_some())
+        };
         if coeff == 0.0 {
-            return self.zero;
+            return if buf.iter().any(|f| undefined(self, f)) {
+                self.num(f64::NAN)
+            } else {
+                self.zero
+            };
         }
-        merge_like(buf, |a, b| self.factor_cmp(a, b));
+        if merge_like(buf, |a, b| self.factor_cmp(a, b), |e| self.is_undefined(e)) {
+            return self.num(f64::NAN);
+        }
         if !coeff.is_finite() {
             // Overflowed coefficient: keep it visible as a factor instead of folding.
             let c = self.intern(Node::Num(coeff));
@@ -371,6 +432,7 @@ impl Arena {
     /// the result is finite.
     pub fn unary(&mut self, op: UnaryOp, a: ExprId) -> ExprId {
         if let Some(v) = self.as_num(a)
+            && v.is_finite()
             && let Some(r) = finite_or(op.apply(v))
         {
             return self.num(r);
@@ -435,6 +497,8 @@ impl Arena {
     /// `atan2(y, x)`: the angle of the vector (x, y).
     pub fn atan2(&mut self, y: ExprId, x: ExprId) -> ExprId {
         if let (Some(yv), Some(xv)) = (self.as_num(y), self.as_num(x))
+            && yv.is_finite()
+            && xv.is_finite()
             && let Some(r) = finite_or(yv.atan2(xv))
         {
             return self.num(r);

@@ -32,6 +32,36 @@ pub(crate) struct Memo {
     seeds: Vec<SeedSet>,
     seed_lookup: FxHashMap<Vec<(SymId, ExprId)>, SeedsId>,
     tangent: FxHashMap<(ExprId, SeedsId), ExprId>,
+    /// For a long product `c·Π fⱼ^pⱼ`, the products `Π_{j≠i} fⱼ^pⱼ` of all
+    /// factors but one, built from shared prefix and suffix products.
+    cofactors: FxHashMap<ExprId, Vec<ExprId>>,
+    /// Limit on [`Arena::size`] for the calculus (see [`Arena::set_budget`]).
+    budget: Option<usize>,
+    /// Set when a derivative stopped at the budget.
+    exhausted: bool,
+}
+
+/// The columns of a Jacobian (the symbols differentiated by), indexed once;
+/// see [`Arena::jacobian_by`].
+#[derive(Clone, Debug, Default)]
+pub struct Columns {
+    col_of: FxHashMap<SymId, u32>,
+    len: usize,
+}
+
+impl Columns {
+    /// Column j is the derivative by `wrt[j]`.
+    #[must_use]
+    pub fn new(wrt: &[SymId]) -> Self {
+        Columns {
+            col_of: wrt
+                .iter()
+                .enumerate()
+                .map(|(j, &s)| (s, j as u32))
+                .collect(),
+            len: wrt.len(),
+        }
+    }
 }
 
 /// A sparse matrix of expressions: only structural nonzeros are stored.
@@ -101,17 +131,50 @@ impl Arena {
         self.directional(e, seeds)
     }
 
+    /// Limits the size of the arena ([`Arena::size`]) that differentiation
+    /// may reach: once a derivative would grow it past `limit`, it stops,
+    /// returns 0 and [`budget_exceeded`](Self::budget_exceeded) turns true
+    /// (the results are then incomplete and must be discarded). `None`, the
+    /// default, sets no limit. Constructors called directly are not limited.
+    pub fn set_budget(&mut self, limit: Option<usize>) {
+        self.calc.budget = limit;
+    }
+
+    /// Whether a derivative stopped at the budget (see
+    /// [`set_budget`](Self::set_budget)). Stays true once set.
+    #[must_use]
+    pub fn budget_exceeded(&self) -> bool {
+        self.calc.exhausted
+    }
+
+    /// Total number of stored entries (nodes, terms of sums and factors of
+    /// products): the measure of the arena's memory the budget limits.
+    #[must_use]
+    pub fn size(&self) -> usize {
+        self.nodes.len() + self.terms.len() + self.factors.len()
+    }
+
     /// The directional derivative `Σ ∂e/∂s · seed(s)` along registered
     /// seeds, memoized per (node, seeds). Iterative: depth is unbounded.
+    ///
+    /// Its size is linear in the size of `e`: a product of n factors costs
+    /// O(n) new entries (shared prefix and suffix products), not O(n²).
     pub fn directional(&mut self, e: ExprId, seeds: SeedsId) -> ExprId {
         if let Some(d) = self.tangent_known(e, seeds) {
             return d;
+        }
+        if self.calc.exhausted {
+            return self.zero;
         }
         let mut stack: Vec<(ExprId, bool)> = vec![(e, false)];
         let mut kids: Vec<ExprId> = Vec::new();
         while let Some((n, expanded)) = stack.pop() {
             if self.tangent_known(n, seeds).is_some() {
                 continue;
+            }
+            if self.calc.budget.is_some_and(|b| self.size() > b) {
+                self.calc.exhausted = true;
+                return self.zero;
             }
             if expanded {
                 let d = self.tangent_rule(n, seeds);
@@ -166,6 +229,35 @@ impl Arena {
                     .filter(|t| !self.is_zero(t.expr))
                     .collect();
                 self.linear(0.0, &dterms)
+            }
+            NodeRef::Mul { coeff, factors } if factors.len() > crate::build::FLATTEN_MAX + 1 => {
+                // Σᵢ c·pᵢ·ḟᵢ·fᵢ^(pᵢ−1)·Π_{j≠i} fⱼ^pⱼ with the cofactors Π_{j≠i}
+                // shared: each term costs O(1) instead of a copy of the product.
+                let factors = factors.to_vec();
+                let mut parts: Vec<ExprId> = Vec::new();
+                for (i, fi) in factors.iter().enumerate() {
+                    let dfi = self.tan_of(fi.base, seeds);
+                    if self.is_zero(dfi) {
+                        continue;
+                    }
+                    let others = self.cofactor(n, &factors, i);
+                    let fs = [
+                        Factor {
+                            base: others,
+                            exp: 1.0,
+                        },
+                        Factor {
+                            base: fi.base,
+                            exp: fi.exp - 1.0,
+                        },
+                        Factor {
+                            base: dfi,
+                            exp: 1.0,
+                        },
+                    ];
+                    parts.push(self.product_of(coeff * fi.exp, &fs));
+                }
+                self.sum(&parts)
             }
             NodeRef::Mul { coeff, factors } => {
                 let factors = factors.to_vec();
@@ -227,6 +319,57 @@ impl Arena {
         }
     }
 
+    /// `Π_{j≠i} fⱼ^pⱼ` for the product `n` with these `factors`: all
+    /// cofactors of `n` are built once, from prefix products `Lᵢ = Π_{j<i}`
+    /// and suffix products `Rᵢ = Π_{j>i}` (each one factor more than the
+    /// last; nested, not copied, beyond [`FLATTEN_MAX`](crate::FLATTEN_MAX)),
+    /// so the whole set costs O(n) entries.
+    fn cofactor(&mut self, n: ExprId, factors: &[Factor], i: usize) -> ExprId {
+        if let Some(c) = self.calc.cofactors.get(&n) {
+            return c[i];
+        }
+        let m = factors.len();
+        let one = self.one;
+        let mut prefix = Vec::with_capacity(m);
+        let mut acc = one;
+        for f in factors {
+            prefix.push(acc);
+            acc = self.product_of(
+                1.0,
+                &[
+                    Factor {
+                        base: acc,
+                        exp: 1.0,
+                    },
+                    *f,
+                ],
+            );
+        }
+        let mut suffix = vec![one; m];
+        let mut acc = one;
+        for (j, f) in factors.iter().enumerate().rev() {
+            suffix[j] = acc;
+            acc = self.product_of(
+                1.0,
+                &[
+                    Factor {
+                        base: acc,
+                        exp: 1.0,
+                    },
+                    *f,
+                ],
+            );
+        }
+        let all: Vec<ExprId> = prefix
+            .iter()
+            .zip(&suffix)
+            .map(|(&l, &r)| self.mul(l, r))
+            .collect();
+        let c = all[i];
+        self.calc.cofactors.insert(n, all);
+        c
+    }
+
     /// `f'(a)` for `f = op`, where `node` is `f(a)` itself (reused by exp, tan, tanh).
     fn unary_derivative(&mut self, op: UnaryOp, a: ExprId, node: ExprId) -> ExprId {
         let one = self.one;
@@ -273,11 +416,13 @@ impl Arena {
     ///
     /// Each row is differentiated only with respect to the symbols it contains.
     pub fn jacobian(&mut self, rows: &[ExprId], wrt: &[SymId]) -> SparseMatrix {
-        let col_of: FxHashMap<SymId, u32> = wrt
-            .iter()
-            .enumerate()
-            .map(|(j, &s)| (s, j as u32))
-            .collect();
+        self.jacobian_by(rows, &Columns::new(wrt))
+    }
+
+    /// [`jacobian`](Self::jacobian) with the columns indexed once, for
+    /// callers that differentiate rows one at a time.
+    pub fn jacobian_by(&mut self, rows: &[ExprId], columns: &Columns) -> SparseMatrix {
+        let col_of = &columns.col_of;
         let mut entries = Vec::new();
         let mut cols: Vec<(u32, SymId)> = Vec::new();
         for (i, &r) in rows.iter().enumerate() {
@@ -290,6 +435,9 @@ impl Arena {
             cols.sort_unstable();
             for &(j, s) in &cols {
                 let d = self.diff(r, s);
+                if self.calc.exhausted {
+                    break;
+                }
                 if !self.is_zero(d) {
                     entries.push(Entry {
                         row: i as u32,
@@ -301,7 +449,7 @@ impl Arena {
         }
         SparseMatrix {
             rows: rows.len(),
-            cols: wrt.len(),
+            cols: columns.len,
             entries,
         }
     }

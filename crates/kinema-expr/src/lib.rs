@@ -43,7 +43,8 @@ mod schedule;
 mod tape;
 
 pub use arena::Arena;
-pub use calculus::{Entry, SeedsId, SparseMatrix};
+pub use build::FLATTEN_MAX;
+pub use calculus::{Columns, Entry, SeedsId, SparseMatrix};
 pub use node::{ExprId, Factor, NodeRef, SymId, SymKind, Symbol, Term, UnaryOp, smooth};
 pub use print::{Display, format_number};
 pub use schedule::Schedule;

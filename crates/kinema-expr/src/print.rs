@@ -228,6 +228,45 @@ impl Arena {
         }
     }
 
+    /// For every node of the arena (indexed by [`ExprId::index`]), the
+    /// number of nodes [`display`](Self::display) prints for it: its size as
+    /// a tree, where a shared subexpression counts at each use (saturating
+    /// at `u64::MAX`). One pass over the arena: compare it with the number
+    /// of distinct nodes to see when tree printing would blow up.
+    #[must_use]
+    pub fn tree_sizes(&self) -> Vec<u64> {
+        let mut size: Vec<u64> = Vec::with_capacity(self.len());
+        for i in 0..self.len() {
+            // Children have smaller ids than their parents.
+            let mut s: u64 = 1;
+            self.for_each_child(crate::ExprId(i as u32), |c| {
+                s = s.saturating_add(size[c.index()]);
+            });
+            size.push(s);
+        }
+        size
+    }
+
+    /// The number of distinct nodes reachable from `roots` (their DAG size).
+    #[must_use]
+    pub fn dag_size(&self, roots: &[ExprId]) -> usize {
+        let mut seen = vec![false; self.len()];
+        let mut stack: Vec<ExprId> = roots.to_vec();
+        let mut count = 0;
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n.index()], true) {
+                continue;
+            }
+            count += 1;
+            self.for_each_child(n, |c| {
+                if !seen[c.index()] {
+                    stack.push(c);
+                }
+            });
+        }
+        count
+    }
+
     /// Prints `outputs` as a straight-line program: every compound
     /// subexpression used more than once gets a `let` binding (`v0`, `v1`, …,
     /// numbered in evaluation order), then each output is printed as

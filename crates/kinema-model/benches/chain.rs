@@ -13,7 +13,9 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let model = Model::parse_str(std::hint::black_box(&text));
                 let checked = model.and_then(|m| m.check());
-                checked.map(|c| Derivation::new(&c).phi.len()).unwrap_or(0)
+                checked
+                    .and_then(|c| Derivation::new(&c))
+                    .map_or(0, |d| d.phi.len())
             });
         });
     }

@@ -14,8 +14,8 @@ fn main() {
         let checked = model.and_then(|m| m.check());
         let t2 = Instant::now();
         let rows = checked
-            .map(|c| kinema_model::Derivation::new(&c).phi.len())
-            .unwrap_or(0);
+            .and_then(|c| kinema_model::Derivation::new(&c))
+            .map_or(0, |d| d.phi.len());
         let t3 = Instant::now();
         println!(
             "n = {n}: parse {:?}, check {:?}, derive {:?}, total {:?} ({rows} rows)",

@@ -111,6 +111,9 @@ pub(crate) enum TNode {
 pub(crate) struct TExpr {
     pub(crate) nodes: Vec<TNode>,
     pub(crate) types: Vec<Ty>,
+    /// Source span of each node, where known: `spans[i]` is node i's for
+    /// every i below `spans.len()` (nodes the checker adds itself have none).
+    pub(crate) spans: Vec<Span>,
 }
 
 impl TExpr {
@@ -125,6 +128,17 @@ impl TExpr {
         self.nodes.push(node);
         self.types.push(ty);
         id
+    }
+    fn push_spanned(&mut self, node: TNode, ty: Ty, span: Span) -> u32 {
+        // Keep `spans` aligned with `nodes`: a node without a span ends it.
+        if self.spans.len() == self.nodes.len() {
+            self.spans.push(span);
+        }
+        self.push(node, ty)
+    }
+    /// The span of node `i`, if known.
+    pub(crate) fn span(&self, i: u32) -> Option<Span> {
+        self.spans.get(i as usize).copied()
     }
 }
 
@@ -1012,12 +1026,56 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         }
     }
 
+    if cx.error_count() == 0 {
+        undefined_parts(&mut cx, &model);
+    }
+
     let diagnostics = cx.finish();
     if diagnostics.has_errors() {
         return Err(diagnostics);
     }
     model.warnings = diagnostics;
     Ok(model)
+}
+
+/// Rule: no part of an equation is undefined whatever the coordinates and
+/// time, once simplified: a divisor that is identically zero (`(B.x − B.x)`)
+/// or a function of one (`ln(B.y − B.y)`). The engine's constructors keep
+/// such parts undefined (NaN) instead of simplifying them away
+/// ([`kinema_expr::Arena::is_undefined`]); this reports each at its span.
+///   error: division by zero: this divisor is identically zero
+fn undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
+    let mut arena = kinema_expr::Arena::new();
+    let lo = crate::lower::Lowerer::new(&mut arena, model);
+    for eq in &model.equations {
+        let exprs: Vec<&TExpr> = match &eq.form {
+            Form::User { lhs, rhs } => vec![lhs, rhs],
+            Form::Library(_, args) => args
+                .iter()
+                .filter_map(|a| match a {
+                    LibArg::Point(_, t) | LibArg::Vector(t) | LibArg::Scalar(t) => Some(t),
+                    LibArg::Body(_) => None,
+                })
+                .collect(),
+        };
+        for t in exprs {
+            lo.lower_reporting(&mut arena, t, &mut |i, why| {
+                let span = t.span(i).unwrap_or(eq.span);
+                cx.push(match why {
+                    crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+                        span,
+                        "division by zero: this divisor is identically zero",
+                    )
+                    .with_help("the quotient is undefined whatever the coordinates and time"),
+                    crate::lower::Undefined::Value => Diagnostic::error(
+                        span,
+                        "this expression is undefined whatever the coordinates and time",
+                    )
+                    .with_help("a function is applied where it has no finite value (such as `ln` of an expression that is identically zero)"),
+                });
+            });
+        }
+    }
 }
 
 fn idx(i: usize) -> u32 {
@@ -1065,6 +1123,7 @@ fn scalar_const(v: f64) -> TExpr {
     TExpr {
         nodes: vec![TNode::Num(v)],
         types: vec![Ty::Scalar],
+        spans: Vec::new(),
     }
 }
 
@@ -1072,6 +1131,7 @@ fn vector_const(a: f64, b: f64) -> TExpr {
     TExpr {
         nodes: vec![TNode::Num(a), TNode::Num(b), TNode::Vec(0, 1)],
         types: vec![Ty::Scalar, Ty::Scalar, Ty::Vector],
+        spans: Vec::new(),
     }
 }
 
@@ -1131,6 +1191,78 @@ fn finite_vector(cx: &mut Ctxt, v: [f64; 2], span: Span, t: &TExpr, params: &[f6
     }
 }
 
+/// Rules: a constant of numbers and `pi` folds to a finite number, and no
+/// divisor is identically zero.
+///   error: division by zero: this divisor is zero
+///   error: this constant overflows: its value is infinite
+///
+/// Computes the folded value of the typed node `n` about to be pushed after
+/// the nodes whose values are `folded` (None: not such a constant). The
+/// first node whose value stops being finite is reported; its parents are
+/// then not constants any more, so one mistake gives one error.
+fn fold_constant(
+    cx: &mut Ctxt,
+    n: &TNode,
+    folded: &[Option<f64>],
+    out: &TExpr,
+    span: Span,
+) -> Option<f64> {
+    let v = |i: u32| folded.get(i as usize).copied().flatten();
+    let value = match *n {
+        TNode::Num(x) => Some(x),
+        TNode::Pi => Some(std::f64::consts::PI),
+        TNode::Neg(a) => v(a).map(|x| -x),
+        TNode::Add(a, b) => v(a).zip(v(b)).map(|(x, y)| x + y),
+        TNode::Sub(a, b) => v(a).zip(v(b)).map(|(x, y)| x - y),
+        TNode::Mul(a, b) => v(a).zip(v(b)).map(|(x, y)| x * y),
+        TNode::Div(a, b) => {
+            if v(b) == Some(0.0) {
+                cx.push(
+                    Diagnostic::error(
+                        out.span(b).unwrap_or(span),
+                        "division by zero: this divisor is zero",
+                    )
+                    .with_help("the quotient is undefined whatever the coordinates and time"),
+                );
+                return None;
+            }
+            v(a).zip(v(b)).map(|(x, y)| x / y)
+        }
+        TNode::F1(f, a) => v(a).map(|x| match f {
+            Func1::Sqrt => x.sqrt(),
+            Func1::Sin => x.sin(),
+            Func1::Cos => x.cos(),
+            Func1::Tan => x.tan(),
+            Func1::Asin => x.asin(),
+            Func1::Acos => x.acos(),
+            Func1::Atan => x.atan(),
+            Func1::Sinh => x.sinh(),
+            Func1::Cosh => x.cosh(),
+            Func1::Tanh => x.tanh(),
+            Func1::Exp => x.exp(),
+            Func1::Ln => x.ln(),
+            Func1::Abs => x.abs(),
+        }),
+        TNode::Atan2(a, b) => v(a).zip(v(b)).map(|(y, x)| y.atan2(x)),
+        TNode::Pow(a, b) => v(a).zip(v(b)).map(|(x, y)| x.powf(y)),
+        TNode::Powi(a, k) => v(a).map(|x| x.powi(k)),
+        _ => None,
+    };
+    match value {
+        Some(x) if !x.is_finite() => {
+            cx.push(
+                Diagnostic::error(
+                    span,
+                    format!("this constant is {}: expected a finite number", show_nonfinite(x)),
+                )
+                .with_help("its value overflows or is undefined (such as `1e308 * 1e308`, `ln(0)` or `0 / 0`)"),
+            );
+            None
+        }
+        other => other,
+    }
+}
+
 /// Describes a syntax node for "found …" messages.
 fn describe(expr: &syntax::Expr, i: u32, ty: Ty) -> String {
     let what = match &expr.node(i).kind {
@@ -1173,7 +1305,11 @@ fn check_expr(
     let mut out = TExpr {
         nodes: Vec::new(),
         types: Vec::new(),
+        spans: Vec::new(),
     };
+    // The value of each typed node that is a constant of numbers and `pi`
+    // alone (what the engine folds), to report a fold that is not finite.
+    let mut folded: Vec<Option<f64>> = Vec::new();
     let errors_before = cx.error_count();
     let mut failed: std::collections::HashSet<u32> = std::collections::HashSet::new();
     for &i in &order {
@@ -1459,8 +1595,12 @@ fn check_expr(
                             ok = false;
                         }
                         if ok {
-                            let v =
-                                out.push(TNode::Vec(typed_args[0].0, typed_args[1].0), Ty::Vector);
+                            let v = out.push_spanned(
+                                TNode::Vec(typed_args[0].0, typed_args[1].0),
+                                Ty::Vector,
+                                span,
+                            );
+                            folded.push(None);
                             let coord = (body != BodyRef::Ground).then_some(span);
                             Some((
                                 TNode::Point(body, v),
@@ -1478,7 +1618,9 @@ fn check_expr(
         };
         match res {
             Some((n, ty, deps)) => {
-                let id = out.push(n, ty);
+                let value = fold_constant(cx, &n, &folded, &out, span);
+                folded.push(value);
+                let id = out.push_spanned(n, ty, span);
                 map.insert(i, (id, deps));
             }
             None => {
@@ -1946,6 +2088,7 @@ fn check_point_arg(
             for (n, ty) in y.expr.nodes.into_iter().zip(y.expr.types) {
                 local.push(shift(n, off), ty);
             }
+            local.spans.extend(y.expr.spans);
             let yr = local.root();
             local.push(TNode::Vec(xr, yr), Ty::Vector);
             Some((body, local))

@@ -1,5 +1,6 @@
 //! Phase 3: the derivation. From a [`CheckedModel`] it builds Φ and all its
-//! derivatives in one arena. It cannot fail.
+//! derivatives in one arena. It fails only when one equation's derivatives
+//! would outgrow [`DERIVATION_BUDGET`] (an error at the equation's name).
 //!
 //! With q the coordinates, q̇ their velocities and t time:
 //!
@@ -9,11 +10,25 @@
 //! - `Φ_t = ∂Φ/∂t`, `Φ_tt = ∂Φ_t/∂t`, `Φ_qt q̇ = ∂(Φ_q q̇)/∂t`;
 //! - `ν = −Φ_t`, `γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt`.
 
-use kinema_expr::{Arena, ExprId, SparseMatrix, SymId};
+use kinema_expr::{Arena, Columns, Entry, ExprId, SparseMatrix, SymId};
 
 use crate::check::{CheckedModel, Comp, DofReport, Form, LibKind};
+use crate::diagnostic::{Diagnostic, Diagnostics};
 use crate::lower::Lowerer;
 use crate::syntax::EquationKeyword;
+
+/// The most arena entries (nodes, sum terms, product factors: see
+/// [`Arena::size`]) that the derivatives of one declared equation may add:
+/// Φ_q, Φ_t, Φ_tt, Φ_qt, Φ_q q̇, (Φ_q q̇)_q q̇, Φ_qt q̇ and γ of its rows
+/// together.
+///
+/// Derivatives are linear in the size of the equation, so real equations
+/// stay far below it (a joint of a chain of 1000 bodies adds a few hundred
+/// entries; one product of 800 coordinates about 100 000). It is there so that an
+/// equation whose derivatives would not fit in memory ends with an error
+/// naming it instead of an allocation failure. About 100 bytes per entry:
+/// the limit is some 200 MB.
+pub const DERIVATION_BUDGET: usize = 2_000_000;
 
 /// One generalized coordinate.
 #[derive(Clone, Debug)]
@@ -122,9 +137,21 @@ pub struct Derivation {
 }
 
 impl Derivation {
-    /// Derives everything from a checked model. Cannot fail.
-    #[must_use]
-    pub fn new(model: &CheckedModel) -> Self {
+    /// Derives everything from a checked model, each equation within
+    /// [`DERIVATION_BUDGET`].
+    ///
+    /// # Errors
+    /// An equation whose derivatives would outgrow the budget, at its name.
+    pub fn new(model: &CheckedModel) -> Result<Self, Diagnostics> {
+        Self::with_budget(model, DERIVATION_BUDGET)
+    }
+
+    /// [`Derivation::new`] with another budget per equation (arena entries,
+    /// see [`DERIVATION_BUDGET`]).
+    ///
+    /// # Errors
+    /// An equation whose derivatives would outgrow `budget`, at its name.
+    pub fn with_budget(model: &CheckedModel, budget: usize) -> Result<Self, Diagnostics> {
         let mut arena = Arena::new();
         let lo = Lowerer::new(&mut arena, model);
 
@@ -164,8 +191,15 @@ impl Derivation {
         // Φ: kinematic equations first, then drivers, each in declaration order.
         let mut rows = Vec::new();
         let mut phi = Vec::new();
+        // The equation each row comes from (for budget errors).
+        let mut source: Vec<usize> = Vec::new();
         for driving in [false, true] {
-            for e in model.equations.iter().filter(|e| e.is_driver() == driving) {
+            for (eq, e) in model
+                .equations
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| e.is_driver() == driving)
+            {
                 let exprs = match &e.form {
                     Form::User { lhs, rhs } => {
                         let l = lo.lower(&mut arena, lhs);
@@ -197,38 +231,91 @@ impl Derivation {
                         docs: e.docs.clone(),
                     });
                     phi.push(ex);
+                    source.push(eq);
                 }
             }
         }
 
-        // Derivatives.
+        // Derivatives, row by row so that each equation's growth is bounded.
         let q_syms: Vec<SymId> = coordinates.iter().map(|c| c.sym).collect();
         let pairs: Vec<(SymId, ExprId)> = coordinates
             .iter()
             .map(|c| (c.sym, arena.sym_expr(c.velocity)))
             .collect();
         let seeds = arena.seeds(&pairs);
-        let phi_q = arena.jacobian(&phi, &q_syms);
-        let phi_t: Vec<ExprId> = phi.iter().map(|&e| arena.diff(e, time)).collect();
-        let phi_tt: Vec<ExprId> = phi_t.iter().map(|&e| arena.diff(e, time)).collect();
-        let phi_qt = arena.jacobian(&phi_t, &q_syms);
-        let phi_q_qdot: Vec<ExprId> = phi.iter().map(|&e| arena.directional(e, seeds)).collect();
-        let phi_q_qdot_q_qdot: Vec<ExprId> = phi_q_qdot
-            .iter()
-            .map(|&e| arena.directional(e, seeds))
-            .collect();
-        let phi_qt_qdot: Vec<ExprId> = phi_q_qdot.iter().map(|&e| arena.diff(e, time)).collect();
-        let nu: Vec<ExprId> = phi_t.iter().map(|&e| arena.neg(e)).collect();
-        let gamma: Vec<ExprId> = (0..phi.len())
-            .map(|i| {
-                let a = arena.neg(phi_q_qdot_q_qdot[i]);
-                let b = arena.scale(2.0, phi_qt_qdot[i]);
-                let ab = arena.sub(a, b);
-                arena.sub(ab, phi_tt[i])
-            })
-            .collect();
+        let columns = Columns::new(&q_syms);
+        let n = phi.len();
+        let mut phi_q = SparseMatrix {
+            rows: n,
+            cols: q_syms.len(),
+            entries: Vec::new(),
+        };
+        let mut phi_qt = phi_q.clone();
+        let (mut phi_t, mut phi_tt) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut phi_q_qdot, mut phi_q_qdot_q_qdot) =
+            (Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut phi_qt_qdot, mut nu, mut gamma) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        let mut limit_of: Option<(usize, usize)> = None;
+        for (i, &e) in phi.iter().enumerate() {
+            // The budget counts from the first row of the row's equation.
+            let limit = match limit_of {
+                Some((eq, limit)) if eq == source[i] => limit,
+                _ => {
+                    let limit = arena.size().saturating_add(budget);
+                    limit_of = Some((source[i], limit));
+                    limit
+                }
+            };
+            arena.set_budget(Some(limit));
+            let row = |m: SparseMatrix| {
+                m.entries
+                    .into_iter()
+                    .map(move |en| Entry { row: idx(i), ..en })
+            };
+            let jq = arena.jacobian_by(&[e], &columns);
+            phi_q.entries.extend(row(jq));
+            let et = arena.diff(e, time);
+            let ett = arena.diff(et, time);
+            let jqt = arena.jacobian_by(&[et], &columns);
+            phi_qt.entries.extend(row(jqt));
+            let v = arena.directional(e, seeds);
+            let vv = arena.directional(v, seeds);
+            let vt = arena.diff(v, time);
+            if arena.budget_exceeded() || arena.size() > limit {
+                let eq = &model.equations[source[i]];
+                let mut errors = Diagnostics::new();
+                errors.push(Diagnostic::error(
+                    eq.span,
+                    format!(
+                        "the derivatives of `{}` are too large: they would need more than {budget} \
+                         expression entries (the limit per equation)",
+                        eq.name
+                    ),
+                )
+                .with_help(
+                    "write the equation with fewer terms or factors (e.g. split a long product \
+                     with extra coordinates), or derive it with a larger budget",
+                ));
+                return Err(errors);
+            }
+            phi_t.push(et);
+            phi_tt.push(ett);
+            phi_q_qdot.push(v);
+            phi_q_qdot_q_qdot.push(vv);
+            phi_qt_qdot.push(vt);
+            nu.push(arena.neg(et));
+            let a = arena.neg(vv);
+            let b = arena.scale(2.0, vt);
+            let ab = arena.sub(a, b);
+            gamma.push(arena.sub(ab, ett));
+        }
+        arena.set_budget(None);
 
-        Derivation {
+        Ok(Derivation {
             name: model.name.clone(),
             docs: model.docs.clone(),
             params,
@@ -249,7 +336,7 @@ impl Derivation {
             gamma,
             dof: model.dof(),
             arena,
-        }
+        })
     }
 
     /// Number of coordinates nc.

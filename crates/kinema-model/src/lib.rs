@@ -11,7 +11,8 @@
 //!    reported at once as [`Diagnostics`], which render like rustc for text
 //!    ([`Diagnostics::render`]) or become one combined `syn::Error` for the
 //!    proc-macro ([`Diagnostics::into_syn_error`]).
-//! 3. [`Derivation`] — built by [`Derivation::new`], which cannot fail:
+//! 3. [`Derivation`] — built by [`Derivation::new`], which fails only when
+//!    an equation's derivatives would outgrow [`DERIVATION_BUDGET`]:
 //!    Φ, sparse Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ in one
 //!    [`kinema_expr::Arena`], the DOF report, and [`Derivation::render`].
 //!
@@ -30,7 +31,10 @@
 //!     Ok(c) => c,
 //!     Err(d) => panic!("{}", d.render(src, "pendulum.kin")),
 //! };
-//! let derivation = Derivation::new(&checked);
+//! let derivation = match Derivation::new(&checked) {
+//!     Ok(d) => d,
+//!     Err(d) => panic!("{}", d.render(src, "pendulum.kin")),
+//! };
 //! assert_eq!(derivation.dof.ndof(), 0);
 //! assert!(derivation.render().contains("swing"));
 //! ```
@@ -131,7 +135,7 @@ pub mod span;
 pub mod syntax;
 
 pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind};
-pub use derive::{Coordinate, Derivation, ParamInfo, Row, RowKind};
+pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use points::EquationPoint;
 pub use span::Span;
@@ -188,5 +192,5 @@ pub fn check_str(source: &str) -> Result<CheckedModel, Diagnostics> {
 /// # Errors
 /// Every error found, with the warnings.
 pub fn derive_str(source: &str) -> Result<Derivation, Diagnostics> {
-    check_str(source).map(|c| Derivation::new(&c))
+    check_str(source).and_then(|c| Derivation::new(&c))
 }

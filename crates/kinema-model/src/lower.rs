@@ -13,6 +13,15 @@ pub(crate) enum Value {
     V(Vec2),
 }
 
+/// Why a lowered expression is undefined (see [`Arena::is_undefined`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Undefined {
+    /// The node is a divisor that is identically zero.
+    ZeroDivisor,
+    /// The node's value is undefined though its operands' are not.
+    Value,
+}
+
 /// The symbols of a model in an arena, and the lowered named points.
 pub(crate) struct Lowerer<'m> {
     pub(crate) model: &'m CheckedModel,
@@ -114,6 +123,25 @@ impl<'m> Lowerer<'m> {
     /// (product) in a single engine call: building `a + b + c + …` pairwise
     /// would copy the growing sum at every step.
     pub(crate) fn lower(&self, arena: &mut Arena, t: &TExpr) -> Value {
+        self.lower_reporting(arena, t, &mut |_, _| {})
+    }
+
+    /// [`lower`](Self::lower), calling `report(node, why)` for each typed
+    /// node where the value first becomes undefined: an identically zero
+    /// divisor, or a node whose value is undefined while its operands' are
+    /// not (`ln(B.x − B.x)`).
+    pub(crate) fn lower_reporting(
+        &self,
+        arena: &mut Arena,
+        t: &TExpr,
+        report: &mut dyn FnMut(u32, Undefined),
+    ) -> Value {
+        let undefined = |arena: &Arena, v: Value| match v {
+            Value::S(e) => arena.is_undefined(e),
+            Value::V(v) => arena.is_undefined(v.x) || arena.is_undefined(v.y),
+        };
+        // Operands of the node being lowered (chain operands for chain roots).
+        let mut operands: Vec<u32> = Vec::new();
         let mut vals: Vec<Value> = Vec::with_capacity(t.nodes.len());
         let zero = arena.num(0.0);
         let chains = Chains::new(t);
@@ -133,6 +161,8 @@ impl<'m> Lowerer<'m> {
                 vals.push(Value::S(zero));
                 continue;
             }
+            operands.clear();
+            let mut divided_by_zero = false;
             let v = match *n {
                 TNode::Add(..) | TNode::Sub(..) if chains.is_sum(i) => {
                     let mut terms = Vec::new();
@@ -147,10 +177,13 @@ impl<'m> Lowerer<'m> {
                                 stack.push((b, -sign));
                                 stack.push((a, sign));
                             }
-                            _ => terms.push(Term {
-                                coeff: sign,
-                                expr: s(&vals, k),
-                            }),
+                            _ => {
+                                operands.push(k);
+                                terms.push(Term {
+                                    coeff: sign,
+                                    expr: s(&vals, k),
+                                });
+                            }
                         }
                     }
                     Value::S(arena.linear(0.0, &terms))
@@ -168,10 +201,15 @@ impl<'m> Lowerer<'m> {
                                 stack.push((b, -exp));
                                 stack.push((a, exp));
                             }
-                            _ => factors.push(Factor {
-                                base: s(&vals, k),
-                                exp,
-                            }),
+                            _ => {
+                                let base = s(&vals, k);
+                                if exp < 0.0 && base == zero {
+                                    report(k, Undefined::ZeroDivisor);
+                                    divided_by_zero = true;
+                                }
+                                operands.push(k);
+                                factors.push(Factor { base, exp });
+                            }
                         }
                     }
                     Value::S(arena.product_of(1.0, &factors))
@@ -259,9 +297,50 @@ impl<'m> Lowerer<'m> {
                 TNode::Rot(a, b) => Value::V(arena.rot(s(&vals, a), w(&vals, b))),
                 TNode::Perp(a) => Value::V(arena.perp(w(&vals, a))),
             };
+            if undefined(arena, v) && !divided_by_zero {
+                if operands.is_empty() {
+                    children(n, &mut operands);
+                }
+                let inherited = operands
+                    .iter()
+                    .any(|&k| vals.get(k as usize).is_some_and(|&c| undefined(arena, c)));
+                match *n {
+                    _ if inherited => {}
+                    // A vector divided by zero (scalar quotients are chains).
+                    TNode::Div(_, b) if s(&vals, b) == zero => report(b, Undefined::ZeroDivisor),
+                    _ => report(idx(i), Undefined::Value),
+                }
+            }
             vals.push(v);
         }
         vals.last().copied().unwrap_or(Value::S(zero))
+    }
+}
+
+/// The operands of a typed node.
+fn children(n: &TNode, out: &mut Vec<u32>) {
+    match *n {
+        TNode::Num(_) | TNode::Pi | TNode::Time | TNode::Param(_) | TNode::Coord(..) => {}
+        TNode::NamedPoint(_) => {}
+        TNode::Point(_, a)
+        | TNode::X(a)
+        | TNode::Y(a)
+        | TNode::Neg(a)
+        | TNode::F1(_, a)
+        | TNode::Powi(a, _)
+        | TNode::Norm(a)
+        | TNode::Perp(a) => out.push(a),
+        TNode::Vec(a, b)
+        | TNode::Add(a, b)
+        | TNode::Sub(a, b)
+        | TNode::Mul(a, b)
+        | TNode::Div(a, b)
+        | TNode::Atan2(a, b)
+        | TNode::Pow(a, b)
+        | TNode::Dot(a, b)
+        | TNode::Cross(a, b)
+        | TNode::Rot(a, b) => out.extend([a, b]),
+        TNode::Step(k) => out.extend(k),
     }
 }
 

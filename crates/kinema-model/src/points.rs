@@ -57,6 +57,7 @@ impl CheckedModel {
                     let sub = TExpr {
                         nodes: expr.nodes[..end].to_vec(),
                         types: expr.types[..end.min(expr.types.len())].to_vec(),
+                        spans: Vec::new(),
                     };
                     push(out, body, eval_vector(&sub, params));
                 }

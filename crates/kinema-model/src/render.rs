@@ -6,11 +6,49 @@ use kinema_expr::{ExprId, SparseMatrix, format_number};
 
 use crate::derive::{Derivation, RowKind};
 
+/// Printing every entry as a tree is kept while the trees hold at most this
+/// many nodes in all, or at most [`TREE_RATIO`] times the distinct nodes.
+const TREE_TOTAL_MIN: u64 = 200_000;
+/// See [`TREE_TOTAL_MIN`].
+const TREE_RATIO: u64 = 16;
+/// When trees would blow up, entries larger than this are printed once, in
+/// a shared program at the end (linear in the number of distinct nodes).
+const INLINE_MAX: u64 = 100;
+
+/// Where entries too large to print as trees go.
+struct Deferred {
+    /// Tree size of every node, when entries are deferred at all.
+    sizes: Option<Vec<u64>>,
+    entries: Vec<(String, ExprId)>,
+}
+
+impl Deferred {
+    /// Writes `e`, or a reference to it in the shared program.
+    fn write(&mut self, d: &Derivation, out: &mut String, label: String, e: ExprId) {
+        match &self.sizes {
+            Some(sizes) if sizes[e.index()] > INLINE_MAX => {
+                let _ = write!(out, "{label} (see the shared program below)");
+                self.entries.push((label, e));
+            }
+            _ => {
+                let _ = write!(out, "{}", d.arena.display(e));
+            }
+        }
+    }
+}
+
 impl Derivation {
     /// The whole derivation as text: DOF report, params, coordinates, rows,
     /// Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ. Zero entries of vectors
     /// are listed as `0`; sparse matrices list their structural nonzeros.
     /// Deterministic: the same model always renders the same text.
+    ///
+    /// Entries are printed as trees, shared subexpressions written out at
+    /// each use. When that would make the text much larger than the
+    /// derivation itself (a long product, whose second derivatives share
+    /// everything), the large entries are printed once each in a program
+    /// with `let` bindings at the end instead, so the text stays linear in
+    /// the size of the derivation.
     #[must_use]
     pub fn render(&self) -> String {
         let mut out = String::new();
@@ -60,18 +98,61 @@ impl Derivation {
             out.push('\n');
         }
 
-        self.vector(&mut out, "Phi", &self.phi);
-        self.matrix(&mut out, "Phi_q", &self.phi_q);
-        self.vector(&mut out, "Phi_t", &self.phi_t);
-        self.matrix(&mut out, "Phi_qt", &self.phi_qt);
-        self.vector(&mut out, "Phi_tt", &self.phi_tt);
-        self.vector(&mut out, "(Phi_q qdot)_q qdot", &self.phi_q_qdot_q_qdot);
-        self.vector(&mut out, "nu", &self.nu);
-        self.vector(&mut out, "gamma", &self.gamma);
+        let mut deferred = Deferred {
+            sizes: self.tree_blowup(),
+            entries: Vec::new(),
+        };
+        let d = &mut deferred;
+        self.vector(&mut out, d, "Phi", &self.phi);
+        self.matrix(&mut out, d, "Phi_q", &self.phi_q);
+        self.vector(&mut out, d, "Phi_t", &self.phi_t);
+        self.matrix(&mut out, d, "Phi_qt", &self.phi_qt);
+        self.vector(&mut out, d, "Phi_tt", &self.phi_tt);
+        self.vector(&mut out, d, "(Phi_q qdot)_q qdot", &self.phi_q_qdot_q_qdot);
+        self.vector(&mut out, d, "nu", &self.nu);
+        self.vector(&mut out, d, "gamma", &self.gamma);
+        if !deferred.entries.is_empty() {
+            let _ = writeln!(
+                out,
+                "\nshared program (entries too large to print as trees; `v0`, `v1`, … name \
+                 subexpressions used more than once):"
+            );
+            let outputs: Vec<(&str, ExprId)> = deferred
+                .entries
+                .iter()
+                .map(|(l, e)| (l.as_str(), *e))
+                .collect();
+            out.push_str(&self.arena.display_program(&outputs));
+        }
         out
     }
 
-    fn vector(&self, out: &mut String, title: &str, v: &[ExprId]) {
+    /// The tree size of every node when printing every entry as a tree
+    /// would blow up (see [`TREE_TOTAL_MIN`]); `None` when it would not.
+    fn tree_blowup(&self) -> Option<Vec<u64>> {
+        let mut roots: Vec<ExprId> = Vec::new();
+        for v in [
+            &self.phi,
+            &self.phi_t,
+            &self.phi_tt,
+            &self.phi_q_qdot_q_qdot,
+            &self.nu,
+            &self.gamma,
+        ] {
+            roots.extend_from_slice(v);
+        }
+        for m in [&self.phi_q, &self.phi_qt] {
+            roots.extend(m.entries.iter().map(|en| en.expr));
+        }
+        let sizes = self.arena.tree_sizes();
+        let total = roots
+            .iter()
+            .fold(0u64, |acc, e| acc.saturating_add(sizes[e.index()]));
+        let dag = self.arena.dag_size(&roots) as u64;
+        (total > TREE_TOTAL_MIN && total > TREE_RATIO.saturating_mul(dag)).then_some(sizes)
+    }
+
+    fn vector(&self, out: &mut String, d: &mut Deferred, title: &str, v: &[ExprId]) {
         let _ = writeln!(out, "\n{title}:");
         if v.iter().all(|&e| self.arena.is_zero(e)) {
             let _ = writeln!(out, "  (all zero)");
@@ -79,11 +160,13 @@ impl Derivation {
         }
         for (i, &e) in v.iter().enumerate() {
             let name = self.rows.get(i).map_or("?", |r| r.name.as_str());
-            let _ = writeln!(out, "  [{i}] {name}: {}", self.arena.display(e));
+            let _ = write!(out, "  [{i}] {name}: ");
+            d.write(self, out, format!("{title}[{i}]"), e);
+            out.push('\n');
         }
     }
 
-    fn matrix(&self, out: &mut String, title: &str, m: &SparseMatrix) {
+    fn matrix(&self, out: &mut String, d: &mut Deferred, title: &str, m: &SparseMatrix) {
         let _ = writeln!(out, "\n{title}: {} nonzeros", m.entries.len());
         for en in &m.entries {
             let row = self
@@ -94,13 +177,14 @@ impl Derivation {
                 .coordinates
                 .get(en.col as usize)
                 .map_or("?", |c| c.name.as_str());
-            let _ = writeln!(
+            let _ = write!(out, "  [{}, {}] {row} / {col}: ", en.row, en.col);
+            d.write(
+                self,
                 out,
-                "  [{}, {}] {row} / {col}: {}",
-                en.row,
-                en.col,
-                self.arena.display(en.expr)
+                format!("{title}[{}, {}]", en.row, en.col),
+                en.expr,
             );
+            out.push('\n');
         }
     }
 }

@@ -1,0 +1,223 @@
+//! Hostile input for the engine: long products must differentiate in linear
+//! size, the budget must stop a derivation, and no simplification may make an
+//! undefined constant look defined.
+
+use kinema_expr::{Arena, ExprId, SymId, SymKind};
+
+/// A product of `n` coordinates, its Jacobian, its directional derivative
+/// along the velocities and the directional derivative of that (what γ
+/// needs). Returns the arena, the pieces and the arena size they needed.
+struct Product {
+    a: Arena,
+    q: Vec<SymId>,
+    p: ExprId,
+    jac: Vec<(u32, ExprId)>,
+    first: ExprId,
+    second: ExprId,
+    added: usize,
+}
+
+fn product(n: u32) -> Product {
+    let mut a = Arena::new();
+    let xs: Vec<ExprId> = (0..n).map(|i| a.coordinate(&format!("x{i}"), i)).collect();
+    let q: Vec<SymId> = xs.iter().filter_map(|&x| a.symbol_of(x)).collect();
+    let pairs: Vec<(SymId, ExprId)> = (0..n)
+        .map(|i| {
+            let v = a.velocity(&format!("v{i}"), i);
+            (q[i as usize], v)
+        })
+        .collect();
+    let p = a.product(&xs);
+    let before = a.size();
+    let seeds = a.seeds(&pairs);
+    let jac = a.jacobian(&[p], &q);
+    let first = a.directional(p, seeds);
+    let second = a.directional(first, seeds);
+    let added = a.size() - before;
+    let jac = jac.entries.iter().map(|e| (e.col, e.expr)).collect();
+    Product {
+        a,
+        q,
+        p,
+        jac,
+        first,
+        second,
+        added,
+    }
+}
+
+/// Values of x and v at a point where no coordinate is zero.
+fn point(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let x = (0..n)
+        .map(|i| 1.0 + 0.001 * ((i * 7) % 13) as f64)
+        .collect();
+    let v = (0..n).map(|i| 0.5 - 0.1 * ((i * 5) % 11) as f64).collect();
+    (x, v)
+}
+
+fn eval(a: &Arena, e: ExprId, x: &[f64], v: &[f64]) -> f64 {
+    a.eval(e, |s| match a.symbol(s).kind {
+        SymKind::Coordinate(i) => x[i as usize],
+        SymKind::Velocity(i) => v[i as usize],
+        _ => f64::NAN,
+    })
+}
+
+#[test]
+fn derivatives_of_a_long_product_grow_linearly() {
+    let small = product(200);
+    let large = product(800);
+    // Four times the factors: about four times the entries, never sixteen.
+    let ratio = large.added as f64 / small.added as f64;
+    assert!(
+        ratio < 5.0,
+        "200 factors: {} entries, 800 factors: {} entries",
+        small.added,
+        large.added
+    );
+    assert!(
+        large.added < 400 * 800,
+        "800 factors needed {} entries",
+        large.added
+    );
+}
+
+#[test]
+fn derivatives_of_a_long_product_have_the_closed_form_values() {
+    let n = 120;
+    let Product {
+        a,
+        q,
+        p,
+        jac,
+        first,
+        second,
+        ..
+    } = product(n);
+    let (x, v) = point(n as usize);
+    let pv = eval(&a, p, &x, &v);
+    let rel = |got: f64, want: f64| (got - want).abs() <= 1e-12 * want.abs().max(1.0);
+    // ∂P/∂x_i = P / x_i (no coordinate is zero here).
+    assert_eq!(jac.len(), q.len());
+    for &(col, e) in &jac {
+        let i = col as usize;
+        let got = eval(&a, e, &x, &v);
+        assert!(rel(got, pv / x[i]), "column {i}: {got} vs {}", pv / x[i]);
+    }
+    // Ṗ = Σ P v_i / x_i; P̈ along v = Σ_{i≠j} P v_i v_j / (x_i x_j).
+    let s1: f64 = (0..x.len()).map(|i| v[i] / x[i]).sum();
+    let s2: f64 = (0..x.len()).map(|i| (v[i] / x[i]).powi(2)).sum();
+    let got1 = eval(&a, first, &x, &v);
+    assert!(rel(got1, pv * s1), "{got1} vs {}", pv * s1);
+    let got2 = eval(&a, second, &x, &v);
+    let want2 = pv * (s1 * s1 - s2);
+    assert!(
+        (got2 - want2).abs() <= 1e-9 * want2.abs().max(1.0),
+        "{got2} vs {want2}"
+    );
+    // Exactly zero factors: the cofactors never divide by a factor.
+    let mut x0 = x.clone();
+    x0[3] = 0.0;
+    let (col, e) = jac[3];
+    assert_eq!(col, 3);
+    let want: f64 = x0
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| j != 3)
+        .map(|(_, v)| v)
+        .product();
+    assert!(rel(eval(&a, e, &x0, &v), want));
+    assert_eq!(eval(&a, jac[4].1, &x0, &v), 0.0);
+}
+
+#[test]
+fn the_budget_stops_a_derivation() {
+    let mut a = Arena::new();
+    let xs: Vec<ExprId> = (0..400)
+        .map(|i| a.coordinate(&format!("x{i}"), i))
+        .collect();
+    let q: Vec<SymId> = xs.iter().filter_map(|&x| a.symbol_of(x)).collect();
+    let p = a.product(&xs);
+    assert!(!a.budget_exceeded());
+    a.set_budget(Some(a.size() + 1_000));
+    let pairs: Vec<(SymId, ExprId)> = q.iter().map(|&s| (s, a.one())).collect();
+    let seeds = a.seeds(&pairs);
+    let d = a.directional(p, seeds);
+    let d2 = a.directional(d, seeds);
+    assert!(a.budget_exceeded());
+    assert!(a.is_zero(d2));
+    // Without a budget the same derivation completes.
+    let mut b = Arena::new();
+    let xs: Vec<ExprId> = (0..400)
+        .map(|i| b.coordinate(&format!("x{i}"), i))
+        .collect();
+    let p = b.product(&xs);
+    let s = b.symbol_of(xs[0]).unwrap_or_else(|| unreachable!());
+    let d = b.diff(p, s);
+    assert!(!b.budget_exceeded());
+    assert!(!b.is_zero(d));
+}
+
+#[test]
+fn undefined_constants_never_vanish() {
+    let mut a = Arena::new();
+    let t = a.time();
+    let x = a.coordinate("x", 0);
+    let zero = a.zero();
+    let one = a.one();
+    // 0/0, x/0 and 1e308·1e308 are undefined; so is what contains them.
+    let zz = a.div(zero, zero);
+    let x0 = a.div(x, zero);
+    let big = a.num(1e308);
+    let inf = a.mul(big, big);
+    let ln0 = a.ln(zero);
+    for u in [zz, x0, inf, ln0] {
+        assert!(a.is_undefined(u), "{}", a.display(u));
+        // 0·u, u − u, u/u, u^0 and 0·u + t keep the undefined part.
+        let zu = a.mul(zero, u);
+        let uu = a.sub(u, u);
+        let q = a.div(u, u);
+        let p0 = a.powi(u, 0);
+        let s0 = a.scale(0.0, u);
+        let zu_t = a.mul(zu, t);
+        let sum = a.add(zu_t, t);
+        for e in [zu, uu, q, p0, s0, sum] {
+            assert!(a.is_undefined(e), "{} from {}", a.display(e), a.display(u));
+            let v = a.eval(e, |_| 0.5);
+            assert!(!v.is_finite(), "{} evaluates to {v}", a.display(e));
+        }
+    }
+    // Folds stay finite or are not made: atan(∞) is not π/2.
+    let at = a.atan(inf);
+    assert!(a.is_undefined(at));
+    // Defined expressions simplify as before.
+    let xx = a.sub(x, x);
+    assert!(a.is_zero(xx) && !a.is_undefined(xx));
+    let zx = a.mul(zero, x);
+    assert!(a.is_zero(zx));
+    let xq = a.div(x, x);
+    assert_eq!(xq, one);
+    let two = a.num(2.0);
+    let h = a.div(one, two);
+    assert_eq!(a.as_num(h), Some(0.5));
+    assert!(!a.is_undefined(h));
+}
+
+#[test]
+fn tree_sizes_count_shared_nodes_at_each_use() {
+    let mut a = Arena::new();
+    let x = a.coordinate("x", 0);
+    let s = a.sin(x);
+    // e_k = sin(e_{k−1} + e_{k−1}·x) doubles its tree each step.
+    let mut e = s;
+    for _ in 0..40 {
+        let m = a.mul(e, x);
+        let p = a.add(e, m);
+        e = a.sin(p);
+    }
+    let sizes = a.tree_sizes();
+    assert!(sizes[e.index()] > 1 << 40);
+    assert!(a.dag_size(&[e]) < 200);
+    assert_eq!(sizes[x.index()], 1);
+    assert_eq!(sizes[s.index()], 2);
+}
