@@ -17,7 +17,7 @@ pub enum Error {
     /// at a limit point: bisecting the step finds the last time t* that
     /// still has a solution, and Φ_q there has σ_min/σ_max ≤ √τ. `t` is then
     /// t*, the time of the lock-up.
-    #[error("lock-up, toggle position or redundant constraints at t = {t}: {dependency}")]
+    #[error("lock-up, toggle position or redundant constraints at t = {}: {dependency}", Time(*.t))]
     Singular {
         /// Time of the failing step.
         t: f64,
@@ -26,8 +26,9 @@ pub enum Error {
     },
     /// Newton–Raphson reached the iteration cap without converging.
     #[error(
-        "position analysis did not converge at t = {t}: ‖Φ‖∞ = {residual:e} after {iterations} \
-         Newton updates, largest in equation {worst_equation}"
+        "position analysis did not converge at t = {}: ‖Φ‖∞ = {residual:e} after {iterations} \
+         Newton updates, largest in equation {worst_equation}",
+        Time(*.t)
     )]
     NoConvergence {
         /// Time of the failing step.
@@ -40,7 +41,7 @@ pub enum Error {
         worst_equation: String,
     },
     /// The system returned NaN or ±∞, or a solve produced one.
-    #[error("non-finite {quantity} at t = {t}: {name}")]
+    #[error("non-finite {quantity} at t = {}: {name}", Time(*.t))]
     NonFinite {
         /// Time of the failing step.
         t: f64,
@@ -49,17 +50,46 @@ pub enum Error {
         /// The equation or coordinate (for the Jacobian, "equation / coordinate").
         name: String,
     },
+    /// γ is not finite because the velocities it reads are so large that
+    /// their products overflow (γ is quadratic in q̇): the root cause is the
+    /// velocity, and the equation of ν that drives it (typically a driver
+    /// growing too fast, such as `exp(1000 * t)`).
+    #[error(
+        "non-finite γ at t = {}: {equation}, because the velocities overflow it: \
+         q̇ of {coordinate} = {}, from ν of {source_equation} = {}",
+        Time(*.t),
+        Short(*.velocity),
+        Short(*.source_value)
+    )]
+    VelocityOverflow {
+        /// Time of the failing step.
+        t: f64,
+        /// The equation whose γ is not finite.
+        equation: String,
+        /// The coordinate with the largest |q̇|.
+        coordinate: String,
+        /// Its velocity.
+        velocity: f64,
+        /// The equation with the largest |ν| (what the velocities come from).
+        source_equation: String,
+        /// Its ν.
+        source_value: f64,
+    },
     /// A time grid without any time.
     #[error("the time grid is empty")]
     EmptyTimeGrid,
     /// A time that is NaN or infinite.
-    #[error("time {t} is not finite")]
+    #[error("time {} is not finite", Time(*.t))]
     NonFiniteTime {
         /// The offending time.
         t: f64,
     },
     /// Times must increase strictly from step to step.
-    #[error("times must increase: t = {t} (time index {index}) follows t = {previous}")]
+    #[error(
+        "times must increase: t = {} (time index {index}) follows t = {}",
+        Time(*.t),
+        Time(*.previous)
+    )]
     NonIncreasingTime {
         /// Index of the offending time in the grid (0 for a single `step`).
         index: usize,
@@ -71,6 +101,33 @@ pub enum Error {
     /// A buffer or system of the wrong size, or an invalid Jacobian pattern.
     #[error("invalid system or linear solver: {0}")]
     Setup(#[from] LinalgError),
+}
+
+/// A time in a message: the shortest text that reads back as the same
+/// number (`0.35`, `1.0000000000000002`), in exponent form outside
+/// [1e-4, 1e16) so that no time prints with hundreds of digits (`1e-300`).
+#[derive(Clone, Copy, Debug)]
+pub struct Time(pub f64);
+
+impl fmt::Display for Time {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if self.0.is_finite() && a != 0.0 && !(1e-4..1e16).contains(&a) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
+/// A large or small value in a message: two significant digits (`1.4e155`).
+#[derive(Clone, Copy, Debug)]
+struct Short(f64);
+
+impl fmt::Display for Short {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.1e}", self.0)
+    }
 }
 
 /// The quantity in which a non-finite value appeared.

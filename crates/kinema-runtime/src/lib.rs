@@ -55,7 +55,7 @@ pub mod system;
 pub mod trajectory;
 
 pub use csv::CsvWriter;
-pub use error::{Dependency, Error, Quantity};
+pub use error::{Dependency, Error, Quantity, Time};
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, SparseLu};
 pub use options::Options;

@@ -339,11 +339,58 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let quantities = (Quantity::Gamma, Quantity::Acceleration);
         solve_checked(system, lu, t, qdd, quantities, |s, rhs| {
             s.gamma(q, qd, t, rhs)
-        })?;
+        })
+        .map_err(|e| velocity_overflow(system, q, qd, t, e))?;
 
         self.next.t = t;
         self.next.stats = converged.stats;
         Ok(())
+    }
+}
+
+/// A velocity this large has a square within a factor 10⁶ of overflow: a
+/// non-finite γ next to it comes from the velocities, not from its equation.
+const OVERFLOWING_VELOCITY: f64 = 1.3e151;
+
+/// Names the root cause of a non-finite γ when the velocities are so large
+/// that γ's products of them overflow: the largest velocity and the equation
+/// of ν behind it ([`Error::VelocityOverflow`]). Other errors pass through.
+/// Runs on the error path only (it evaluates ν again).
+#[cold]
+fn velocity_overflow<S: System>(system: &mut S, q: &[f64], qd: &[f64], t: f64, e: Error) -> Error {
+    let Error::NonFinite {
+        quantity: Quantity::Gamma,
+        name,
+        ..
+    } = &e
+    else {
+        return e;
+    };
+    let largest = |v: &[f64]| {
+        v.iter()
+            .enumerate()
+            .filter(|(_, x)| x.is_finite())
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .map(|(i, &x)| (i, x))
+    };
+    let Some((k, velocity)) = largest(qd) else {
+        return e;
+    };
+    if velocity.abs() < OVERFLOWING_VELOCITY {
+        return e;
+    }
+    let mut nu = vec![0.0; qd.len()];
+    system.nu(q, t, &mut nu);
+    let Some((j, source_value)) = largest(&nu) else {
+        return e;
+    };
+    Error::VelocityOverflow {
+        t,
+        equation: name.clone(),
+        coordinate: system.coordinate_name(k).to_owned(),
+        velocity,
+        source_equation: system.equation_name(j).to_owned(),
+        source_value,
     }
 }
 
