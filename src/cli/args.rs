@@ -63,6 +63,7 @@ Examples:
   kinema run models/slider_crank.kin --plot slider_crank.svg
   kinema run models/four_bar.kin --t-end 2 --steps 400 --out four_bar.csv
   kinema run models/pendulum.kin --out - | head
+  kinema run models/four_bar.kin --animate four_bar.html
   kinema run rack_pinion.adm --acf kinematics.acf --plot rack.svg
 
 The CSV has the columns t; every body's B.x, B.y, B.phi in declaration order; the same
@@ -148,6 +149,11 @@ pub struct RunArgs {
     /// its joint points, and position, velocity and acceleration against time.
     #[arg(long, value_name = "FILE.svg")]
     pub plot: Option<PathBuf>,
+    /// Write a self-contained HTML page that plays the motion in any
+    /// browser, offline: play/pause, time slider, speed, loop, paths of
+    /// points, body frames; run failures marked on the slider.
+    #[arg(long, value_name = "FILE.html")]
+    pub animate: Option<PathBuf>,
     /// How the equations are evaluated.
     #[arg(long, value_enum, default_value_t = Backend::Tape)]
     pub backend: Backend,

@@ -12,6 +12,7 @@
 //! | [`progress`] | the progress bar on standard error |
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
 //! | [`plot`] | the SVG figure |
+//! | [`animate`] | the animation page (HTML) |
 //!
 //! Exit status: 0 success (also when standard output's reader goes away:
 //! `--out - | head`); 1 the analysis failed, or its results could not be
@@ -21,6 +22,7 @@
 //! cannot be read.
 
 pub mod adm;
+pub mod animate;
 pub mod args;
 pub mod check;
 pub mod load;

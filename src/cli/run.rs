@@ -14,7 +14,7 @@ use super::load::{Format, Loaded, load};
 use super::output::{CsvSink, Destination, Outputs, duration, time};
 use super::plot::{self, Samples};
 use super::progress::Progress;
-use super::{Failure, adm};
+use super::{Failure, adm, animate};
 
 /// Default final time of a `.kin` run.
 pub const DEFAULT_T_END: f64 = 1.0;
@@ -315,11 +315,19 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .as_deref()
         .map(|p| plot::Target::create(&mut outputs, p))
         .transpose()?;
+    let page_target = args
+        .animate
+        .as_deref()
+        .map(|p| animate::Target::create(&mut outputs, p))
+        .transpose()?;
 
     let analysis_start = Instant::now();
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, Options::default())
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
-    let mut samples = plot_target.as_ref().map(|_| Samples::new(names.len()));
+    let keep = plot_target.is_some() || page_target.is_some();
+    let mut samples = keep.then(|| Samples::new(names.len()));
+    // The last output state's time if thinning left it out of `samples`.
+    let mut skipped: Option<f64> = None;
     let mut stats = Stats::default();
     let mut progress = Progress::new(grid.times.len());
     let mut write_time = Duration::ZERO;
@@ -341,7 +349,20 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                     // standard output's reader has gone too.
                     Err(_) => 0,
                 };
-                let mut message = format!("error: {}", run_error(&loaded, &e));
+                let failure = run_error(&loaded, &e);
+                let mut message = format!("error: {failure}");
+                if let (Some(target), Some(samples)) = (page_target, &mut samples) {
+                    let note = failed_page(
+                        target,
+                        &solver,
+                        &loaded,
+                        samples,
+                        skipped,
+                        &failure,
+                        &plot_title(&loaded, &grid),
+                    );
+                    message.push_str(&note);
+                }
                 if kept > 0
                     && let Destination::File(p) = &destination
                 {
@@ -362,10 +383,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 progress.finish();
                 return Err(failure);
             }
+            skipped = Some(t);
             if let Some(s) = &mut samples
                 && (written.is_multiple_of(stride) || written + 1 == outputs)
             {
                 s.push(state);
+                skipped = None;
             }
             written += 1;
             write_time += w.elapsed();
@@ -389,6 +412,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         )?;
     }
     let plot_time = args.plot.as_ref().map(|_| plot_start.elapsed());
+    let page_start = Instant::now();
+    if let (Some(target), Some(samples)) = (page_target, &samples) {
+        target.write(
+            &loaded,
+            solver.system(),
+            samples,
+            &[],
+            &plot_title(&loaded, &grid),
+        )?;
+    }
+    let page_time = args.animate.as_ref().map(|_| page_start.elapsed());
 
     let summary = summary(&SummaryInput {
         loaded: &loaded,
@@ -396,16 +430,56 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         stats: &stats,
         csv: (&destination, rows, columns),
         plot: args.plot.as_deref(),
+        page: args.animate.as_deref(),
         total: start.elapsed(),
         analysis: analysis_time,
         write: write_time,
         plot_time,
+        page_time,
     });
     if destination == Destination::Stdout {
         super::print_stderr(&summary);
         Ok(())
     } else {
         super::print_stdout(&summary)
+    }
+}
+
+/// After a failed run: the page with the states computed before the
+/// failure, the failure marked at the last good time. Returns a note for
+/// the error message.
+fn failed_page(
+    target: animate::Target,
+    solver: &Solver<TapeSystem, Auto>,
+    loaded: &Loaded,
+    samples: &mut Samples,
+    skipped: Option<f64>,
+    failure: &str,
+    title: &str,
+) -> String {
+    let path = target.path().display().to_string();
+    // The last output state, if thinning left it out and the solver still
+    // has it (its last good state; a later solve between outputs is no CSV
+    // row and is not shown).
+    if let Some(state) = solver.state()
+        && skipped == Some(state.t())
+    {
+        samples.push(state);
+    }
+    let Some(t) = solver.state().map(State::t) else {
+        return format!("\n  = note: no page written to `{path}`: no state was computed");
+    };
+    let marker = animate::Marker {
+        t,
+        label: format!("the run stopped: {failure}"),
+    };
+    match target.write(loaded, solver.system(), samples, &[marker], title) {
+        Ok(()) => format!(
+            "\n  = note: `{path}` shows the motion up to t = {}, the failure marked",
+            time(t)
+        ),
+        Err(Failure::Input(e) | Failure::Analysis(e)) => format!("\n  = note: {e}"),
+        Err(Failure::Closed) => String::new(),
     }
 }
 
@@ -425,10 +499,12 @@ struct SummaryInput<'a> {
     /// Where the CSV went, its rows and columns.
     csv: (&'a Destination, usize, usize),
     plot: Option<&'a Path>,
+    page: Option<&'a Path>,
     total: Duration,
     analysis: Duration,
     write: Duration,
     plot_time: Option<Duration>,
+    page_time: Option<Duration>,
 }
 
 fn summary(s: &SummaryInput<'_>) -> String {
@@ -469,6 +545,9 @@ fn summary(s: &SummaryInput<'_>) -> String {
     if let Some(p) = s.plot_time {
         parts.push(format!("plot {}", duration(p)));
     }
+    if let Some(p) = s.page_time {
+        parts.push(format!("page {}", duration(p)));
+    }
     let _ = writeln!(out, "  time: {} ({})", duration(s.total), parts.join(", "));
     let (destination, rows, columns) = s.csv;
     let csv = match destination {
@@ -476,7 +555,7 @@ fn summary(s: &SummaryInput<'_>) -> String {
         Destination::File(p) => format!("`{}`", p.display()),
     };
     let _ = write!(out, "  wrote {csv} ({rows} rows × {columns} columns)");
-    if let Some(p) = s.plot {
+    for p in [s.plot, s.page].into_iter().flatten() {
         let _ = write!(out, " and `{}`", p.display());
     }
     out.push('\n');

@@ -15,7 +15,7 @@ use crate::cli::scene::{BodyShape, Rgb, Scene, Traced};
 /// an earlier one at every state left out) and the positions of fixed ones
 /// (drawn as pivots). A body none of whose traced points moves gets its
 /// frame origin traced instead (the pendulum's bar).
-pub(super) fn classify(scene: &Scene, samples: &Samples) -> (Vec<Traced>, Vec<[f64; 2]>) {
+pub(crate) fn classify(scene: &Scene, samples: &Samples) -> (Vec<Traced>, Vec<[f64; 2]>) {
     let extent = scene_extent(scene, samples);
     let tol = 1e-9 * extent.max(1e-300);
     let probe = spread(samples.len(), 5);
@@ -165,7 +165,7 @@ pub(super) fn global(samples: &Samples, k: usize, i: usize, s: [f64; 2]) -> [f64
 }
 
 /// Convex hull (monotone chain) of a few points, counter-clockwise.
-pub(super) fn hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(crate) fn hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let mut p: Vec<[f64; 2]> = points.to_vec();
     p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     p.dedup();

@@ -29,7 +29,8 @@ use super::output::{OutputFile, Outputs};
 use super::scene::Scene;
 
 use charts::{draw_driven, draw_points};
-use mechanism::{Mechanism, classify, mechanism_bounds};
+use mechanism::{Mechanism, mechanism_bounds};
+pub(crate) use mechanism::{classify, hull};
 
 /// Figure width [px].
 const WIDTH: u32 = 1400;
@@ -41,7 +42,7 @@ const POINTS: u32 = 780;
 const INSTANTS: usize = 6;
 /// At most this many joint-point paths in the mechanism view (one colour
 /// each).
-const MAX_PATHS: usize = PALETTE.len();
+pub(crate) const MAX_PATHS: usize = PALETTE.len();
 /// At most this many joint points in the time plots.
 const MAX_SERIES: usize = 6;
 /// At most this many driven quantities in the time plots.
@@ -66,7 +67,7 @@ type Drawn = Result<(), Box<dyn Error>>;
 
 /// Colours of paths and series (Tableau 10 without its blue and grey: the
 /// mechanism is drawn in greys).
-const PALETTE: [RGBColor; 8] = [
+pub(crate) const PALETTE: [RGBColor; 8] = [
     RGBColor(0xf2, 0x8e, 0x2b),
     RGBColor(0x4e, 0x79, 0xa7),
     RGBColor(0xe1, 0x57, 0x59),
@@ -112,6 +113,16 @@ impl Samples {
     /// Whether there is no state.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
+    }
+
+    /// Time of state `k`.
+    pub fn time(&self, k: usize) -> Option<f64> {
+        self.t.get(k).copied()
+    }
+
+    /// Positions q of state `k`.
+    pub fn positions(&self, k: usize) -> Option<&[f64]> {
+        self.q.get(self.range(k))
     }
 
     fn range(&self, k: usize) -> std::ops::Range<usize> {
@@ -415,7 +426,7 @@ fn text(size: u32) -> TextStyle<'static> {
 
 /// Indices of `items` to keep, at most `max`, evenly spread, first and last
 /// included.
-fn spread(len: usize, max: usize) -> Vec<usize> {
+pub(crate) fn spread(len: usize, max: usize) -> Vec<usize> {
     if len <= max {
         return (0..len).collect();
     }
