@@ -10,6 +10,7 @@
 //! `KINEMA_SCREENSHOT=PATH` the slider-crank's is also copied to PATH (how
 //! `docs/animation.png` is made).
 
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -89,7 +90,14 @@ impl Page {
             if std::env::var("CI").is_ok_and(|v| v == "true") {
                 return Err(format!("{test}: {why}; CI must run the browser tests").into());
             }
-            println!("skipped {test}: {why}");
+            // Once for the file, past the test harness's capture.
+            static SAID: std::sync::Once = std::sync::Once::new();
+            SAID.call_once(|| {
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "skipped the browser tests of tests/animate.rs: {why}"
+                );
+            });
             return Ok(None);
         };
         let options = LaunchOptions {
@@ -658,4 +666,53 @@ fn page_that_would_overwrite_the_csv_or_sit_in_no_directory_is_refused() {
         left.iter().all(|f| !f.to_string_lossy().ends_with(".tmp")),
         "{left:?}"
     );
+}
+
+#[test]
+fn simengine2d_page_uses_the_files_drawing_data() -> TestResult {
+    let _one = one_at_a_time();
+    let dir = artifacts("adm");
+    let (csv_path, html) = (dir.join("adm.csv"), dir.join("adm.html"));
+    let (code, stderr) = kinema(&[
+        "run",
+        "crates/kinema-adm/tests/data/slider_crank.adm",
+        "--t-end",
+        "1",
+        "--steps",
+        "50",
+        "--out",
+        &csv_path.to_string_lossy(),
+        "--animate",
+        &html.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let csv = Csv::read(&csv_path)?;
+    let Some(page) = Page::open(&html, "simengine2d_page_uses_the_files_drawing_data")? else {
+        return Ok(());
+    };
+    // The file's vis: xlim, ylim; each body's colour and rectangle.
+    assert_eq!(
+        page.numbers("kinema.data.bounds")?,
+        vec![-0.5, 1.5, -0.5, 0.5]
+    );
+    assert_eq!(
+        page.eval("kinema.data.bodies.map(b => b.color)")?,
+        serde_json::json!(["#cc4d66", "#3333e6", "#339966"])
+    );
+    assert_eq!(
+        page.eval("kinema.data.bodies.map(b => b.rects)")?,
+        serde_json::json!([
+            [[0, 0, 0.34, 0.04]],
+            [[0, 0, 1.04, 0.04]],
+            [[0, 0, 0.2, 0.1]]
+        ])
+    );
+    let bodies = ["crank", "rod", "slider"].map(String::from);
+    for k in [0, 13, 50] {
+        page.scrub(k)?;
+        check_frame(&page, &csv, &bodies, k, true)?;
+    }
+    page.screenshot(&dir.join("adm.png"))?;
+    assert_eq!(page.errors(), Vec::<String>::new(), "console errors");
+    Ok(())
 }
