@@ -34,8 +34,9 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvWriter, DenseLu, DynDenseLu, Error, LinalgError, LinearSolver, Options,
-    PointKinematics, Solver, SparseLu, State, StepStats, System, Trajectory, point_kinematics,
+    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Error, LinalgError, LinearSolver, Options,
+    PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu,
+    State, StepStats, System, Trajectory, diagnose, point_kinematics,
 };
 
 #[cfg(feature = "model")]
@@ -49,7 +50,8 @@ pub mod sweep;
 #[doc(hidden)]
 pub mod __private {
     pub use kinema_runtime::{
-        Auto, DenseLu, Error, LinalgError, LinearSolver, Options, Solver, SparseLu, System,
+        Auto, DenseLu, Error, LinalgError, LinearSolver, Options, PivotReport, Solver, SparseLu,
+        System,
     };
 }
 

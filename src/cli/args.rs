@@ -157,6 +157,11 @@ pub struct RunArgs {
     /// How the equations are evaluated.
     #[arg(long, value_enum, default_value_t = Backend::Tape)]
     pub backend: Backend,
+    /// Stop at the first singular configuration (bifurcation or toggle)
+    /// instead of passing it on the branch where q̇ is continuous; the rows
+    /// before it are kept and the exit status is 1.
+    #[arg(long)]
+    pub stop_at_singular: bool,
 }
 
 /// Evaluation back ends available at run time.

@@ -4,18 +4,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use kinema::{Auto, Error, Options, Solver, System, TapeSystem};
-use nalgebra::DMatrix;
+use kinema::{Auto, Error, Options, Rank, Solver, System, TapeSystem, diagnose};
 
 use super::load::{Loaded, load};
 use super::{Failure, print_stdout};
-
-/// Largest n for which the dense SVD of Φ_q is computed (a few hundred
-/// milliseconds there); larger systems report the LU's verdict only.
-const MAX_SVD: usize = 600;
-
-/// Relative singular-value cut-off of the numerical rank.
-const RANK_TOLERANCE: f64 = 1e-10;
 
 /// Runs `kinema check`.
 ///
@@ -36,12 +28,15 @@ pub fn check(path: &Path) -> Result<(), Failure> {
     let mut guess = vec![0.0; n];
     solver.system().initial_guess(&mut guess);
     if let Some(rank) = rank_at(solver.system_mut(), &guess, 0.0) {
-        let _ = writeln!(report, "  rank of Φ_q at the guess: {}", rank.describe(n));
+        let _ = writeln!(report, "  rank of Φ_q at the guess: {}", describe(&rank));
     }
 
     let assembled = solver.assemble(0.0).map(|s| (s.q().to_vec(), *s.stats()));
     match assembled {
         Ok((q, stats)) => {
+            for w in assembly_warnings(&loaded, solver.system(), &q) {
+                eprintln!("{w}");
+            }
             let _ = writeln!(
                 report,
                 "  assembly at t = 0 from the guess: converged after {} Newton update{}, ‖Φ‖∞ = {:.1e}",
@@ -52,17 +47,41 @@ pub fn check(path: &Path) -> Result<(), Failure> {
             let rank = rank_at(solver.system_mut(), &q, 0.0);
             let described = rank.map_or_else(
                 || format!("{n} of {n} (full: the LU's pivots pass; n is too large for the SVD)"),
-                |r| r.describe(n),
+                |r| describe(&r),
             );
             let _ = writeln!(
                 report,
                 "  rank of Φ_q at the assembled configuration: {described}"
             );
-            let _ = writeln!(report, "  redundant equations: none");
+            let tolerance = Options::default().singular_tolerance;
+            let near = stats.near_singular || rank.is_some_and(|r| r.near_singular(tolerance));
+            if !near {
+                let _ = writeln!(report, "  redundant equations: none");
+                let _ = write!(
+                    report,
+                    "ok: `{}` assembles and is ready to run",
+                    loaded.name()
+                );
+                return print_stdout(&report);
+            }
+            // At or near a singular configuration: a warning, never "ok".
+            let mut values = vec![0.0; solver.system().jacobian_pattern().len()];
+            solver.system_mut().jacobian(&q, 0.0, &mut values);
+            let dependency = diagnose::dependency(solver.system(), &values, tolerance);
+            let _ = writeln!(
+                report,
+                "  dependent equations: {}",
+                list(&dependency.equations)
+            );
             let _ = write!(
                 report,
-                "ok: `{}` assembles and is ready to run",
+                "warning: `{}` assembles at or near a singular configuration; `kinema run` \
+                 will report it and flag the rows there",
                 loaded.name()
+            );
+            eprintln!(
+                "warning: the assembled configuration is at or near a singular configuration \
+                 (t = 0): {dependency}"
             );
             print_stdout(&report)
         }
@@ -140,51 +159,54 @@ pub fn abbreviate(names: &[&str], max: usize) -> String {
     }
 }
 
-/// Numerical rank and condition number of a square Φ_q.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Rank {
-    rank: usize,
-    condition: f64,
+/// "r of n (full|rank-deficient; condition number c)".
+fn describe(rank: &Rank) -> String {
+    let n = rank.dim;
+    let verdict = if rank.rank == n {
+        "full"
+    } else {
+        "rank-deficient"
+    };
+    format!(
+        "{} of {n} ({verdict}; condition number {:.1e})",
+        rank.rank, rank.condition
+    )
 }
 
-impl Rank {
-    fn describe(self, n: usize) -> String {
-        let verdict = if self.rank == n {
-            "full"
-        } else {
-            "rank-deficient"
-        };
-        format!(
-            "{} of {n} ({verdict}; condition number {:.1e})",
-            self.rank, self.condition
-        )
-    }
-}
-
-/// Rank of Φ_q(q, t) by SVD: singular values above 1e-10 σ_max; `None`
-/// when n is above [`MAX_SVD`] or Φ_q is not finite.
+/// Rank of Φ_q(q, t) under the runtime's rule (equilibrated SVD, see
+/// [`diagnose::rank`]); `None` when the diagnosis cannot run (n above
+/// [`diagnose::MAX_DENSE_DIAGNOSIS`], a non-finite entry, a failed SVD).
 fn rank_at<S: System>(system: &mut S, q: &[f64], t: f64) -> Option<Rank> {
     let n = system.len();
-    if n == 0 || n > MAX_SVD {
-        return None;
-    }
     let mut values = vec![0.0; system.jacobian_pattern().len()];
     system.jacobian(q, t, &mut values);
-    if values.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    let mut a = DMatrix::<f64>::zeros(n, n);
-    for (&(r, c), &v) in system.jacobian_pattern().iter().zip(&values) {
-        if let Some(slot) = a.get_mut((r as usize, c as usize)) {
-            *slot = v;
+    diagnose::rank(
+        n,
+        system.jacobian_pattern(),
+        &values,
+        Options::default().singular_tolerance,
+    )
+    .ok()
+}
+
+/// Warnings about an assembly that converged far from the guess: an angle
+/// that moved by more than half a turn usually means another assembly
+/// mode (or the mirror image) of the mechanism meant.
+pub fn assembly_warnings(loaded: &Loaded, system: &TapeSystem, q: &[f64]) -> Vec<String> {
+    let mut guess = vec![0.0; q.len()];
+    system.initial_guess(&mut guess);
+    let names = &loaded.model.derivation().coordinates;
+    let mut out = Vec::new();
+    for ((c, &g), &x) in names.iter().zip(&guess).zip(q) {
+        let moved = (x - g).abs();
+        if c.name.ends_with(".phi") && moved > std::f64::consts::PI {
+            out.push(format!(
+                "warning: assembly at t = 0 moved `{}` from its guess {g} to {x} (by {moved:.3} rad, \
+                 more than half a turn): the configuration found may be another assembly mode or \
+                 the mirror image of the one meant; give a guess closer to it",
+                c.name
+            ));
         }
     }
-    let sigma = a.singular_values();
-    let max = sigma.max();
-    let min = sigma.min();
-    let rank = sigma.iter().filter(|&&s| s > RANK_TOLERANCE * max).count();
-    Some(Rank {
-        rank,
-        condition: if min > 0.0 { max / min } else { f64::INFINITY },
-    })
+    out
 }

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinema::{Auto, Options, Solver, State, TapeSystem};
+use kinema::{Auto, Options, SingularEvent, SingularKind, Solver, State, TapeSystem};
 use kinema_adm::Analysis;
 
 use super::args::{Backend, RunArgs};
@@ -147,6 +147,7 @@ struct Stats {
     max_iterations: usize,
     worst_residual: f64,
     worst_residual_t: f64,
+    events: usize,
 }
 
 impl Stats {
@@ -322,12 +323,14 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .transpose()?;
 
     let analysis_start = Instant::now();
-    let mut solver = Solver::<TapeSystem, Auto>::with_options(system, Options::default())
+    let options = Options::default().with_stop_at_singular(args.stop_at_singular);
+    let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options)
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
     let keep = plot_target.is_some() || page_target.is_some();
     let mut samples = keep.then(|| Samples::new(names.len()));
     // The last output state's time if thinning left it out of `samples`.
     let mut skipped: Option<f64> = None;
+    let mut flagged: Vec<f64> = Vec::new();
     let mut stats = Stats::default();
     let mut progress = Progress::new(grid.times.len());
     let mut write_time = Duration::ZERO;
@@ -335,10 +338,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let stride = outputs.div_ceil(MAX_PLOT_STATES).max(1);
     let mut written = 0usize;
     for (k, (&t, &is_output)) in grid.times.iter().zip(&grid.output).enumerate() {
-        let state = match solver.step(t) {
-            Ok(state) => state,
+        match solver.step(t) {
+            Ok(_) => {}
             Err(e) => {
                 progress.finish();
+                let passed: Vec<SingularEvent> = solver
+                    .events()
+                    .iter()
+                    .filter(|e| e.kind != SingularKind::LockUp)
+                    .cloned()
+                    .collect();
+                print_singular_warnings(&passed, &flagged);
                 // The rows before the failure are the CSV (the plot, not
                 // drawn, leaves any earlier file in place).
                 let rows = sink.rows();
@@ -358,7 +368,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                         &loaded,
                         samples,
                         skipped,
-                        &failure,
+                        (&passed, &failure),
                         &plot_title(&loaded, &grid),
                     );
                     message.push_str(&note);
@@ -374,8 +384,20 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 }
                 return Err(Failure::Analysis(message));
             }
+        }
+        // A state exists after a successful step.
+        let Some(state) = solver.state() else {
+            continue;
         };
         stats.record(k == 0, state);
+        if k == 0 {
+            for w in super::check::assembly_warnings(&loaded, solver.system(), state.q()) {
+                eprintln!("{w}");
+            }
+        }
+        if is_output && state.near_singular() {
+            flagged.push(state.t());
+        }
         if is_output {
             let w = Instant::now();
             if let Err(failure) = sink.write(state) {
@@ -396,6 +418,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         progress.update(k + 1, t);
     }
     progress.finish();
+    let events = solver.close_events().to_vec();
+    print_singular_warnings(&events, &flagged);
+    stats.events = events.len();
     let w = Instant::now();
     let (rows, columns, destination) = (sink.rows(), sink.columns(), sink.destination().clone());
     sink.finish()?;
@@ -414,11 +439,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let plot_time = args.plot.as_ref().map(|_| plot_start.elapsed());
     let page_start = Instant::now();
     if let (Some(target), Some(samples)) = (page_target, &samples) {
+        let markers: Vec<animate::Marker> = events.iter().map(event_marker).collect();
         target.write(
             &loaded,
             solver.system(),
             samples,
-            &[],
+            &markers,
             &plot_title(&loaded, &grid),
         )?;
     }
@@ -454,7 +480,7 @@ fn failed_page(
     loaded: &Loaded,
     samples: &mut Samples,
     skipped: Option<f64>,
-    failure: &str,
+    (events, failure): (&[SingularEvent], &str),
     title: &str,
 ) -> String {
     let path = target.path().display().to_string();
@@ -469,17 +495,47 @@ fn failed_page(
     let Some(t) = solver.state().map(State::t) else {
         return format!("\n  = note: no page written to `{path}`: no state was computed");
     };
-    let marker = animate::Marker {
+    let mut markers: Vec<animate::Marker> = events.iter().map(event_marker).collect();
+    markers.push(animate::Marker {
         t,
         label: format!("the run stopped: {failure}"),
-    };
-    match target.write(loaded, solver.system(), samples, &[marker], title) {
+    });
+    match target.write(loaded, solver.system(), samples, &markers, title) {
         Ok(()) => format!(
             "\n  = note: `{path}` shows the motion up to t = {}, the failure marked",
             time(t)
         ),
         Err(Failure::Input(e) | Failure::Analysis(e)) => format!("\n  = note: {e}"),
         Err(Failure::Closed) => String::new(),
+    }
+}
+
+/// A singular configuration's marker on the animation's time slider.
+fn event_marker(event: &SingularEvent) -> animate::Marker {
+    animate::Marker {
+        t: event.t,
+        label: event.to_string(),
+    }
+}
+
+/// One `warning:` line per singular configuration met, and one for the
+/// output rows that hold branch limits instead of solves.
+fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
+    for e in events {
+        eprintln!("warning: {e}");
+    }
+    if let (Some(first), Some(last)) = (flagged.first(), flagged.last()) {
+        let s = if flagged.len() == 1 { "" } else { "s" };
+        let at = if flagged.len() == 1 {
+            format!("t = {}", time(*first))
+        } else {
+            format!("t = {} … {}", time(*first), time(*last))
+        };
+        eprintln!(
+            "warning: {} row{s} at {at} lie within the threshold of a singular configuration: \
+             their q̇ and q̈ are the limits along the branch, not solves",
+            flagged.len()
+        );
     }
 }
 
@@ -537,6 +593,14 @@ fn summary(s: &SummaryInput<'_>) -> String {
         st.worst_residual,
         time(st.worst_residual_t)
     );
+    if st.events > 0 {
+        let s = if st.events == 1 { "" } else { "s" };
+        let _ = writeln!(
+            out,
+            "  singular configurations: {} (see the warning{s})",
+            st.events
+        );
+    }
     let mut parts = vec![
         format!("model {}", duration(s.loaded.elapsed)),
         format!("analysis {}", duration(s.analysis)),

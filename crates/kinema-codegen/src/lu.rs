@@ -419,6 +419,20 @@ pub(crate) struct Names<'a> {
 }
 
 /// `x` as a literal (finite by construction), negative ones parenthesized.
+/// Whether the permutation (images of 0..n) is odd.
+fn permutation_odd(perm: &[usize]) -> bool {
+    let mut p = perm.to_vec();
+    let mut odd = false;
+    for i in 0..p.len() {
+        while p[i] != i && p[i] < p.len() && p[p[i]] != p[i] {
+            let j = p[i];
+            p.swap(i, j);
+            odd = !odd;
+        }
+    }
+    odd
+}
+
 fn lit(x: f64) -> TokenStream {
     let l = Literal::f64_unsuffixed(x.abs());
     if x < 0.0 { quote!((-#l)) } else { quote!(#l) }
@@ -608,6 +622,19 @@ impl Plan {
                 Val::Var(_) => None,
             })
             .fold(f64::INFINITY, f64::min);
+        // sign(P) sign(Q) ∏ sign(constant pivots): the part of det A's sign
+        // known at generation time.
+        let static_negative = {
+            let mut negative = permutation_odd(&self.row_order) != permutation_odd(&self.col_order);
+            for p in &self.pivots {
+                if let Val::Const(v) = *p
+                    && v < 0.0
+                {
+                    negative = !negative;
+                }
+            }
+            negative
+        };
         let mut pivot_stmts = TokenStream::new();
         for p in &self.pivots {
             if let Val::Var(x) = *p {
@@ -619,6 +646,7 @@ impl Plan {
                     if !(x >= min_pivot) {
                         min_pivot = x;
                     }
+                    negative ^= #v < 0.0;
                 }});
             }
         }
@@ -692,9 +720,9 @@ impl Plan {
         };
         let bound = lit(1.0 / RUNTIME_THRESHOLD);
         let pivot_decl = if pivot_stmts.is_empty() {
-            quote!(let min_pivot: f64 = #min_pivot0;)
+            quote!(let min_pivot: f64 = #min_pivot0; let negative = #static_negative;)
         } else {
-            quote!(let mut min_pivot: f64 = #min_pivot0;)
+            quote!(let mut min_pivot: f64 = #min_pivot0; let mut negative = #static_negative;)
         };
 
         // Stored inputs (the first slots) by a loop over their positions, the
@@ -818,6 +846,8 @@ impl Plan {
                 active: u8,
                 /// Factorizations done by the fallback.
                 fallbacks: u64,
+                /// minₖ |u_kk| / maxᵢⱼ |aᵢⱼ| and the sign of det A, of the last static factorization.
+                report: #rt::PivotReport,
                 fallback: #fallback,
             }
 
@@ -836,6 +866,7 @@ impl Plan {
                         fits: n == #n_lit && pattern == &<#system>::JACOBIAN_PATTERN[..],
                         active: Self::NONE,
                         fallbacks: 0,
+                        report: #rt::PivotReport { ratio: 0.0, det_sign: 1.0 },
                         fallback,
                     })
                 }
@@ -866,6 +897,10 @@ impl Plan {
                     let f = &mut self.f;
                     #store
                     #memo_store
+                    self.report = #rt::PivotReport {
+                        ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
+                        det_sign: if negative { -1.0 } else { 1.0 },
+                    };
                     self.active = Self::STATIC;
                     Ok(())
                 }
@@ -883,6 +918,14 @@ impl Plan {
                     let f = &self.f;
                     #solve
                     Ok(())
+                }
+
+                fn pivot_report(&self) -> ::core::option::Option<#rt::PivotReport> {
+                    match self.active {
+                        Self::STATIC => ::core::option::Option::Some(self.report),
+                        Self::FALLBACK => #rt::LinearSolver::pivot_report(&self.fallback),
+                        _ => ::core::option::Option::None,
+                    }
                 }
             }
 

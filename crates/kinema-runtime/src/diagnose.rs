@@ -1,21 +1,160 @@
-//! Rank-revealing diagnosis of a singular Φ_q (error path only; allocates).
+//! Rank-revealing diagnosis of Φ_q (error and monitor paths only;
+//! allocates): the one rank rule of the runtime and of `kinema check`.
+//!
+//! Every decision is made on the equilibrated matrix R Φ_q C (R, C diagonal
+//! powers of two, every row and column maximum in [½, 2]; see
+//! `linalg::Equilibration`), so it does not depend on the units of the
+//! coordinates or the equations, and entries of any finite size reach the
+//! SVD near 1, where it cannot overflow.
 
 use nalgebra::{DMatrix, SVD};
 
 use crate::error::Dependency;
+use crate::linalg::Equilibration;
 use crate::system::System;
 
 /// Largest n for which the dense SVD is run (≈ 1 s at n = 600).
-pub(crate) const MAX_DENSE_DIAGNOSIS: usize = 600;
+pub const MAX_DENSE_DIAGNOSIS: usize = 600;
 
 /// A component of a unit singular vector at least this large names its
 /// equation or coordinate.
 const INVOLVED: f64 = 1e-6;
 
-/// Explains a singular Φ_q (nonzeros `values` in the system's pattern order):
-/// which equations are dependent, which are redundant, which coordinates
-/// move freely. See [`Dependency`] for the maths.
-pub(crate) fn dependency<S: System + ?Sized>(
+/// Numerical rank and condition of Φ_q under the runtime's rule (see
+/// [`rank`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rank {
+    /// n minus the number of negligible singular values.
+    pub rank: usize,
+    /// n.
+    pub dim: usize,
+    /// σ_max / σ_min of the equilibrated Φ_q (∞ if exactly singular).
+    pub condition: f64,
+}
+
+impl Rank {
+    /// `true` when Φ_q is singular or within the threshold of a singular
+    /// configuration: rank deficient, or condition ≥ τ^−0.4 (10⁴ for the
+    /// default τ = 10⁻¹⁰). The threshold is where q̈ stops being trustworthy:
+    /// its error grows like the square of the condition times Newton's
+    /// residual (the position's error enters γ through q̇).
+    #[must_use]
+    pub fn near_singular(&self, singular_tolerance: f64) -> bool {
+        self.rank < self.dim || self.condition >= near_singular_condition(singular_tolerance)
+    }
+}
+
+/// The condition number from which Φ_q counts as near singular: τ^−0.4.
+#[must_use]
+pub fn near_singular_condition(singular_tolerance: f64) -> f64 {
+    singular_tolerance.powf(-0.4)
+}
+
+/// Why [`rank`] could not decide.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RankError {
+    /// n = 0 or n > [`MAX_DENSE_DIAGNOSIS`].
+    #[error("Φ_q is {0} × {0}: outside the sizes of the dense rank-revealing diagnosis")]
+    Size(usize),
+    /// An entry of Φ_q is NaN or infinite.
+    #[error("Φ_q has a non-finite entry")]
+    NonFinite,
+    /// The SVD did not converge or produced a non-finite singular value.
+    #[error("the singular value decomposition of Φ_q failed")]
+    Decomposition,
+}
+
+/// The runtime's rank rule, shared by the lock-up diagnosis, the run-time
+/// monitor and `kinema check`: equilibrate Φ_q (nonzeros `values` at
+/// `pattern`, n × n) to R Φ_q C, take its singular values σ₁ ≥ … ≥ σₙ;
+/// σₖ is negligible when σₖ ≤ max(10 τ, n ε) σ₁. The condition is σ₁/σₙ of
+/// the equilibrated matrix.
+///
+/// # Errors
+/// [`RankError`] for a size outside 1..=[`MAX_DENSE_DIAGNOSIS`], a
+/// non-finite entry, or a failed decomposition — never a panic.
+pub fn rank(
+    n: usize,
+    pattern: &[(u32, u32)],
+    values: &[f64],
+    singular_tolerance: f64,
+) -> Result<Rank, RankError> {
+    let svd = equilibrated_svd(n, pattern, values, false)?;
+    Ok(svd.rank(singular_tolerance))
+}
+
+/// The SVD of the equilibrated matrix, checked.
+struct Decomposition {
+    n: usize,
+    svd: SVD<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl Decomposition {
+    fn sigma_max(&self) -> f64 {
+        self.svd.singular_values.max()
+    }
+
+    fn cutoff(&self, singular_tolerance: f64) -> f64 {
+        (10.0 * singular_tolerance).max(self.n as f64 * f64::EPSILON) * self.sigma_max()
+    }
+
+    fn rank(&self, singular_tolerance: f64) -> Rank {
+        let sigma = &self.svd.singular_values;
+        let cutoff = self.cutoff(singular_tolerance);
+        let min = sigma.min();
+        Rank {
+            rank: sigma.iter().filter(|&&s| s > cutoff).count(),
+            dim: self.n,
+            condition: if min > 0.0 {
+                self.sigma_max() / min
+            } else {
+                f64::INFINITY
+            },
+        }
+    }
+}
+
+fn equilibrated_svd(
+    n: usize,
+    pattern: &[(u32, u32)],
+    values: &[f64],
+    vectors: bool,
+) -> Result<Decomposition, RankError> {
+    if n == 0 || n > MAX_DENSE_DIAGNOSIS {
+        return Err(RankError::Size(n));
+    }
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(RankError::NonFinite);
+    }
+    let mut eq = Equilibration::new(n, values.len());
+    eq.compute(pattern, values);
+    let mut a = DMatrix::<f64>::zeros(n, n);
+    for (&(r, c), &v) in pattern.iter().zip(eq.values.iter()) {
+        if let Some(slot) = a.get_mut((r as usize, c as usize)) {
+            *slot = v;
+        }
+    }
+    // Entries are now at most 2 in magnitude: nothing the SVD squares can
+    // overflow. Its result is checked all the same.
+    let svd = SVD::try_new(a, vectors, vectors, f64::EPSILON, 200 * n + 1000)
+        .ok_or(RankError::Decomposition)?;
+    if svd.singular_values.iter().any(|s| !s.is_finite()) {
+        return Err(RankError::Decomposition);
+    }
+    if vectors && (svd.u.is_none() || svd.v_t.is_none()) {
+        return Err(RankError::Decomposition);
+    }
+    Ok(Decomposition { n, svd })
+}
+
+/// Explains a singular or nearly singular Φ_q (nonzeros `values` in the
+/// system's pattern order): which equations are dependent, which are
+/// redundant, which coordinates move freely, under the rule of [`rank`].
+/// See [`Dependency`] for the maths. Allocates; `rank` and `condition` are
+/// `None` when the diagnosis cannot run (see [`RankError`]).
+#[must_use]
+pub fn dependency<S: System + ?Sized>(
     system: &S,
     values: &[f64],
     singular_tolerance: f64,
@@ -29,30 +168,22 @@ pub(crate) fn dependency<S: System + ?Sized>(
         redundant: Vec::new(),
         coordinates: Vec::new(),
     };
-    if n == 0 || n > MAX_DENSE_DIAGNOSIS || values.iter().any(|v| !v.is_finite()) {
-        return dep;
-    }
-    let mut a = DMatrix::<f64>::zeros(n, n);
-    for (&(r, c), &v) in system.jacobian_pattern().iter().zip(values) {
-        if let Some(slot) = a.get_mut((r as usize, c as usize)) {
-            *slot = v;
-        }
-    }
-    let Some(svd) = SVD::try_new(a, true, true, f64::EPSILON, 200 * n + 1000) else {
+    let Ok(decomposition) = equilibrated_svd(n, system.jacobian_pattern(), values, true) else {
         return dep;
     };
+    let rank = decomposition.rank(singular_tolerance);
+    let svd = &decomposition.svd;
     let (Some(u), Some(v_t)) = (&svd.u, &svd.v_t) else {
         return dep;
     };
     let sigma = &svd.singular_values;
-    let sigma_max = sigma.max();
-    dep.condition = Some(sigma_max / sigma.min());
-    let cutoff = (10.0 * singular_tolerance).max(n as f64 * f64::EPSILON) * sigma_max;
+    dep.condition = Some(rank.condition);
+    let cutoff = decomposition.cutoff(singular_tolerance);
     let smallest = sigma.imin();
     let null: Vec<usize> = (0..n)
         .filter(|&k| sigma[k] <= cutoff || k == smallest)
         .collect();
-    dep.rank = Some(n - null.len());
+    dep.rank = Some(rank.rank);
 
     let mut eq_involved = vec![false; n];
     let mut coord_involved = vec![false; n];

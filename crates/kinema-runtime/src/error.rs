@@ -24,6 +24,14 @@ pub enum Error {
         /// Which equations are dependent, from a rank-revealing factorization.
         dependency: Dependency,
     },
+    /// A singular configuration (bifurcation or toggle) was reached with
+    /// [`Options::stop_at_singular`](crate::Options::stop_at_singular) set.
+    /// The solver's state is the last one before it.
+    #[error("stopped at a singular configuration: {event}")]
+    SingularConfiguration {
+        /// What, where and when.
+        event: Box<crate::event::SingularEvent>,
+    },
     /// Newton–Raphson reached the iteration cap without converging.
     #[error(
         "position analysis did not converge at t = {}: ‖Φ‖∞ = {residual:e} after {iterations} \
@@ -169,7 +177,9 @@ impl fmt::Display for Quantity {
 
 /// The outcome of a rank-revealing factorization (SVD) of a singular Φ_q.
 ///
-/// With Φ_q = U Σ Vᵀ, the left singular vectors uₖ whose σₖ are negligible
+/// The SVD is that of the equilibrated R Φ_q C (R, C diagonal powers of
+/// two; see [`crate::diagnose`]), so rank, condition and the involvement of
+/// equations and coordinates do not depend on units. With R Φ_q C = U Σ Vᵀ, the left singular vectors uₖ whose σₖ are negligible
 /// (σₖ ≤ max(10 τ, n ε) σ₁, and always the smallest) span the combinations
 /// of equations that vanish: ∑ᵢ uᵢₖ ∂Φᵢ/∂q ≈ 0. An equation is *dependent*
 /// when it takes part in such a combination; the right singular vectors vₖ
@@ -196,11 +206,19 @@ pub struct Dependency {
 impl fmt::Display for Dependency {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let Some(rank) = self.rank else {
-            return write!(
-                f,
-                "Φ_q is singular ({} × {}; too large for the dense rank-revealing diagnosis)",
-                self.dim, self.dim
-            );
+            return if self.dim > crate::diagnose::MAX_DENSE_DIAGNOSIS {
+                write!(
+                    f,
+                    "Φ_q is singular ({} × {}; too large for the dense rank-revealing diagnosis)",
+                    self.dim, self.dim
+                )
+            } else {
+                write!(
+                    f,
+                    "Φ_q is singular ({} × {}; the rank-revealing diagnosis failed on its values)",
+                    self.dim, self.dim
+                )
+            };
         };
         write!(f, "equations {} are dependent", self.equations.join(", "))?;
         write!(f, " (rank {rank} of {}", self.dim)?;

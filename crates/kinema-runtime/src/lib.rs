@@ -20,6 +20,7 @@
 //! | [`solver`] | [`Solver`]: assembly, stepping, runs over a time grid |
 //! | [`options`] | [`Options`]: tolerances, predictor, full or modified Newton |
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
+//! | [`diagnose`], [`event`] | the one rank rule (equilibrated SVD); singular configurations met during a run |
 //! | [`trajectory`], [`state`], [`kinematics`], [`csv`] | results: states, body-point kinematics, CSV |
 //! | `handwritten` | reference mechanisms of the benchmarks (feature `handwritten`) |
 //!
@@ -41,8 +42,9 @@
 //! ```
 
 pub mod csv;
-mod diagnose;
+pub mod diagnose;
 pub mod error;
+pub mod event;
 #[cfg(feature = "handwritten")]
 pub mod handwritten;
 pub mod kinematics;
@@ -55,9 +57,11 @@ pub mod system;
 pub mod trajectory;
 
 pub use csv::CsvWriter;
+pub use diagnose::{Rank, RankError};
 pub use error::{Dependency, Error, Quantity, Time};
+pub use event::{SingularEvent, SingularKind};
 pub use kinematics::{PointKinematics, point_kinematics};
-pub use linalg::{Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, SparseLu};
+pub use linalg::{Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, PivotReport, SparseLu};
 pub use options::Options;
 pub use solver::Solver;
 pub use state::{State, StepStats};

@@ -2,7 +2,7 @@
 
 use crate::diagnose::dependency;
 use crate::error::{Error, Quantity};
-use crate::linalg::{LinalgError, LinearSolver, scale_and_finite};
+use crate::linalg::{Equilibration, LinalgError, LinearSolver, scale_and_finite};
 use crate::options::Options;
 use crate::state::StepStats;
 use crate::system::System;
@@ -18,6 +18,8 @@ pub(crate) struct Workspace {
     pub(crate) phi: Box<[f64]>,
     /// Nonzeros of Φ_q in pattern order.
     pub(crate) jac: Box<[f64]>,
+    /// How Φ_q is handed to the linear solver.
+    pub(crate) scaling: Scaling,
 }
 
 impl Workspace {
@@ -25,7 +27,55 @@ impl Workspace {
         Self {
             phi: vec![0.0; n].into_boxed_slice(),
             jac: vec![0.0; nnz].into_boxed_slice(),
+            scaling: Scaling {
+                eq: Equilibration::new(n, nnz),
+                active: false,
+            },
         }
+    }
+}
+
+/// Whether the linear solver factors Φ_q as it is or equilibrated, R Φ_q C.
+///
+/// Off at first. Switched on, for the solver's life, when the LU's
+/// singularity verdict or the monitor's pivot ratio comes from the units
+/// rather than from the configuration (a pendulum 10¹⁰ long: Φ_q is unit
+/// triangular, but its pivots look tiny against its largest entry); then
+/// every factorization scales the nonzeros by the fixed powers of two R and
+/// C (O(nnz), no allocation) and every solve scales its right-hand side and
+/// solution: (R Φ_q C) y = R b, x = C y.
+#[derive(Debug, Clone)]
+pub(crate) struct Scaling {
+    pub(crate) eq: Equilibration,
+    pub(crate) active: bool,
+}
+
+impl Scaling {
+    /// Overwrites `rhs` = b with Φ_q⁻¹ b from the last factorization.
+    #[inline]
+    pub(crate) fn solve<L: LinearSolver>(
+        &self,
+        lu: &mut L,
+        rhs: &mut [f64],
+    ) -> Result<(), LinalgError> {
+        if !self.active {
+            return lu.solve_in_place(rhs);
+        }
+        for (x, &r) in rhs.iter_mut().zip(self.eq.row.iter()) {
+            *x *= r;
+        }
+        lu.solve_in_place(rhs)?;
+        for (x, &c) in rhs.iter_mut().zip(self.eq.col.iter()) {
+            *x *= c;
+        }
+        Ok(())
+    }
+
+    /// Switches to the equilibrated form, with factors computed from `jac`
+    /// (the caller factors again).
+    pub(crate) fn switch_on(&mut self, pattern: &[(u32, u32)], jac: &[f64]) {
+        self.eq.compute(pattern, jac);
+        self.active = true;
     }
 }
 
@@ -97,7 +147,14 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
                 stats.jacobian_evaluations += 1;
             }
             *factorization = Factorization::None;
-            factor(system, lu, t, &ws.jac, options.singular_tolerance)?;
+            factor(
+                system,
+                lu,
+                t,
+                &ws.jac,
+                &mut ws.scaling,
+                options.singular_tolerance,
+            )?;
             stats.factorizations += 1;
             *factorization = Factorization::Stale;
             have_lu = true;
@@ -106,7 +163,7 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
         // Δq = −Φ_q⁻¹ Φ: Φ_q⁻¹ Φ is solved for in place and subtracted. The
         // solves are linear and IEEE rounding is symmetric, so this is
         // q + Δq to the bit, without a negated copy of Φ.
-        lu.solve_in_place(&mut ws.phi)?;
+        ws.scaling.solve(lu, &mut ws.phi)?;
         let (step, finite) = subtract_and_scale(q, &ws.phi);
         if !finite {
             // q is scratch on failure (the solver keeps its last state).
@@ -145,17 +202,50 @@ fn is_small_update(step: f64, tol: f64, q: &[f64]) -> bool {
 /// non-finite values: the recorded replay checks them and repivots, and
 /// partial pivoting cannot accept a NaN or infinite pivot. So the hot path
 /// checks the values once, inside the factorization.)
+///
+/// The singularity verdict is the equilibrated matrix's: when the LU refuses
+/// Φ_q as it is, it is equilibrated (see [`Scaling`]) and factored again
+/// before being declared singular.
 pub(crate) fn factor<S: System, L: LinearSolver>(
     system: &S,
     lu: &mut L,
     t: f64,
     jac: &[f64],
+    scaling: &mut Scaling,
     singular_tolerance: f64,
 ) -> Result<(), Error> {
-    match lu.factor(jac, singular_tolerance) {
+    let result = if scaling.active {
+        scaling.eq.apply(system.jacobian_pattern(), jac);
+        lu.factor(&scaling.eq.values, singular_tolerance)
+    } else {
+        lu.factor(jac, singular_tolerance)
+    };
+    match result {
         Ok(()) => Ok(()),
-        Err(e) => Err(factor_error(system, t, jac, singular_tolerance, e)),
+        Err(e) => factor_equilibrated(system, lu, t, jac, scaling, singular_tolerance, e),
     }
+}
+
+/// After a refused factorization: equilibrate Φ_q afresh and try once more
+/// (out of line: the hot path only tests for success).
+#[cold]
+#[inline(never)]
+fn factor_equilibrated<S: System, L: LinearSolver>(
+    system: &S,
+    lu: &mut L,
+    t: f64,
+    jac: &[f64],
+    scaling: &mut Scaling,
+    singular_tolerance: f64,
+    e: LinalgError,
+) -> Result<(), Error> {
+    if matches!(e, LinalgError::Singular { .. }) && scale_and_finite(jac).1 {
+        scaling.switch_on(system.jacobian_pattern(), jac);
+        if lu.factor(&scaling.eq.values, singular_tolerance).is_ok() {
+            return Ok(());
+        }
+    }
+    Err(factor_error(system, t, jac, singular_tolerance, e))
 }
 
 /// The error for a failed factorization (out of line: the hot path only

@@ -38,8 +38,15 @@ pub struct Options {
     /// Reuse a factorization of Φ_q while it still converges (see above).
     pub modified_newton: bool,
     /// τ of the singularity test: Φ_q is declared singular when an LU pivot
-    /// satisfies |u_kk| ≤ τ · maxᵢⱼ |∂Φᵢ/∂qⱼ| (see [`crate::linalg`]).
+    /// satisfies |u_kk| ≤ τ · maxᵢⱼ |∂Φᵢ/∂qⱼ| of the equilibrated Φ_q (see
+    /// [`crate::linalg`]); a configuration is *near* singular when the
+    /// equilibrated condition number reaches τ^−0.4 (see
+    /// [`Solver`](crate::Solver), "Singular configurations").
     pub singular_tolerance: f64,
+    /// Stop at the first singular configuration (bifurcation or toggle)
+    /// with [`Error::SingularConfiguration`](crate::Error::SingularConfiguration)
+    /// instead of passing it on the analytic continuation.
+    pub stop_at_singular: bool,
 }
 
 impl Default for Options {
@@ -60,6 +67,7 @@ impl Default for Options {
             predictor: true,
             modified_newton: false,
             singular_tolerance: 1e-10,
+            stop_at_singular: false,
         }
     }
 }
@@ -79,6 +87,7 @@ impl Options {
             predictor: false,
             modified_newton: false,
             singular_tolerance: Self::default().singular_tolerance,
+            stop_at_singular: false,
         }
     }
 
@@ -93,6 +102,15 @@ impl Options {
     pub fn with_modified_newton(self, modified_newton: bool) -> Self {
         Self {
             modified_newton,
+            ..self
+        }
+    }
+
+    /// These options stopping, or not, at the first singular configuration.
+    #[must_use]
+    pub fn with_stop_at_singular(self, stop_at_singular: bool) -> Self {
+        Self {
+            stop_at_singular,
             ..self
         }
     }

@@ -16,6 +16,20 @@ pub struct StepStats {
     pub factorizations: usize,
     /// ‖Φ(q, t)‖∞ at the converged q.
     pub residual: f64,
+    /// The monitor's pivot ratio minₖ |u_kk| / maxᵢⱼ |aᵢⱼ| of Φ_q at the
+    /// converged q (see [`PivotReport`](crate::PivotReport); 1 when the
+    /// linear solver does not report it).
+    pub pivot_ratio: f64,
+    /// Φ_q is singular or within the threshold of it here (equilibrated
+    /// condition ≥ τ^−0.4): Φ_q q̇ = ν does not determine q̇, so q, q̇ and q̈
+    /// are not a solve but the branch's values, interpolated between
+    /// regular states of the branch on either side (at a singular start,
+    /// extrapolated back from the states just after it).
+    pub near_singular: bool,
+    /// Internal sub-steps (not output) taken to reach this time: the step
+    /// was refined near a singular configuration or where a full step left
+    /// the branch.
+    pub substeps: usize,
 }
 
 /// The kinematic state at time t: q with Φ(q, t) = 0, q̇ with Φ_q q̇ = ν,
@@ -27,6 +41,8 @@ pub struct State {
     pub(crate) qd: Vec<f64>,
     pub(crate) qdd: Vec<f64>,
     pub(crate) stats: StepStats,
+    /// Sign of det Φ_q at q (0 when unknown).
+    pub(crate) det_sign: f64,
 }
 
 impl State {
@@ -37,6 +53,7 @@ impl State {
             qd: vec![0.0; n],
             qdd: vec![0.0; n],
             stats: StepStats::default(),
+            det_sign: 0.0,
         }
     }
 
@@ -62,6 +79,13 @@ impl State {
     #[must_use]
     pub fn qdd(&self) -> &[f64] {
         &self.qdd
+    }
+
+    /// Whether q̇ and q̈ are limits along the branch rather than solves
+    /// (see [`StepStats::near_singular`]).
+    #[must_use]
+    pub fn near_singular(&self) -> bool {
+        self.stats.near_singular
     }
 
     /// What the step's position analysis cost.

@@ -4,6 +4,7 @@ use std::io;
 use std::ops::Index;
 
 use crate::csv::CsvWriter;
+use crate::event::SingularEvent;
 use crate::kinematics::PointKinematics;
 use crate::state::State;
 use crate::system::System;
@@ -14,6 +15,7 @@ use crate::system::System;
 pub struct Trajectory {
     names: Vec<String>,
     states: Vec<State>,
+    events: Vec<SingularEvent>,
 }
 
 impl Trajectory {
@@ -23,7 +25,19 @@ impl Trajectory {
                 .map(|i| system.coordinate_name(i).to_owned())
                 .collect(),
             states: Vec::with_capacity(capacity),
+            events: Vec::new(),
         }
+    }
+
+    pub(crate) fn set_events(&mut self, events: Vec<SingularEvent>) {
+        self.events = events;
+    }
+
+    /// The singular configurations the run met, in time order (see
+    /// [`Solver`](crate::Solver), "Singular configurations").
+    #[must_use]
+    pub fn events(&self) -> &[SingularEvent] {
+        &self.events
     }
 
     pub(crate) fn push(&mut self, state: State) {

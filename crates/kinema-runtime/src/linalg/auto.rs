@@ -1,6 +1,6 @@
 //! Size-based choice between dense and sparse LU: [`Auto`].
 
-use super::{DynDenseLu, LinalgError, LinearSolver, SparseLu};
+use super::{DynDenseLu, LinalgError, LinearSolver, PivotReport, SparseLu};
 
 /// Dense LU ([`DynDenseLu`]) for n below [`Auto::DEFAULT_THRESHOLD`], sparse
 /// LU ([`SparseLu`]) from there on. The default linear solver of
@@ -17,6 +17,9 @@ use super::{DynDenseLu, LinalgError, LinearSolver, SparseLu};
 /// [`Solver::with_linear_solver`](crate::Solver::with_linear_solver), or name
 /// the solver type directly (`Solver<S, SparseLu>`).
 #[derive(Debug)]
+// One per solver, built once: boxing the larger variant would add an
+// indirection to every factorization and solve.
+#[allow(clippy::large_enum_variant)]
 pub enum Auto {
     /// Dense LU, chosen for small n.
     Dense(DynDenseLu),
@@ -71,6 +74,13 @@ impl LinearSolver for Auto {
         match self {
             Self::Dense(lu) => lu.solve_in_place(rhs),
             Self::Sparse(lu) => lu.solve_in_place(rhs),
+        }
+    }
+
+    fn pivot_report(&self) -> Option<PivotReport> {
+        match self {
+            Self::Dense(lu) => lu.pivot_report(),
+            Self::Sparse(lu) => lu.pivot_report(),
         }
     }
 }

@@ -16,7 +16,7 @@
 //! times faster; see `BENCHMARKS-runtime.md`.
 
 use super::schedule::{DenseStructure, Schedule, SlotIndex};
-use super::{LinalgError, LinearSolver, check_len, validate_pattern};
+use super::{LinalgError, LinearSolver, PivotReport, check_len, validate_pattern};
 
 /// LU with partial pivoting of an N × N matrix, sized at compile time — the
 /// solver for generated code of small mechanisms, e.g.
@@ -41,6 +41,8 @@ pub struct DenseLu<const N: usize> {
     piv: [usize; N],
     /// 1 / u_kk.
     inv_diag: [f64; N],
+    /// maxᵢⱼ |aᵢⱼ| of the last kernel factorization.
+    scale: f64,
     replay: DenseReplay,
 }
 
@@ -51,6 +53,7 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
             a: [[0.0; N]; N],
             piv: [0; N],
             inv_diag: [0.0; N],
+            scale: 0.0,
             replay: DenseReplay::new(N, pattern)?,
         })
     }
@@ -66,6 +69,7 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
         }
         let a = self.a.as_flattened_mut();
         let scale = scatter(a, &self.replay.scatter, values);
+        self.scale = scale;
         factor_in_place(
             a,
             N,
@@ -87,6 +91,10 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
         }
         Ok(())
     }
+
+    fn pivot_report(&self) -> Option<PivotReport> {
+        self.replay.report(&self.piv, &self.inv_diag, self.scale)
+    }
 }
 
 /// LU with partial pivoting of an n × n matrix whose size is known only at
@@ -101,6 +109,7 @@ pub struct DynDenseLu {
     a: Box<[f64]>,
     piv: Box<[usize]>,
     inv_diag: Box<[f64]>,
+    scale: f64,
     replay: DenseReplay,
 }
 
@@ -111,6 +120,7 @@ impl LinearSolver for DynDenseLu {
             a: vec![0.0; n * n].into_boxed_slice(),
             piv: vec![0; n].into_boxed_slice(),
             inv_diag: vec![0.0; n].into_boxed_slice(),
+            scale: 0.0,
             replay: DenseReplay::new(n, pattern)?,
         })
     }
@@ -125,6 +135,7 @@ impl LinearSolver for DynDenseLu {
             return Ok(());
         }
         let scale = scatter(&mut self.a, &self.replay.scatter, values);
+        self.scale = scale;
         factor_in_place(
             &mut self.a,
             self.n,
@@ -145,6 +156,10 @@ impl LinearSolver for DynDenseLu {
             Active::Schedule => self.replay.schedule.solve(rhs),
         }
         Ok(())
+    }
+
+    fn pivot_report(&self) -> Option<PivotReport> {
+        self.replay.report(&self.piv, &self.inv_diag, self.scale)
     }
 }
 
@@ -184,6 +199,20 @@ impl DenseReplay {
             order: vec![0; n].into_boxed_slice(),
             active: Active::None,
         })
+    }
+
+    /// The pivots of the active factorization: the schedule's, or the
+    /// kernel's (row interchanges `piv`, reciprocal pivots `inv_diag`).
+    fn report(&self, piv: &[usize], inv_diag: &[f64], scale: f64) -> Option<PivotReport> {
+        match self.active {
+            Active::None => None,
+            Active::Schedule => Some(self.schedule.pivot_report()),
+            Active::Kernel => {
+                let swaps = piv.iter().enumerate().filter(|&(k, &p)| p != k).count();
+                let sign = if swaps % 2 == 0 { 1.0 } else { -1.0 };
+                Some(PivotReport::from_inverse_pivots(inv_diag, scale, sign))
+            }
+        }
     }
 
     /// Checks the length, then replays the recorded elimination if there is

@@ -47,6 +47,7 @@
 
 mod auto;
 mod dense;
+mod equilibrate;
 mod schedule;
 mod sparse;
 
@@ -54,7 +55,51 @@ pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
 pub use sparse::SparseLu;
 
+pub(crate) use equilibrate::{Equilibration, permutation_sign};
 pub(crate) use schedule::scale_and_finite;
+
+/// What the pivots of the last factorization P A Q = L U say about A's
+/// distance to singularity, for the runtime's monitor (see
+/// [`LinearSolver::pivot_report`]).
+///
+/// * `ratio` = minₖ |u_kk| / maxᵢⱼ |aᵢⱼ|. A small ratio bounds the smallest
+///   singular value: σ_min ≤ ‖L‖₂ minₖ |u_kk|, and ‖L‖₂ ≤ n/θ under the
+///   threshold test. (The converse does not hold in general, which is why
+///   the runtime confirms a small ratio with the equilibrated SVD.)
+/// * `det_sign` = sign of det A = sign(P) sign(Q) ∏ₖ sign(u_kk). Along a
+///   continuous motion it changes exactly where Φ_q passes a singular
+///   configuration, whatever the grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PivotReport {
+    /// minₖ |u_kk| / maxᵢⱼ |aᵢⱼ| (0 for a zero matrix).
+    pub ratio: f64,
+    /// +1 or −1: the sign of det A.
+    pub det_sign: f64,
+}
+
+impl PivotReport {
+    /// The report from the reciprocals of the pivots, the matrix scale and
+    /// the sign of the permutations. O(n).
+    pub(crate) fn from_inverse_pivots(inv_diag: &[f64], scale: f64, permutation_sign: f64) -> Self {
+        let mut largest_inverse = 0.0_f64;
+        let mut sign = permutation_sign;
+        for &inv in inv_diag {
+            largest_inverse = largest_inverse.max(inv.abs());
+            if inv < 0.0 {
+                sign = -sign;
+            }
+        }
+        let ratio = if scale > 0.0 && largest_inverse > 0.0 {
+            1.0 / (largest_inverse * scale)
+        } else {
+            0.0
+        };
+        Self {
+            ratio,
+            det_sign: sign,
+        }
+    }
+}
 
 /// Why a linear solver could not be built, factor or solve.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -140,6 +185,17 @@ pub trait LinearSolver: Sized {
     /// Overwrites `rhs` = b with x = A⁻¹ b, using the last successful
     /// factorization. Does not allocate.
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError>;
+
+    /// The pivots of the last successful factorization (see
+    /// [`PivotReport`]), or `None` if the solver does not track them or
+    /// nothing is factored. O(n) at most; does not allocate.
+    ///
+    /// The runtime's singularity monitor reads it after every step; a solver
+    /// that returns `None` leaves the monitor blind (the runtime's own
+    /// solvers and generated ones all report).
+    fn pivot_report(&self) -> Option<PivotReport> {
+        None
+    }
 }
 
 /// Checks that every pattern entry lies inside the n × n matrix and that none

@@ -4,6 +4,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use super::{PivotReport, permutation_sign};
+
 /// θ of the threshold test on replayed pivots.
 pub(crate) const PIVOT_THRESHOLD: f64 = 0.1;
 
@@ -144,6 +146,12 @@ pub(crate) struct Schedule {
     /// Scratch lists for building.
     list_a: Vec<u32>,
     list_b: Vec<u32>,
+    /// Scratch for the permutations' sign.
+    perm_scratch: Vec<usize>,
+    /// sign(P) sign(Q) of the recorded order.
+    perm_sign: f64,
+    /// maxᵢⱼ |aᵢⱼ| of the last replay.
+    scale: f64,
     ready: bool,
 }
 
@@ -176,6 +184,9 @@ impl Schedule {
             work: Vec::with_capacity(n),
             list_a: Vec::with_capacity(n),
             list_b: Vec::with_capacity(n),
+            perm_scratch: Vec::with_capacity(n),
+            perm_sign: 1.0,
+            scale: 0.0,
             ready: false,
         }
     }
@@ -349,6 +360,15 @@ impl Schedule {
         self.work = written;
         self.work.clear();
         self.work.resize(n, 0.0);
+        self.perm_scratch.clear();
+        self.perm_scratch.resize(n, 0);
+        self.perm_sign = permutation_sign(
+            self.row_order.iter().map(|&r| r as usize),
+            &mut self.perm_scratch,
+        ) * permutation_sign(
+            self.col_order.iter().map(|&c| c as usize),
+            &mut self.perm_scratch,
+        );
         self.ready = true;
     }
 
@@ -364,6 +384,7 @@ impl Schedule {
         singular_tolerance: f64,
     ) -> Result<(), Replay> {
         let (scale, finite) = scale_and_finite(values);
+        self.scale = scale;
         let lu = &mut self.values[..];
         for &s in &self.fill {
             lu[s as usize] = 0.0;
@@ -417,6 +438,11 @@ impl Schedule {
         } else {
             Err(Replay::Repivot)
         }
+    }
+
+    /// The pivots of the last replay (meaningful after a successful one).
+    pub(crate) fn pivot_report(&self) -> PivotReport {
+        PivotReport::from_inverse_pivots(&self.inv_diag, self.scale, self.perm_sign)
     }
 
     /// Overwrites b with A⁻¹ b using the last successful replay. The caller

@@ -35,7 +35,9 @@ use faer::{Conj, MatMut, Par};
 use std::collections::BTreeMap;
 
 use super::schedule::{Schedule, SlotIndex, SparseStructure};
-use super::{LinalgError, LinearSolver, check_len, validate_pattern};
+use super::{
+    LinalgError, LinearSolver, PivotReport, check_len, permutation_sign, validate_pattern,
+};
 
 /// Sparse LU for large systems: faer chooses the pivots, a recorded
 /// elimination does the per-step work.
@@ -70,6 +72,10 @@ pub struct SparseLu {
     scratch: MemBuffer,
     pattern: Box<[(u32, u32)]>,
     schedule: Schedule,
+    /// Pivots of faer's last factorization.
+    faer_report: PivotReport,
+    /// Scratch for the permutations' sign.
+    perm_scratch: Box<[usize]>,
     active: Active,
 }
 
@@ -148,6 +154,11 @@ impl LinearSolver for SparseLu {
             scratch,
             pattern: pattern.into(),
             schedule: Schedule::with_capacity(n, nnz, 0, 0),
+            faer_report: PivotReport {
+                ratio: 0.0,
+                det_sign: 1.0,
+            },
+            perm_scratch: vec![0; n].into_boxed_slice(),
             active: Active::None,
         })
     }
@@ -197,6 +208,14 @@ impl LinearSolver for SparseLu {
             }
         }
     }
+
+    fn pivot_report(&self) -> Option<PivotReport> {
+        match self.active {
+            Active::None => None,
+            Active::Schedule => Some(self.schedule.pivot_report()),
+            Active::Faer => Some(self.faer_report),
+        }
+    }
 }
 
 impl SparseLu {
@@ -239,14 +258,23 @@ impl SparseLu {
         // of U; we look it up by row index all the same).
         let threshold = singular_tolerance * scale;
         let u = self.lu.u_factor_unsorted();
+        let mut sign = permutation_sign(self.row_perm.iter().copied(), &mut self.perm_scratch)
+            * permutation_sign(self.col_perm.iter().copied(), &mut self.perm_scratch);
+        let mut min_pivot = f64::INFINITY;
         for j in 0..n {
             let rows = u.row_idx_of_col_raw(j);
             let vals = u.val_of_col(j);
-            let pivot = rows
+            let signed = rows
                 .iter()
                 .rposition(|&r| r == j)
                 .and_then(|p| vals.get(p))
-                .map_or(0.0, |v| v.abs());
+                .copied()
+                .unwrap_or(0.0);
+            if signed < 0.0 {
+                sign = -sign;
+            }
+            let pivot = signed.abs();
+            min_pivot = min_pivot.min(pivot);
             let acceptable = pivot > threshold;
             if !acceptable {
                 return Err(LinalgError::Singular {
@@ -256,6 +284,10 @@ impl SparseLu {
                 });
             }
         }
+        self.faer_report = PivotReport {
+            ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
+            det_sign: sign,
+        };
         Ok(())
     }
 
