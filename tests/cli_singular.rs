@@ -1,0 +1,235 @@
+//! `kinema run` and `kinema check` at singular configurations (issue 12)
+//! and on badly scaled models (hostile-input items 1 and 2).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A scratch directory under the system's temp dir, removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> TempDir {
+        let dir =
+            std::env::temp_dir().join(format!("kinema-cli-singular-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        if let Err(e) = std::fs::create_dir_all(&dir) {
+            panic!("cannot create {}: {e}", dir.display());
+        }
+        TempDir(dir)
+    }
+
+    fn path(&self, file: &str) -> String {
+        self.0.join(file).display().to_string()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn kinema(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_kinema"))
+        .args(args)
+        .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")))
+        .output()
+    {
+        Ok(output) => output,
+        Err(e) => panic!("cannot run kinema: {e}"),
+    }
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The times `t = …` of the lines starting with `prefix`.
+fn times(stderr: &str, prefix: &str) -> Vec<f64> {
+    stderr
+        .lines()
+        .filter(|l| l.starts_with(prefix))
+        .filter_map(|l| {
+            let rest = l.split("t = ").nth(1)?;
+            let number: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '-'))
+                .collect();
+            number.parse().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn run_warns_of_each_bifurcation_with_its_time() {
+    let dir = TempDir::new("change-point");
+    let out = dir.path("cp.csv");
+    for steps in ["14", "72", "720"] {
+        let o = kinema(&[
+            "run",
+            "tests/singular/change_point.kin",
+            "--t-end",
+            "2",
+            "--steps",
+            steps,
+            "--out",
+            &out,
+        ]);
+        let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+        assert_eq!(o.status.code(), Some(0), "{stderr}");
+        let found = times(&stderr, "warning: bifurcation at");
+        assert_eq!(found.len(), 2, "{steps} steps: {stderr}");
+        for (t, expected) in found.iter().zip([0.875, 1.875]) {
+            assert!((t - expected).abs() < 1e-8, "{steps} steps: {stderr}");
+        }
+        assert!(stderr.contains("kept the branch on which q̇ is continuous"));
+        assert!(
+            stdout.contains("singular configurations: 2 (see the warnings)"),
+            "{stdout}"
+        );
+    }
+}
+
+#[test]
+fn stop_at_singular_stops_at_the_first_event_and_keeps_the_rows() {
+    let dir = TempDir::new("stop");
+    let out = dir.path("cp.csv");
+    let o = kinema(&[
+        "run",
+        "tests/singular/change_point.kin",
+        "--t-end",
+        "2",
+        "--steps",
+        "72",
+        "--out",
+        &out,
+        "--stop-at-singular",
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("error: stopped at a singular configuration: bifurcation at t = 0.87"),
+        "{stderr}"
+    );
+    // Rows t = 0 … 31/36 (the last before t* = 0.875) are kept.
+    let csv = std::fs::read_to_string(&out).unwrap_or_default();
+    assert_eq!(csv.lines().count(), 1 + 32, "{stderr}");
+}
+
+#[test]
+fn lock_up_exits_1_at_the_last_good_row_with_the_dead_point_time() {
+    let t_star = (0.4_f64.acos() - std::f64::consts::FRAC_PI_4) / std::f64::consts::TAU;
+    let dir = TempDir::new("dead-point");
+    let out = dir.path("dp.csv");
+    let o = kinema(&[
+        "run",
+        "tests/singular/dead_point.kin",
+        "--steps",
+        "360",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    let found = times(&stderr, "error: lock-up");
+    assert_eq!(found.len(), 1, "{stderr}");
+    assert!((found[0] - t_star).abs() < 1e-6, "{stderr}");
+    assert!(stderr.contains("crank_angle"), "{stderr}");
+    assert!(stderr.contains("coordinates left free"), "{stderr}");
+    // Rows at k/360 ≤ t*: k = 0 … 21.
+    let csv = std::fs::read_to_string(&out).unwrap_or_default();
+    let rows = (t_star * 360.0).floor() as usize + 1;
+    assert_eq!(csv.lines().count(), 1 + rows, "{stderr}");
+}
+
+#[test]
+fn check_warns_instead_of_ok_at_a_singular_start() {
+    let o = kinema(&["check", "tests/singular/parallelogram.kin"]);
+    let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+    assert!(!stdout.contains("ok:"), "{stdout}");
+    assert!(
+        stdout.contains("warning: `Parallelogram` assembles at or near a singular configuration")
+    );
+    assert!(
+        stdout.contains("dependent equations: o.x, a.x, b.x, d.x"),
+        "{stdout}"
+    );
+    assert!(stderr.contains("condition number"), "{stderr}");
+    assert!(stderr.contains("t = 0"), "{stderr}");
+
+    let dir = TempDir::new("flat-run");
+    let out = dir.path("p.csv");
+    let o = kinema(&[
+        "run",
+        "tests/singular/parallelogram.kin",
+        "--steps",
+        "36",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("warning: toggle at t = 0:"), "{stderr}");
+    assert!(stderr.contains("lie within the threshold of a singular configuration"));
+}
+
+/// The pendulum of models/pendulum.kin with L replaced.
+fn pendulum(dir: &TempDir, length: &str) -> String {
+    let source = std::fs::read_to_string("models/pendulum.kin").unwrap_or_default();
+    let path = dir.path(&format!("pendulum_{length}.kin"));
+    let changed = source.replace("param L = 1;", &format!("param L = {length};"));
+    assert_ne!(changed, source, "the model sets L");
+    if let Err(e) = std::fs::write(&path, changed) {
+        panic!("{e}");
+    }
+    path
+}
+
+#[test]
+fn rank_decisions_do_not_depend_on_units_and_never_panic() {
+    let dir = TempDir::new("scaled");
+    for length in ["1e5", "1e10", "1e160"] {
+        let model = pendulum(&dir, length);
+        let o = kinema(&["check", &model]);
+        let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+        assert_eq!(o.status.code(), Some(0), "L = {length}: {stdout}{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(!stdout.contains("rank-deficient"), "L = {length}: {stdout}");
+        assert!(
+            stdout.contains("at the assembled configuration: 3 of 3 (full"),
+            "L = {length}: {stdout}"
+        );
+        assert!(stdout.contains("ready to run"), "L = {length}: {stdout}");
+        let out = dir.path("p.csv");
+        let o = kinema(&["run", &model, "--out", &out]);
+        let stderr = text(&o.stderr);
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        if length != "1e160" {
+            assert_eq!(o.status.code(), Some(0), "L = {length}: {stderr}");
+            assert!(!stderr.contains("warning"), "L = {length}: {stderr}");
+        }
+    }
+}
+
+#[test]
+fn assembly_far_from_the_guess_is_a_warning() {
+    // The crank's angle guessed a turn away from the driver's π/4.
+    let source = std::fs::read_to_string("models/four_bar.kin").unwrap_or_default();
+    let changed = source.replace(
+        "body crank   { guess: (0.1, 0.1, 0.8) }",
+        "body crank   { guess: (0.1, 0.1, 7.08) }",
+    );
+    assert_ne!(changed, source, "the model has that guess");
+    let dir = TempDir::new("far-guess");
+    let model = dir.path("four_bar.kin");
+    if let Err(e) = std::fs::write(&model, changed) {
+        panic!("{e}");
+    }
+    let o = kinema(&["check", &model]);
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("warning: assembly at t = 0 moved `crank.phi` from its guess 7.08"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("mirror image"), "{stderr}");
+}
