@@ -3,7 +3,7 @@
 //! solves, falls back to it when the generated pivot order does not suit a
 //! matrix, and keeps the singular-Jacobian diagnostics.
 
-use kinema::{DenseLu, Error, LinalgError, LinearSolver, Options, System};
+use kinema::{DenseLu, Error, LinalgError, LinearSolver, Options, SingularKind, System};
 use kinema_bench::generated::{chain10::Chain10, four_bar::FourBar, slider_crank::SliderCrank};
 use kinema_bench::grid;
 
@@ -120,29 +120,39 @@ fn solve_before_factor_and_wrong_lengths_are_errors() -> Result<(), LinalgError>
 }
 
 /// The slider-crank with its rod as long as its crank: at crank angle π/2
-/// (t = 0.125) the rod folds back over the crank and Φ_q loses rank. The
-/// generated LU's pivot (the rod's l₂ cos φ) vanishes there; the diagnosis
-/// must be the one the runtime's solvers give.
+/// (t = 0.125) and 3π/2 (t = 0.625) the rod folds over the crank and two
+/// branches cross. The generated LU's pivot (the rod's l₂ cos φ) vanishes
+/// there; its pivot report must let the runtime pass both bifurcations on
+/// the analytic branch and diagnose them as the runtime's solvers do, and
+/// stop at the first one on request.
 #[test]
-fn toggle_position_is_diagnosed_through_the_generated_lu() -> Result<(), Error> {
+fn bifurcation_is_passed_and_diagnosed_through_the_generated_lu() -> Result<(), Error> {
     let grid = grid();
     for options in [Options::default(), Options::same_algorithm()] {
         let system = SliderCrank {
             l2: 0.3,
             ..SliderCrank::default()
         };
-        let mut solver = system.solver(options)?;
+        let mut solver = system.clone().solver(options)?;
+        let trajectory = solver.run(&grid)?;
+        let events = trajectory.events();
+        assert_eq!(events.len(), 2, "{events:?}");
+        for (event, t_star) in events.iter().zip([0.125, 0.625]) {
+            assert_eq!(event.kind, SingularKind::Bifurcation);
+            assert!((event.t - t_star).abs() < 1e-8, "{event}");
+            assert_eq!(
+                event.dependency.equations,
+                ["pivot.y", "pin.y", "wrist.y", "on_axis"]
+            );
+        }
+        let mut solver = system.solver(options.with_stop_at_singular(true))?;
         let err = solver.run(&grid).err();
-        let Some(Error::Singular { t, dependency }) = &err else {
-            panic!("expected a singular Jacobian, got {err:?}");
-        };
-        assert_eq!(*t, 0.125);
-        assert_eq!(dependency.rank, Some(8));
-        assert_eq!(
-            dependency.equations,
-            ["pivot.y", "pin.y", "wrist.y", "on_axis"]
+        assert!(
+            matches!(err, Some(Error::SingularConfiguration { .. })),
+            "{err:?}"
         );
-        assert_eq!(solver.state().map(|s| s.t()), Some(0.124));
+        let last = solver.state().map(|s| (s.t(), s.near_singular()));
+        assert_eq!(last, Some((0.125, true)));
     }
     Ok(())
 }
