@@ -531,6 +531,46 @@ fn failed_run_is_marked_on_the_time_slider() -> TestResult {
     Ok(())
 }
 
+#[test]
+fn singular_configurations_are_marked_on_the_time_slider() -> TestResult {
+    let _one = one_at_a_time();
+    let dir = artifacts("change_point");
+    let (csv_path, html) = (dir.join("change_point.csv"), dir.join("change_point.html"));
+    let (code, stderr) = kinema(&[
+        "run",
+        "tests/singular/change_point.kin",
+        "--t-end",
+        "2",
+        "--steps",
+        "72",
+        "--out",
+        &csv_path.to_string_lossy(),
+        "--animate",
+        &html.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let Some(page) = Page::open(&html, "singular_configurations_are_marked_on_the_time_slider")?
+    else {
+        return Ok(());
+    };
+    // The two passages of the fold (t = 0.875 and 1.875), as the run's
+    // warnings report them, each a marker at its time.
+    assert_eq!(page.number("kinema.data.markers.length")?, 2.0);
+    for (k, expected) in [0.875, 1.875].into_iter().enumerate() {
+        let t = page.number(&format!("kinema.data.markers[{k}].t"))?;
+        assert!((t - expected).abs() < 1e-6, "marker {k} at {t}");
+        let label = page.eval(&format!("kinema.data.markers[{k}].label"))?;
+        assert!(
+            label.as_str().is_some_and(|l| l.starts_with("bifurcation at t = ")),
+            "marker label {label}"
+        );
+    }
+    let marks = page.number("document.querySelectorAll('#marks .mark').length")?;
+    assert_eq!(marks, 2.0);
+    assert_eq!(page.errors(), Vec::<String>::new(), "console errors");
+    Ok(())
+}
+
 /// A serial chain of `n` unit links pinned to ground, every angle driven.
 fn chain(n: usize) -> String {
     let mut s = format!("/// Serial chain of {n} unit links.\nmechanism Chain{n} {{\n");
