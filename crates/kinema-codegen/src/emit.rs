@@ -560,7 +560,9 @@ fn raise(base: &Code, p: f64) -> Code {
         let n = Literal::i32_unsuffixed(p as i32);
         quote!(#x.powi(#n))
     } else {
-        let p = Literal::f64_unsuffixed(p);
+        // `number` spells a non-finite exponent (merged exponents can
+        // overflow) as `f64::INFINITY`, which a literal cannot be.
+        let p = number(p).tokens;
         quote!(#x.powf(#p))
     };
     Code {

@@ -79,8 +79,8 @@ impl Default for Options {
 #[must_use]
 pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     let d = derivation;
-    let name = Ident::new(&type_name(&d.name), Span::call_site());
-    let params: Vec<Ident> = d.params.iter().map(|p| field_name(&p.name)).collect();
+    let name = rust_ident(&type_name(&d.name));
+    let params: Vec<Ident> = d.params.iter().map(|p| rust_ident(&p.name)).collect();
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
     // sin/cos of the angles and the functions of time, cached per step.
     let everything: Vec<_> = d
@@ -513,9 +513,36 @@ fn type_name(name: &str) -> String {
     name.to_owned()
 }
 
-/// A parameter's name as a field name (raw identifier if it is a keyword).
-fn field_name(name: &str) -> Ident {
-    syn::parse_str::<Ident>(name).unwrap_or_else(|_| Ident::new_raw(name, Span::call_site()))
+/// A model name (a mechanism's, a parameter's) as a Rust identifier: as it
+/// is when it is one (`crank`, or `r#type` written raw), raw when it is a
+/// keyword (`type` → `r#type`), and with a trailing `_` for the few
+/// keywords that cannot be raw (`self`, `Self`, `super`, `crate`, `_`).
+fn rust_ident(name: &str) -> Ident {
+    if let Ok(ident) = syn::parse_str::<Ident>(name) {
+        return ident;
+    }
+    let plain = name.strip_prefix("r#").unwrap_or(name);
+    let word = plain.chars().enumerate().all(|(i, c)| {
+        c == '_'
+            || if i == 0 {
+                c.is_alphabetic()
+            } else {
+                c.is_alphanumeric()
+            }
+    });
+    match plain {
+        "self" | "Self" | "super" | "crate" | "_" => format_ident!("{}_", plain),
+        _ if word && !plain.is_empty() => Ident::new_raw(plain, Span::call_site()),
+        // Not an identifier at all (the model language never gives one):
+        // every other character made `_`, so the item still compiles.
+        _ => {
+            let cleaned: String = plain
+                .chars()
+                .map(|c| if c.is_alphanumeric() { c } else { '_' })
+                .collect();
+            format_ident!("_{}", cleaned)
+        }
+    }
 }
 
 /// `#[doc]` attributes; each line gets the leading space `///` would have.

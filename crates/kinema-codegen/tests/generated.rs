@@ -127,3 +127,30 @@ fn long_sums_and_products_are_emitted_in_bounded_chains() {
     let source = kinema_codegen::generate_source(&derivation, &Options::default());
     assert!(source.contains("impl ::kinema::__private::System for Big"));
 }
+
+/// Names the model language accepts but Rust spells differently — a raw
+/// mechanism name, a keyword as a parameter — and a derivation constant
+/// that overflowed (a squared length `pow(p0, 1.157e308)`: merged exponents
+/// overflow to ∞) generate source instead of panicking (fuzz findings F6
+/// and F7).
+#[test]
+fn raw_names_and_overflowed_exponents_generate() {
+    let raw = "mechanism r#e {\n    param r#type = 2;\n    body b { guess: (1, 0, 0) }\n    \
+               constraint c: b.x == r#type;\n    constraint d: b.phi == 0;\n    \
+               driver drive: b.y == t;\n}\n";
+    let derivation = kinema_codegen::build::derive_source(raw, "raw.kin").expect("model derives");
+    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    assert!(source.contains("pub struct r#e"), "{source}");
+    assert!(source.contains("pub r#type: f64"), "{source}");
+
+    let overflowing = "mechanism u {\n    param p0 = 1;\n    \
+                       body b0 { guess: (0, 3.14, 3.14) }\n    body b1 { guess: (5, 6, 3) }\n    \
+                       joint e0: revolute(b0(p0, 13), ground(5, 14));\n    \
+                       constraint e1: abs_angle(b0, 139);\n    \
+                       joint e2: revolute_revolute(b0(p0, 0), b1(p0, -p0), pow(p0, 1.157e308));\n    \
+                       driver e3: abs_x(b1(0, 0), t);\n    driver e4: abs_angle(b1, 2 * t);\n}\n";
+    let derivation =
+        kinema_codegen::build::derive_source(overflowing, "inf.kin").expect("model derives");
+    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    assert!(source.contains("powf(f64::INFINITY)"), "{source}");
+}
