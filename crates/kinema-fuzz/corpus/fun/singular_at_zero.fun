@@ -1,0 +1,1 @@
+t^-2 + power(t, 0.5) + log10(t) + atan2(t, 0)

@@ -1,0 +1,499 @@
+//! Fuzz targets for kinema's entry points, input generators, and the
+//! oracles that judge a run.
+//!
+//! Three targets, each a plain function of the input bytes
+//! ([`run`], or [`fuzz_kin`], [`fuzz_adm`], [`fuzz_fun`] for a libFuzzer or
+//! AFL harness: one line each):
+//!
+//! - [`Target::Kin`]: `.kin` text → parse → check (diagnostics rendered) →
+//!   derive (the derivation text) → tapes → assembly and a few steps.
+//! - [`Target::Adm`]: ADM JSON, optionally a NUL byte and an ACF analysis →
+//!   read → kinematic check → `.kin` emission → the `.kin` pipeline at the
+//!   analysis' first solve times.
+//! - [`Target::Fun`]: a simEngine2D `fun` string → parse → evaluate →
+//!   `.kin` emission as the driver of a one-body model → run; the run must
+//!   agree with the `fun` evaluation (a differential oracle).
+//!
+//! Oracles here: no NaN or ±∞ in any state reported as a success, emitted
+//! `.kin` text that reads back, error output of bounded size, agreement of
+//! the two `fun` evaluators. Panics, hangs, aborts and memory are judged by
+//! the driver (`kinema-fuzz` binary), which runs inputs in a child process.
+
+pub mod generate;
+pub mod rng;
+pub mod verdict;
+
+use std::fmt;
+
+use kinema::{Auto, Solver, State, System, TapeSystem};
+use kinema_adm::fun::{BinOp, Expr, Fun, Func, Func2, Node};
+
+/// An entry point under test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// `.kin` model text.
+    Kin,
+    /// simEngine2D ADM model, optionally followed by `\0` and an ACF.
+    Adm,
+    /// A simEngine2D `fun` string.
+    Fun,
+}
+
+impl Target {
+    /// Every target, in the order the driver runs them.
+    pub const ALL: [Target; 3] = [Target::Kin, Target::Adm, Target::Fun];
+
+    /// The target's name (`kin`, `adm`, `fun`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Kin => "kin",
+            Target::Adm => "adm",
+            Target::Fun => "fun",
+        }
+    }
+
+    /// The target of a name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Target> {
+        Target::ALL.into_iter().find(|t| t.name() == name)
+    }
+}
+
+/// How far an input got: for the driver's statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Reach {
+    /// Refused by a reader or parser (syntax).
+    Parse,
+    /// Refused by a checker (names, types, counts).
+    Check,
+    /// Derived, but the analysis failed with an error.
+    Analysis,
+    /// Ran every step it was given.
+    Ran,
+}
+
+impl Reach {
+    /// Short name for the statistics.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Reach::Parse => "parse-error",
+            Reach::Check => "check-error",
+            Reach::Analysis => "analysis-error",
+            Reach::Ran => "ran",
+        }
+    }
+}
+
+/// An oracle violation: what the input did that it must not.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Finding {
+    /// A short, stable category: the first part of the signature.
+    pub kind: &'static str,
+    /// What happened, for the report.
+    pub detail: String,
+}
+
+impl fmt::Display for Finding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.kind, self.detail)
+    }
+}
+
+impl std::error::Error for Finding {}
+
+fn finding(kind: &'static str, detail: impl Into<String>) -> Finding {
+    Finding {
+        kind,
+        detail: detail.into(),
+    }
+}
+
+/// Times at which the `.kin` target steps a model: a regular grid to 1,
+/// then long strides (drivers that overflow later, Newton from far away).
+const KIN_TIMES: [f64; 14] = [
+    0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 10.0, 1000.0,
+];
+
+/// Most ADM solve times the `adm` target steps through.
+const ADM_STEPS: usize = 25;
+
+/// Error output may not be much larger than its input.
+fn check_error_size(rendered: &str, input_len: usize) -> Result<(), Finding> {
+    let limit = (input_len * 64).max(64 * 1024);
+    if rendered.len() > limit {
+        return Err(finding(
+            "error-output-blowup",
+            format!(
+                "{} bytes of error text for {input_len} bytes of input",
+                rendered.len()
+            ),
+        ));
+    }
+    if rendered.trim().is_empty() {
+        return Err(finding("empty-error", "an error without any message"));
+    }
+    Ok(())
+}
+
+/// Runs one input through a target.
+///
+/// # Errors
+/// A [`Finding`] when an oracle is violated. Panics propagate: the caller
+/// catches them.
+pub fn run(target: Target, data: &[u8]) -> Result<Reach, Finding> {
+    match target {
+        Target::Kin => kin(data),
+        Target::Adm => adm(data),
+        Target::Fun => fun(data),
+    }
+}
+
+/// libFuzzer/AFL entry for `.kin` text: panics on a finding.
+///
+/// # Panics
+/// On any [`Finding`] (and wherever kinema panics).
+pub fn fuzz_kin(data: &[u8]) {
+    if let Err(f) = kin(data) {
+        panic!("finding: {f}");
+    }
+}
+
+/// libFuzzer/AFL entry for simEngine2D ADM (+ `\0` + ACF): panics on a
+/// finding.
+///
+/// # Panics
+/// On any [`Finding`] (and wherever kinema panics).
+pub fn fuzz_adm(data: &[u8]) {
+    if let Err(f) = adm(data) {
+        panic!("finding: {f}");
+    }
+}
+
+/// libFuzzer/AFL entry for `fun` strings: panics on a finding.
+///
+/// # Panics
+/// On any [`Finding`] (and wherever kinema panics).
+pub fn fuzz_fun(data: &[u8]) {
+    if let Err(f) = fun(data) {
+        panic!("finding: {f}");
+    }
+}
+
+/// Text as the CLI reads it: invalid UTF-8 is refused (as `read_to_string`
+/// does), so such inputs stop here.
+fn text(data: &[u8]) -> Option<&str> {
+    std::str::from_utf8(data).ok()
+}
+
+/// The `.kin` target.
+///
+/// # Errors
+/// A [`Finding`] when an oracle is violated.
+pub fn kin(data: &[u8]) -> Result<Reach, Finding> {
+    let Some(source) = text(data) else {
+        return Ok(Reach::Parse);
+    };
+    kin_text(source, "fuzz.kin", &KIN_TIMES, true).map(|(reach, _)| reach)
+}
+
+/// Checks every number of a state reported as a success.
+fn check_state(state: &State, t: f64, system: &TapeSystem) -> Result<(), Finding> {
+    let parts = [("q", state.q()), ("q̇", state.qd()), ("q̈", state.qdd())];
+    for (what, values) in parts {
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(finding(
+                "non-finite-success",
+                format!(
+                    "step at t = {t} succeeded with {what}[{}] ({}) = {}",
+                    i,
+                    system.coordinate_name(i),
+                    values[i]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The `.kin` pipeline on text: parse, check, derive, run at `times` (from
+/// the guess at the first, stepping after). Returns how far it got and the
+/// first coordinate at each time that succeeded. `codegen`: generate the
+/// Rust source too (the slowest phase; the `.kin` target only).
+fn kin_text(
+    source: &str,
+    file: &str,
+    times: &[f64],
+    codegen: bool,
+) -> Result<(Reach, Vec<(f64, f64)>), Finding> {
+    let parsed = match kinema_model::Model::parse_str(source) {
+        Ok(m) => m,
+        Err(d) => {
+            check_error_size(&d.render(source, file), source.len())?;
+            return Ok((Reach::Parse, Vec::new()));
+        }
+    };
+    let checked = match parsed.check() {
+        Ok(c) => c,
+        Err(d) => {
+            check_error_size(&d.render(source, file), source.len())?;
+            return Ok((Reach::Check, Vec::new()));
+        }
+    };
+    for w in &checked.warnings {
+        check_error_size(&w.render(source, file), source.len())?;
+    }
+    let derivation = kinema_model::Derivation::new(&checked);
+    // `kinema derive`: the text must render (its size is the model's).
+    let _ = derivation.render();
+    let model = kinema::Model::from_derivation(derivation);
+    if codegen {
+        // `kinema codegen`: generated Rust for the same derivation.
+        let _ = model.rust_source();
+    }
+    let mut solver = match Solver::<TapeSystem, Auto>::new(model.system()) {
+        Ok(s) => s,
+        Err(e) => {
+            let _ = e.to_string();
+            return Ok((Reach::Analysis, Vec::new()));
+        }
+    };
+    let mut first = Vec::new();
+    for &t in times {
+        match solver.step(t) {
+            Ok(state) => {
+                let state = state.clone();
+                check_state(&state, t, solver.system())?;
+                if let Some(&x) = state.q().first() {
+                    first.push((t, x));
+                }
+            }
+            Err(e) => {
+                let message = e.to_string();
+                if message.trim().is_empty() {
+                    return Err(finding("empty-error", "a run-time error without a message"));
+                }
+                return Ok((Reach::Analysis, first));
+            }
+        }
+    }
+    Ok((Reach::Ran, first))
+}
+
+/// The simEngine2D target: ADM text, optionally `\0` and ACF text.
+///
+/// # Errors
+/// A [`Finding`] when an oracle is violated.
+pub fn adm(data: &[u8]) -> Result<Reach, Finding> {
+    let (adm_bytes, acf_bytes) = match data.iter().position(|&b| b == 0) {
+        Some(k) => (&data[..k], Some(&data[k + 1..])),
+        None => (data, None),
+    };
+    let Some(adm_text) = text(adm_bytes) else {
+        return Ok(Reach::Parse);
+    };
+    let analysis = match acf_bytes {
+        None => kinema_adm::Analysis::default(),
+        Some(bytes) => {
+            let Some(acf_text) = text(bytes) else {
+                return Ok(Reach::Parse);
+            };
+            match kinema_adm::Analysis::parse(acf_text, "fuzz.acf") {
+                Ok(a) => a,
+                Err(e) => {
+                    check_error_size(&e.to_string(), bytes.len())?;
+                    return Ok(Reach::Parse);
+                }
+            }
+        }
+    };
+    let model = match kinema_adm::Model::parse(adm_text, "fuzz.adm") {
+        Ok(m) => m,
+        Err(e) => {
+            check_error_size(&e.to_string(), adm_bytes.len())?;
+            return Ok(Reach::Parse);
+        }
+    };
+    for w in &model.warnings {
+        let _ = w.to_string();
+    }
+    let _ = kinema_adm::ignored_by_kinematics(&model);
+    let _ = model.q0();
+    if let Err(refusal) = kinema_adm::check_kinematic(&model, &analysis) {
+        let _ = refusal.to_string();
+        return Ok(Reach::Check);
+    }
+    let names = kinema_adm::Names::of(&model);
+    let _ = names.rows(&model);
+    let emitted = kinema_adm::to_kin(&model);
+    // What the CLI computes before it runs: the output and solve grids.
+    let outputs = analysis.output_times();
+    let solves = analysis.solve_times();
+    if let Some(bad) = outputs.iter().chain(&solves).find(|t| !t.is_finite()) {
+        return Err(finding(
+            "adm-nonfinite-time",
+            format!("the analysis grid contains t = {bad}"),
+        ));
+    }
+    let times: Vec<f64> = solves.iter().take(ADM_STEPS).copied().collect();
+    let times = if times.is_empty() { vec![0.0] } else { times };
+    let (reach, _) = kin_text(&emitted, "fuzz.adm (imported as .kin)", &times, false)?;
+    match reach {
+        Reach::Parse | Reach::Check => {
+            // A kinematic ADM model the reader accepted must import as a
+            // model that reads back: anything else is a message about text
+            // the user never wrote.
+            let d = kinema_model::check_str(&emitted)
+                .err()
+                .map(|d| d.render(&emitted, "imported.kin"))
+                .unwrap_or_default();
+            Err(finding(
+                "adm-emitted-kin-rejected",
+                first_line(&d).to_string(),
+            ))
+        }
+        r => Ok(r),
+    }
+}
+
+fn first_line(s: &str) -> &str {
+    s.lines().next().unwrap_or("")
+}
+
+/// Times at which the `fun` target compares the two evaluators.
+const FUN_TIMES: [f64; 6] = [0.0, 0.1, 0.25, 0.5, 1.0, 2.0];
+
+/// The `fun` target.
+///
+/// # Errors
+/// A [`Finding`] when an oracle is violated.
+pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
+    let Some(source) = text(data) else {
+        return Ok(Reach::Parse);
+    };
+    if let Ok(v) = Expr::parse_constant(source)
+        && !v.is_finite()
+    {
+        return Err(finding(
+            "fun-nonfinite-constant",
+            format!("parse_constant accepted `{source}` as {v}"),
+        ));
+    }
+    let expr = match Fun::parse(source) {
+        Ok(Fun::None) => return Ok(Reach::Ran),
+        Ok(Fun::Expr(e)) => e,
+        Err(e) => {
+            let _ = e.to_string();
+            return Ok(Reach::Parse);
+        }
+    };
+    let kin_expr = expr.to_kin();
+    let model = generate::kin::driver_model(&kin_expr);
+    let (reach, values) = kin_text(&model, "fun.kin", &FUN_TIMES, false)?;
+    if reach == Reach::Parse {
+        return Err(finding(
+            "fun-emitted-kin-unparsable",
+            format!("`{source}` printed as `{kin_expr}`"),
+        ));
+    }
+    if reach == Reach::Check {
+        let rendered = kinema_model::check_str(&model)
+            .err()
+            .map(|d| d.render(&model, "fun.kin"))
+            .unwrap_or_default();
+        if rendered.contains("unknown") {
+            return Err(finding(
+                "fun-emitted-kin-unknown-name",
+                format!(
+                    "`{source}` printed as `{kin_expr}`: {}",
+                    first_line(&rendered)
+                ),
+            ));
+        }
+    }
+    // An expression undefined at isolated times (t/t at 0) may be
+    // simplified into a defined one, as any computer algebra does; one that
+    // is undefined at every sample time (0 * (1e308 * 1e308) + t) must not
+    // run.
+    let evaluated: Vec<(f64, f64, f64, f64)> = values
+        .iter()
+        .map(|&(t, x)| {
+            let (v, scale) = eval_with_scale(&expr, t);
+            (t, x, v, scale)
+        })
+        .collect();
+    if values.len() == FUN_TIMES.len() && evaluated.iter().all(|e| !e.2.is_finite()) {
+        return Err(finding(
+            "fun-undefined-value-vanished",
+            format!(
+                "`{source}` is {} at every t but kinema ran it, giving {} at t = 0",
+                evaluated[0].2, evaluated[0].1
+            ),
+        ));
+    }
+    for (t, x, v, scale) in evaluated {
+        let tolerance = 1e-9 * (1.0 + scale) * (expr.nodes().len() as f64);
+        if v.is_finite() && (v - x).abs() > tolerance {
+            return Err(finding(
+                "fun-value-mismatch",
+                format!("`{source}` at t = {t}: fun evaluates {v}, kinema {x}"),
+            ));
+        }
+    }
+    Ok(reach)
+}
+
+/// The `fun` value at `t` and the largest finite magnitude among its
+/// intermediate values (the scale of its rounding errors).
+fn eval_with_scale(expr: &Expr, t: f64) -> (f64, f64) {
+    let mut values: Vec<f64> = Vec::with_capacity(expr.nodes().len());
+    let mut scale: f64 = 0.0;
+    for node in expr.nodes() {
+        let get = |i: u32| values.get(i as usize).copied().unwrap_or(f64::NAN);
+        let x = match *node {
+            Node::Num(x) => x,
+            Node::Pi => std::f64::consts::PI,
+            Node::T => t,
+            Node::Neg(a) => -get(a),
+            Node::Bin(op, a, b) => {
+                let (a, b) = (get(a), get(b));
+                match op {
+                    BinOp::Add => a + b,
+                    BinOp::Sub => a - b,
+                    BinOp::Mul => a * b,
+                    BinOp::Div => a / b,
+                    BinOp::Pow => a.powf(b),
+                }
+            }
+            Node::Call(f, a) => apply(f, get(a)),
+            Node::Call2(Func2::Atan2, a, b) => get(a).atan2(get(b)),
+            Node::Call2(Func2::Power, a, b) => get(a).powf(get(b)),
+        };
+        if x.is_finite() {
+            scale = scale.max(x.abs());
+        }
+        values.push(x);
+    }
+    let v = expr.eval(t);
+    (v, scale)
+}
+
+fn apply(f: Func, x: f64) -> f64 {
+    match f {
+        Func::Sin => x.sin(),
+        Func::Cos => x.cos(),
+        Func::Tan => x.tan(),
+        Func::Asin => x.asin(),
+        Func::Acos => x.acos(),
+        Func::Atan => x.atan(),
+        Func::Sinh => x.sinh(),
+        Func::Cosh => x.cosh(),
+        Func::Tanh => x.tanh(),
+        Func::Exp => x.exp(),
+        Func::Log => x.ln(),
+        Func::Log10 => x.log10(),
+        Func::Sqrt => x.sqrt(),
+        Func::Abs => x.abs(),
+    }
+}
