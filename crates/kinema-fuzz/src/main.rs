@@ -319,13 +319,20 @@ fn run_batch(
         let mut current: Option<(usize, Instant, f64)> = None;
         let mut next_start = inputs.len();
         loop {
+            if Instant::now() >= deadline {
+                // Out of time: the input under way gets no verdict.
+                worker.kill();
+                next_start = inputs.len();
+                break;
+            }
             let wait = match current {
                 Some((_, since, _)) => args
                     .timeout
                     .saturating_sub(since.elapsed())
                     .max(Duration::from_millis(100)),
                 None => args.timeout,
-            };
+            }
+            .min(deadline.saturating_duration_since(Instant::now()) + Duration::from_millis(1));
             match worker.lines.recv_timeout(wait) {
                 Ok(line) => {
                     let fields: Vec<&str> = line.split(SEP).collect();
@@ -356,6 +363,9 @@ fn run_batch(
                     }
                 }
                 Err(RecvTimeoutError::Timeout) => {
+                    if Instant::now() >= deadline {
+                        continue;
+                    }
                     if let Some((i, since, cpu0)) = current {
                         // The limit is on CPU time, so that a loaded machine
                         // does not turn slow inputs into hangs; the wall clock
@@ -400,7 +410,19 @@ fn run_batch(
 /// CPU time (user + system) a process has used, from `/proc` (Linux);
 /// 0 where that cannot be read, which makes the time limit a wall-clock one.
 fn cpu_seconds(pid: u32) -> f64 {
-    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+    stat_seconds(&format!("/proc/{pid}/stat"), 11)
+}
+
+/// CPU time of this process's children that have been waited for (all the
+/// children's work, for the statistics), from `/proc/self/stat`.
+fn children_cpu_seconds() -> f64 {
+    stat_seconds("/proc/self/stat", 13)
+}
+
+/// The sum of two consecutive tick counts in a `/proc/…/stat` file, from
+/// index `first` after the command name, in seconds.
+fn stat_seconds(path: &str, first: usize) -> f64 {
+    let Ok(stat) = std::fs::read_to_string(path) else {
         return 0.0;
     };
     // Fields after the command name (which may contain spaces) end with `)`.
@@ -408,7 +430,8 @@ fn cpu_seconds(pid: u32) -> f64 {
         return 0.0;
     };
     let fields: Vec<&str> = rest.split_whitespace().collect();
-    // utime and stime are fields 14 and 15 of the whole line: 12 and 13 here.
+    // utime and stime are fields 14 and 15 of the whole line (11 and 12
+    // here), cutime and cstime 16 and 17 (13 and 14).
     let ticks = |k: usize| {
         fields
             .get(k)
@@ -416,7 +439,7 @@ fn cpu_seconds(pid: u32) -> f64 {
             .unwrap_or(0.0)
     };
     // Clock ticks per second: 100 on every Linux configuration in use.
-    (ticks(11) + ticks(12)) / 100.0
+    (ticks(first) + ticks(first + 1)) / 100.0
 }
 
 /// Per-target statistics.
@@ -426,6 +449,8 @@ struct Stats {
     reach: BTreeMap<String, usize>,
     findings: BTreeMap<String, usize>,
     elapsed: Duration,
+    /// CPU seconds the children used.
+    cpu: f64,
 }
 
 fn parent(args: &Args) -> Result<bool, String> {
@@ -456,6 +481,7 @@ fn parent(args: &Args) -> Result<bool, String> {
     let mut report = String::new();
     for &target in &args.targets {
         let begin = Instant::now();
+        let cpu_begin = children_cpu_seconds();
         let deadline = begin + Duration::from_secs_f64(per_target);
         let mut rng = target_rng(args.seed, target);
         let mut stats = Stats::default();
@@ -493,6 +519,7 @@ fn parent(args: &Args) -> Result<bool, String> {
             batch_no += 1;
         }
         stats.elapsed = begin.elapsed();
+        stats.cpu = children_cpu_seconds() - cpu_begin;
         let line = summary(target, &stats, &args.known);
         eprintln!("{line}");
         report.push_str(&line);
@@ -511,11 +538,13 @@ fn target_rng(seed: u64, target: Target) -> Rng {
 fn summary(target: Target, s: &Stats, known: &Known) -> String {
     let secs = s.elapsed.as_secs_f64();
     let mut line = format!(
-        "{}: {} inputs in {:.1} s ({:.1}/s);",
+        "{}: {} inputs in {:.1} s ({:.1}/s; {:.1} s of CPU in the children, {:.1} per CPU second);",
         target.name(),
         s.inputs,
         secs,
-        s.inputs as f64 / secs.max(1e-9)
+        s.inputs as f64 / secs.max(1e-9),
+        s.cpu,
+        s.inputs as f64 / s.cpu.max(1e-9)
     );
     for (r, n) in &s.reach {
         let _ = write!(line, " {r} {n}");

@@ -402,7 +402,7 @@ pub fn generate(rng: &mut Rng) -> String {
         0 => 1,
         1 => g.rng.range(2, 4),
         2 => g.rng.range(5, 12),
-        _ => g.rng.range(20, 80),
+        _ => g.rng.range(20, 40),
     };
     for i in 0..nbodies {
         let bname = name_for(g.rng, sloppy, &format!("b{i}"));
