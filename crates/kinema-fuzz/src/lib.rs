@@ -193,7 +193,14 @@ pub fn kin(data: &[u8]) -> Result<Reach, Finding> {
     let Some(source) = text(data) else {
         return Ok(Reach::Parse);
     };
-    kin_text(source, "fuzz.kin", &KIN_TIMES, true).map(|(reach, _)| reach)
+    kin_text(
+        source,
+        "fuzz.kin",
+        &KIN_TIMES,
+        true,
+        moderate_literals(source),
+    )
+    .map(|(reach, _)| reach)
 }
 
 /// Checks every number of a state reported as a success.
@@ -219,11 +226,14 @@ fn check_state(state: &State, t: f64, system: &TapeSystem) -> Result<(), Finding
 /// the guess at the first, stepping after). Returns how far it got and the
 /// first coordinate at each time that succeeded. `codegen`: generate the
 /// Rust source too (the slowest phase; the `.kin` target only).
+/// `derivatives`: check Φ_q, ν and γ against finite differences at the
+/// assembled state (for models whose numbers differences can resolve).
 fn kin_text(
     source: &str,
     file: &str,
     times: &[f64],
     codegen: bool,
+    derivatives: bool,
 ) -> Result<(Reach, Vec<(f64, f64)>), Finding> {
     let parsed = match kinema_model::Model::parse_str(source) {
         Ok(m) => m,
@@ -258,11 +268,14 @@ fn kin_text(
         }
     };
     let mut first = Vec::new();
-    for &t in times {
+    for (k, &t) in times.iter().enumerate() {
         match solver.step(t) {
             Ok(state) => {
                 let state = state.clone();
                 check_state(&state, t, solver.system())?;
+                if k == 0 && derivatives {
+                    check_derivatives(solver.system_mut(), &state)?;
+                }
                 if let Some(&x) = state.q().first() {
                     first.push((t, x));
                 }
@@ -336,7 +349,13 @@ pub fn adm(data: &[u8]) -> Result<Reach, Finding> {
     }
     let times: Vec<f64> = solves.iter().take(ADM_STEPS).copied().collect();
     let times = if times.is_empty() { vec![0.0] } else { times };
-    let (reach, _) = kin_text(&emitted, "fuzz.adm (imported as .kin)", &times, false)?;
+    let (reach, _) = kin_text(
+        &emitted,
+        "fuzz.adm (imported as .kin)",
+        &times,
+        false,
+        moderate_literals(&emitted),
+    )?;
     match reach {
         Reach::Parse | Reach::Check => {
             // A kinematic ADM model the reader accepted must import as a
@@ -387,8 +406,11 @@ pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
         }
     };
     let kin_expr = expr.to_kin();
+    // Finite differences resolve the derivatives only where no intermediate
+    // value is large (1e15 + t does not move with t).
+    let resolvable = FUN_TIMES.iter().all(|&t| eval_with_scale(&expr, t).1 < 1e4);
     let model = generate::kin::driver_model(&kin_expr);
-    let (reach, values) = kin_text(&model, "fun.kin", &FUN_TIMES, false)?;
+    let (reach, values) = kin_text(&model, "fun.kin", &FUN_TIMES, false, resolvable)?;
     if reach == Reach::Parse {
         return Err(finding(
             "fun-emitted-kin-unparsable",
@@ -493,5 +515,251 @@ fn apply(f: Func, x: f64) -> f64 {
         Func::Log10 => x.log10(),
         Func::Sqrt => x.sqrt(),
         Func::Abs => x.abs(),
+    }
+}
+
+/// A central difference of `f` along a direction, at step `h`, and at
+/// `h / 4`: (first, second).
+fn differences(
+    system: &mut TapeSystem,
+    state: &State,
+    h: f64,
+    second: bool,
+    along: &dyn Fn(&mut [f64], &mut f64, f64),
+) -> Vec<f64> {
+    let n = system.len();
+    let (mut plus, mut minus, mut centre) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut q = state.q().to_vec();
+    let mut t = state.t();
+    along(&mut q, &mut t, h);
+    system.phi(&q, t, &mut plus);
+    let mut q = state.q().to_vec();
+    let mut t = state.t();
+    along(&mut q, &mut t, -h);
+    system.phi(&q, t, &mut minus);
+    if second {
+        system.phi(state.q(), state.t(), &mut centre);
+        (0..n)
+            .map(|i| (plus[i] - 2.0 * centre[i] + minus[i]) / (h * h))
+            .collect()
+    } else {
+        (0..n).map(|i| (plus[i] - minus[i]) / (2.0 * h)).collect()
+    }
+}
+
+/// Compares `exact` with finite differences at steps `h` and `h / 4`: the
+/// first entry where both differences disagree with `exact` by more than the
+/// tolerance and agree with each other (so kinks and rounding noise, which
+/// make the two differences differ, are not reported).
+fn disagreement(exact: &[f64], coarse: &[f64], fine: &[f64], relative: f64) -> Option<usize> {
+    (0..exact.len()).find(|&i| {
+        let (e, c, f) = (exact[i], coarse[i], fine[i]);
+        if !(e.is_finite() && c.is_finite() && f.is_finite()) {
+            return false;
+        }
+        let tolerance = relative * (1.0 + e.abs().max(c.abs()));
+        let off_f = (f - e).abs();
+        (c - e).abs() > tolerance && off_f > tolerance && (c - f).abs() < 0.01 * off_f
+    })
+}
+
+/// The derivative check of one quantity, as a finding.
+struct Check<'a> {
+    kind: &'static str,
+    what: &'a str,
+    exact: &'a [f64],
+    coarse: &'a [f64],
+    fine: &'a [f64],
+    relative: f64,
+}
+
+impl Check<'_> {
+    fn run(&self, system: &TapeSystem, t: f64) -> Result<(), Finding> {
+        match disagreement(self.exact, self.coarse, self.fine, self.relative) {
+            None => Ok(()),
+            Some(i) => Err(finding(
+                self.kind,
+                format!(
+                    "{} of equation {} at t = {t}: derived {:e}, finite differences {:e} and {:e}",
+                    self.what,
+                    system.equation_name(i),
+                    self.exact[i],
+                    self.coarse[i],
+                    self.fine[i]
+                ),
+            )),
+        }
+    }
+}
+
+/// The derivation against finite differences at a converged state: each
+/// column of Φ_q, ν = −Φ_t, and γ = −d²Φ/ds² along (q + s q̇, t + s).
+/// Only where every number is moderate, so that differences are accurate.
+fn check_derivatives(system: &mut TapeSystem, state: &State) -> Result<(), Finding> {
+    let n = system.len();
+    let moderate = |v: &[f64]| v.iter().all(|x| x.abs() < 1e3);
+    if n == 0 || n > 60 || !moderate(state.q()) || !moderate(state.qd()) || state.t().abs() > 1e3 {
+        return Ok(());
+    }
+    let t = state.t();
+    let pattern = system.jacobian_pattern().to_vec();
+    let mut values = vec![0.0; pattern.len()];
+    system.jacobian(state.q(), t, &mut values);
+    let mut phi = vec![0.0; n];
+    system.phi(state.q(), t, &mut phi);
+    if !moderate(&values) || !moderate(&phi) {
+        return Ok(());
+    }
+    for j in 0..n {
+        let mut column = vec![0.0; n];
+        for (&(r, c), &v) in pattern.iter().zip(&values) {
+            if c as usize == j
+                && let Some(slot) = column.get_mut(r as usize)
+            {
+                *slot = v;
+            }
+        }
+        let h = 1e-4 * (1.0 + state.q()[j].abs());
+        let step = |q: &mut [f64], _: &mut f64, s: f64| q[j] += s;
+        let coarse = differences(system, state, h, false, &step);
+        let fine = differences(system, state, h / 4.0, false, &step);
+        let what = format!("Φ_q column {}", system.coordinate_name(j));
+        Check {
+            kind: "jacobian-mismatch",
+            what: &what,
+            exact: &column,
+            coarse: &coarse,
+            fine: &fine,
+            relative: 1e-5,
+        }
+        .run(system, t)?;
+    }
+    let mut nu = vec![0.0; n];
+    system.nu(state.q(), t, &mut nu);
+    let minus_nu: Vec<f64> = nu.iter().map(|v| -v).collect();
+    let time = |_: &mut [f64], t: &mut f64, s: f64| *t += s;
+    let h = 1e-4 * (1.0 + t.abs());
+    let coarse = differences(system, state, h, false, &time);
+    let fine = differences(system, state, h / 4.0, false, &time);
+    Check {
+        kind: "nu-mismatch",
+        what: "Φ_t (−ν)",
+        exact: &minus_nu,
+        coarse: &coarse,
+        fine: &fine,
+        relative: 1e-5,
+    }
+    .run(system, t)?;
+    let mut gamma = vec![0.0; n];
+    system.gamma(state.q(), state.qd(), t, &mut gamma);
+    let minus_gamma: Vec<f64> = gamma.iter().map(|v| -v).collect();
+    let qd = state.qd().to_vec();
+    let path = move |q: &mut [f64], t: &mut f64, s: f64| {
+        for (x, v) in q.iter_mut().zip(&qd) {
+            *x += s * v;
+        }
+        *t += s;
+    };
+    let h = 1e-3;
+    let coarse = differences(system, state, h, true, &path);
+    let fine = differences(system, state, h / 4.0, true, &path);
+    Check {
+        kind: "gamma-mismatch",
+        what: "d²Φ/ds² (−γ)",
+        exact: &minus_gamma,
+        coarse: &coarse,
+        fine: &fine,
+        relative: 1e-4,
+    }
+    .run(system, t)
+}
+
+/// Whether every number literal of a model is 0 or between 1e-3 and 1e4 in
+/// magnitude and no `tan` meets a multiple of π/2 there: then finite
+/// differences of its equations are accurate enough to judge derivatives.
+fn moderate_literals(source: &str) -> bool {
+    if source.contains("tan(pi") {
+        return false;
+    }
+    let mut chars = source.char_indices().peekable();
+    let bytes = source.as_bytes();
+    while let Some((i, c)) = chars.next() {
+        let starts_number = c.is_ascii_digit()
+            && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_'));
+        if !starts_number {
+            continue;
+        }
+        let mut end = i + 1;
+        while end < bytes.len()
+            && (bytes[end].is_ascii_digit()
+                || bytes[end] == b'.'
+                || bytes[end] == b'e'
+                || bytes[end] == b'E'
+                || ((bytes[end] == b'-' || bytes[end] == b'+')
+                    && matches!(bytes[end - 1], b'e' | b'E')))
+        {
+            end += 1;
+        }
+        while chars.peek().is_some_and(|&(k, _)| k < end) {
+            chars.next();
+        }
+        let Ok(v) = source[i..end].parse::<f64>() else {
+            return false;
+        };
+        if v != 0.0 && !(1e-3..=1e4).contains(&v.abs()) {
+            return false;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pendulum() -> TapeSystem {
+        let src = "mechanism P { body b { guess: (0.5, 0.8, 1.0) } \
+                   joint pin: revolute(ground(0, 0), b(-1, 0)); \
+                   driver d: b.phi == 4 * t * t; }";
+        match kinema::Model::from_source(src, "p.kin") {
+            Ok(m) => m.system(),
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn derivative_mismatch_is_reported_only_when_differences_agree() {
+        // A consistent disagreement (a wrong derivative) is a finding…
+        assert_eq!(
+            disagreement(&[0.0, 2.0], &[0.0, 1.0], &[0.0, 1.0], 1e-5),
+            Some(1)
+        );
+        // …differences that disagree with each other (a kink, noise) are not…
+        assert_eq!(disagreement(&[2.0], &[1.0], &[1.5], 1e-5), None);
+        // …and agreement within the tolerance is fine.
+        assert_eq!(disagreement(&[2.0], &[2.0 + 1e-7], &[2.0], 1e-5), None);
+    }
+
+    #[test]
+    fn derivatives_of_a_correct_model_pass() {
+        let mut solver = match Solver::<TapeSystem, Auto>::new(pendulum()) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        };
+        let state = match solver.step(0.3) {
+            Ok(s) => s.clone(),
+            Err(e) => panic!("{e}"),
+        };
+        assert_eq!(check_derivatives(solver.system_mut(), &state), Ok(()));
+    }
+
+    #[test]
+    fn moderate_literals_judges_every_number() {
+        assert!(moderate_literals("b.x == 0.3 * t + 2e3; b1.y == 0"));
+        assert!(!moderate_literals("b.x == 1e15 + t"));
+        assert!(!moderate_literals("b.x == 0.00001 * t"));
+        assert!(!moderate_literals("b.x == tan(pi / 2) + t"));
+        // Digits inside names are not numbers.
+        assert!(moderate_literals("b123456789.x == t"));
     }
 }
