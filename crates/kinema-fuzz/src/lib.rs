@@ -1,7 +1,7 @@
 //! Fuzz targets for kinema's entry points, input generators, and the
 //! oracles that judge a run.
 //!
-//! Three targets, each a plain function of the input bytes
+//! Four targets, each a plain function of the input bytes
 //! ([`run`], or [`fuzz_kin`], [`fuzz_adm`], [`fuzz_fun`] for a libFuzzer or
 //! AFL harness: one line each):
 //!
@@ -13,12 +13,14 @@
 //! - [`Target::Fun`]: a simEngine2D `fun` string → parse → evaluate →
 //!   `.kin` emission as the driver of a one-body model → run; the run must
 //!   agree with the `fun` evaluation (a differential oracle).
+//! - [`Target::Cli`]: the `kinema` program on a model file ([`cli`]).
 //!
 //! Oracles here: no NaN or ±∞ in any state reported as a success, emitted
 //! `.kin` text that reads back, error output of bounded size, agreement of
 //! the two `fun` evaluators. Panics, hangs, aborts and memory are judged by
 //! the driver (`kinema-fuzz` binary), which runs inputs in a child process.
 
+pub mod cli;
 pub mod generate;
 pub mod rng;
 pub mod verdict;
@@ -37,11 +39,14 @@ pub enum Target {
     Adm,
     /// A simEngine2D `fun` string.
     Fun,
+    /// The `kinema` program on a `.kin` model, or an ADM model (input
+    /// starting with `{`) optionally followed by `\0` and an ACF.
+    Cli,
 }
 
 impl Target {
     /// Every target, in the order the driver runs them.
-    pub const ALL: [Target; 3] = [Target::Kin, Target::Adm, Target::Fun];
+    pub const ALL: [Target; 4] = [Target::Kin, Target::Adm, Target::Fun, Target::Cli];
 
     /// The target's name (`kin`, `adm`, `fun`).
     #[must_use]
@@ -50,6 +55,7 @@ impl Target {
             Target::Kin => "kin",
             Target::Adm => "adm",
             Target::Fun => "fun",
+            Target::Cli => "cli",
         }
     }
 
@@ -93,6 +99,20 @@ pub struct Finding {
     pub kind: &'static str,
     /// What happened, for the report.
     pub detail: String,
+    /// Where it happened, when known (`file:line` of a panic in a `kinema`
+    /// process): the second part of the signature.
+    pub site: Option<String>,
+}
+
+impl Finding {
+    /// The signature: the kind, and the site when there is one.
+    #[must_use]
+    pub fn signature(&self) -> String {
+        match &self.site {
+            Some(site) => format!("{} at {site}", self.kind),
+            None => self.kind.to_string(),
+        }
+    }
 }
 
 impl fmt::Display for Finding {
@@ -103,10 +123,11 @@ impl fmt::Display for Finding {
 
 impl std::error::Error for Finding {}
 
-fn finding(kind: &'static str, detail: impl Into<String>) -> Finding {
+pub(crate) fn finding(kind: &'static str, detail: impl Into<String>) -> Finding {
     Finding {
         kind,
         detail: detail.into(),
+        site: None,
     }
 }
 
@@ -145,6 +166,7 @@ pub fn run(target: Target, data: &[u8]) -> Result<Reach, Finding> {
         Target::Kin => kin(data),
         Target::Adm => adm(data),
         Target::Fun => fun(data),
+        Target::Cli => cli::cli(data),
     }
 }
 

@@ -577,6 +577,7 @@ fn extension(target: Target) -> &'static str {
         Target::Kin => "kin",
         Target::Adm => "adm",
         Target::Fun => "fun",
+        Target::Cli => "cli",
     }
 }
 
@@ -712,6 +713,7 @@ fn target_of(path: &Path) -> Option<Target> {
         "kin" => Some(Target::Kin),
         "adm" => Some(Target::Adm),
         "fun" => Some(Target::Fun),
+        "cli" => Some(Target::Cli),
         _ => None,
     }
 }

@@ -31,7 +31,7 @@ impl Verdict {
     pub fn signature(&self) -> Option<String> {
         match self {
             Verdict::Clean(_) => None,
-            Verdict::Finding(f) => Some(f.kind.to_string()),
+            Verdict::Finding(f) => Some(f.signature()),
             Verdict::Panic { location, .. } => Some(format!("panic at {}", strip_column(location))),
         }
     }

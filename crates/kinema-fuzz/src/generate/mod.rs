@@ -211,15 +211,21 @@ impl Seeds {
 /// generated input (10 %).
 pub fn input(target: crate::Target, rng: &mut Rng, seeds: &Seeds) -> Vec<u8> {
     use crate::Target;
+    let target = match target {
+        // The program reads both formats: half each.
+        Target::Cli if rng.chance(0.5) => Target::Kin,
+        Target::Cli => Target::Adm,
+        t => t,
+    };
     let mode = rng.weighted(&[6, 3, 1]);
     let pool = match target {
         Target::Kin => &seeds.kin,
-        Target::Adm => &seeds.adm,
+        Target::Adm | Target::Cli => &seeds.adm,
         Target::Fun => &seeds.fun,
     };
     let fresh = |rng: &mut Rng| match target {
         Target::Kin => kin::generate(rng),
-        Target::Adm => adm::generate(rng),
+        Target::Adm | Target::Cli => adm::generate(rng),
         Target::Fun => fun::generate(rng),
     };
     match mode {
@@ -229,7 +235,7 @@ pub fn input(target: crate::Target, rng: &mut Rng, seeds: &Seeds) -> Vec<u8> {
             let mut splice = |rng: &mut Rng| match target {
                 Target::Kin => format!("({})", kin::time_expr(rng)),
                 Target::Adm if rng.chance(0.6) => json_number(rng),
-                Target::Adm | Target::Fun => fun::generate(rng),
+                Target::Adm | Target::Fun | Target::Cli => fun::generate(rng),
             };
             let mut out = mutate::structured(rng, &seed, &mut splice);
             if target == Target::Adm && rng.chance(0.3) {
