@@ -396,7 +396,19 @@ fn run_batch(
                         });
                         next_start = i + 1;
                     } else {
-                        let _ = worker.child.wait();
+                        // Between inputs: the batch is done, or the child
+                        // failed before or between inputs (then go on from
+                        // the first input without a verdict, unless it made
+                        // no progress at all: that is the driver's failure).
+                        let failed = worker.child.wait().map_or(true, |s| !s.success());
+                        let first_open = (start..inputs.len()).find(|&k| seen[k].is_none());
+                        if let (true, Some(k)) = (failed, first_open) {
+                            if k == start {
+                                let (_, detail) = worker.death();
+                                return Err(format!("the child failed before any input: {detail}"));
+                            }
+                            next_start = k;
+                        }
                     }
                     break;
                 }
