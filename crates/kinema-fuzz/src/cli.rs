@@ -91,8 +91,7 @@ fn judge(args: &[&str], code: Option<i32>, stderr: &str, input_len: usize) -> Re
             .take_while(|c| !c.is_whitespace())
             .collect();
         let location = location.trim_end_matches(':');
-        // file:line (the column moves with formatting).
-        let short = location.rsplit_once(':').map_or(location, |(head, _)| head);
+        let short = crate::verdict::strip_column(location);
         return Err(Finding {
             kind: "cli-panic",
             detail: format!(

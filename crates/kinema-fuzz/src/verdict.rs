@@ -51,8 +51,20 @@ impl Verdict {
     }
 }
 
-/// `file:line:col` → `file:line` (columns move with formatting).
-fn strip_column(location: &str) -> &str {
+/// `file:line:col` → `file:line` (columns move with formatting), with a
+/// dependency's path made machine-independent:
+/// `/root/.cargo/registry/src/index.crates.io-…/nalgebra-0.35.0/src/x.rs`
+/// → `nalgebra-0.35.0/src/x.rs`.
+#[must_use]
+pub fn strip_column(location: &str) -> &str {
+    let location = match location.find("/registry/src/") {
+        Some(k) => {
+            let rest = &location[k + "/registry/src/".len()..];
+            rest.split_once('/')
+                .map_or(rest, |(_, crate_path)| crate_path)
+        }
+        None => location,
+    };
     match location.rsplit_once(':') {
         Some((head, col)) if col.chars().all(|c| c.is_ascii_digit()) && head.contains(':') => head,
         _ => location,

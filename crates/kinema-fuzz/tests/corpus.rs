@@ -173,3 +173,18 @@ fn show_kin_outcomes() {
         }
     }
 }
+
+#[test]
+fn signatures_of_dependencies_do_not_name_the_machine() {
+    use kinema_fuzz::verdict::strip_column;
+    assert_eq!(
+        strip_column(
+            "/root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/nalgebra-0.35.0/src/linalg/svd.rs:746:65"
+        ),
+        "nalgebra-0.35.0/src/linalg/svd.rs:746"
+    );
+    assert_eq!(
+        strip_column("crates/kinema-codegen/src/lib.rs:81:16"),
+        "crates/kinema-codegen/src/lib.rs:81"
+    );
+}
