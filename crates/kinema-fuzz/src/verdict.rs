@@ -75,6 +75,12 @@ pub fn strip_column(location: &str) -> &str {
 static LAST_PANIC: Mutex<Option<(String, String, String)>> = Mutex::new(None);
 static HOOK: Once = Once::new();
 
+thread_local! {
+    /// Whether this thread is inside [`catch`]: other panics (a failing
+    /// test's assertion) are printed as usual.
+    static CATCHING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// Replaces the default panic hook (which prints) by one that records the
 /// panic's location, message and backtrace for [`run_caught`].
 pub fn install_panic_hook() {
@@ -90,6 +96,10 @@ pub fn install_panic_hook() {
             } else {
                 "(non-string panic payload)".to_string()
             };
+            if !CATCHING.with(std::cell::Cell::get) {
+                eprintln!("panicked at {location}:\n{message}");
+                return;
+            }
             let backtrace = std::backtrace::Backtrace::force_capture().to_string();
             if let Ok(mut slot) = LAST_PANIC.lock() {
                 *slot = Some((location, message, backtrace));
@@ -106,7 +116,10 @@ pub fn run_caught(target: Target, data: &[u8]) -> Verdict {
 /// Runs `f` with panics caught and turned into [`Verdict::Panic`].
 pub fn catch(f: impl FnOnce() -> Result<Reach, Finding>) -> Verdict {
     install_panic_hook();
-    match panic::catch_unwind(AssertUnwindSafe(f)) {
+    CATCHING.with(|c| c.set(true));
+    let result = panic::catch_unwind(AssertUnwindSafe(f));
+    CATCHING.with(|c| c.set(false));
+    match result {
         Ok(Ok(reach)) => Verdict::Clean(reach),
         Ok(Err(f)) => Verdict::Finding(f),
         Err(_) => {

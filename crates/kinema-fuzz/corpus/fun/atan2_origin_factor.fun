@@ -1,0 +1,1 @@
+(pi-pi)+atan2(abs(t),t-t)/1*t*power(5,pi)

@@ -1,0 +1,1 @@
+cos(power(0,0)+0*t^t+(t)*atan2(t,1e-10))

@@ -1,0 +1,1 @@
+atan2(pi*1e-10,t)*tan(t)
