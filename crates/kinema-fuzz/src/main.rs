@@ -267,9 +267,17 @@ impl Worker {
         })
     }
 
+    /// Kills the child and its own children (the `cli` target's `kinema`
+    /// runs), so that none outlives the batch.
     fn kill(&mut self) {
+        let pid = self.child.id();
+        let grandchildren =
+            std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children")).unwrap_or_default();
         let _ = self.child.kill();
         let _ = self.child.wait();
+        for g in grandchildren.split_whitespace() {
+            let _ = Command::new("kill").args(["-9", g]).status();
+        }
     }
 
     /// Why the child died: from its exit status and the end of its stderr.
