@@ -274,7 +274,14 @@ fn kin_text(
     for w in &checked.warnings {
         check_error_size(&w.render(source, file), source.len())?;
     }
-    let derivation = kinema_model::Derivation::new(&checked);
+    let derivation = match kinema_model::Derivation::new(&checked) {
+        Ok(d) => d,
+        Err(d) => {
+            // The derivation's budget: an error at the equation.
+            check_error_size(&d.render(source, file), source.len())?;
+            return Ok((Reach::Check, Vec::new()));
+        }
+    };
     // `kinema derive`: the text must render (its size is the model's).
     let _ = derivation.render();
     let model = kinema::Model::from_derivation(derivation);
