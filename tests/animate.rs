@@ -549,7 +549,10 @@ fn singular_configurations_are_marked_on_the_time_slider() -> TestResult {
         &html.to_string_lossy(),
     ]);
     assert_eq!(code, Some(0), "{stderr}");
-    let Some(page) = Page::open(&html, "singular_configurations_are_marked_on_the_time_slider")?
+    let Some(page) = Page::open(
+        &html,
+        "singular_configurations_are_marked_on_the_time_slider",
+    )?
     else {
         return Ok(());
     };
@@ -561,7 +564,9 @@ fn singular_configurations_are_marked_on_the_time_slider() -> TestResult {
         assert!((t - expected).abs() < 1e-6, "marker {k} at {t}");
         let label = page.eval(&format!("kinema.data.markers[{k}].label"))?;
         assert!(
-            label.as_str().is_some_and(|l| l.starts_with("bifurcation at t = ")),
+            label
+                .as_str()
+                .is_some_and(|l| l.starts_with("bifurcation at t = ")),
             "marker label {label}"
         );
     }
