@@ -83,6 +83,26 @@ pub enum Error {
         /// Its ν.
         source_value: f64,
     },
+    /// Newton converged at every internal sub-step tried, but none stayed
+    /// on the branch predicted from the previous state, within the
+    /// sub-step budget: the motion moves too far between two output times
+    /// to be followed (a coordinate turns or grows by orders of magnitude
+    /// per step), so which solution continues it cannot be told.
+    #[error(
+        "cannot follow the motion from t = {} to t = {}: after {substeps} internal sub-steps the \
+         solutions still leave the branch predicted from the previous state (the motion changes \
+         too much between output times); use more steps",
+        Time(*.from),
+        Time(*.t)
+    )]
+    BranchLost {
+        /// The last time solved on the branch.
+        from: f64,
+        /// The output time aimed at.
+        t: f64,
+        /// Sub-steps tried.
+        substeps: usize,
+    },
     /// A time grid without any time.
     #[error("the time grid is empty")]
     EmptyTimeGrid,

@@ -556,11 +556,11 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             if stuck || tries >= MAX_SUBSTEPS {
                 let failure = match attempt {
                     Err(e) => e,
-                    Ok(()) => Error::NoConvergence {
-                        t: t_try,
-                        iterations: self.next.stats.iterations,
-                        residual: self.next.stats.residual,
-                        worst_equation: String::new(),
+                    // Converged, but off the branch every time.
+                    Ok(()) => Error::BranchLost {
+                        from,
+                        t,
+                        substeps: tries,
                     },
                 };
                 let e = self.locate_limit(from, t_try, failure);
