@@ -434,6 +434,12 @@ fn permutation_odd(perm: &[usize]) -> bool {
 }
 
 fn lit(x: f64) -> TokenStream {
+    if !x.is_finite() {
+        // A folded constant that overflowed (`pow(8, 7)` squared into a
+        // length): spelled as the runtime's value, since a literal cannot be.
+        let t = crate::emit::number(x).tokens;
+        return quote!((#t));
+    }
     let l = Literal::f64_unsuffixed(x.abs());
     if x < 0.0 { quote!((-#l)) } else { quote!(#l) }
 }
@@ -988,11 +994,11 @@ impl Plan {
                     Err(-1.0) => quote!(+ #x),
                     Err(0.0) => quote!(),
                     Err(k) if k < 0.0 => {
-                        let k = Literal::f64_unsuffixed(-k);
+                        let k = lit(-k);
                         quote!(+ #k * #x)
                     }
                     Err(k) => {
-                        let k = Literal::f64_unsuffixed(k);
+                        let k = lit(k);
                         quote!(- #k * #x)
                     }
                 });

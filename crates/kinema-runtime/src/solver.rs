@@ -39,7 +39,7 @@ const MIN_FRACTION: f64 = 1e-13;
 const MAX_JUMPS: usize = 20;
 
 /// At most this many internal sub-step attempts per step.
-const MAX_SUBSTEPS: usize = 100_000;
+const MAX_SUBSTEPS: usize = 1000;
 
 /// In the bisection of a passage, a solution with a pivot ratio above this
 /// may serve as the base of the next prediction.
