@@ -133,6 +133,10 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     /// Taylor prediction from the last state.
     pred: Box<[f64]>,
     assembled: bool,
+    /// The system was lent out mutably since the last step (its parameters
+    /// may have changed): the previous state's Taylor prediction says
+    /// nothing about the next one, so the next step is not held to it.
+    changed: bool,
     factorization: Factorization,
     /// Sign of det Φ_q on the branch so far (0 before the first known).
     branch_sign: f64,
@@ -205,6 +209,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             bracket_b: State::zeros(n),
             pred: vec![0.0; n].into_boxed_slice(),
             assembled: false,
+            changed: false,
             factorization: Factorization::None,
             branch_sign: 0.0,
             events: Vec::new(),
@@ -227,6 +232,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// The system, mutably: change its parameters between steps.
     #[must_use]
     pub fn system_mut(&mut self) -> &mut S {
+        self.changed = true;
         &mut self.system
     }
 
@@ -298,6 +304,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         self.system.initial_guess(&mut self.next.q);
         check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
+        // Assembly starts afresh: the steps after it follow its branch.
+        self.changed = false;
         self.factorization = Factorization::None;
         self.branch_sign = 0.0;
         self.zone = None;
@@ -439,6 +447,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// else internal sub-steps (see "Singular configurations").
     fn advance(&mut self, t0: f64, t: f64) -> Result<(), Error> {
         let span = t - t0;
+        // After a change of the system (a parameter set between steps) the
+        // motion may jump: the converged step is taken as it is, unless it
+        // is near singular.
+        if std::mem::take(&mut self.changed)
+            && self.attempt_from(t, self.options.predictor).is_ok()
+            && !self.next.stats.near_singular
+        {
+            return self.commit(t);
+        }
         // The step as the options ask; the refinement below always starts
         // Newton from the Taylor prediction (following the branch).
         if self.attempt_from(t, self.options.predictor).is_ok()
