@@ -12,6 +12,13 @@
 /// the log scale; 64 reach 1 from 2^±1074).
 const MAX_SWEEPS: usize = 64;
 
+/// Bounds of a single factor's exponent: every product rᵢ cⱼ then lies in
+/// [2^−1022, 2^1022], a normal finite number, so no scaled entry is ever
+/// formed through an intermediate that overflows (∞ · 0 = NaN) or flushes to
+/// zero. Entries below 2^−1022 relative to their row and column stay small
+/// after scaling, which is what they are: negligible.
+const MAX_EXPONENT: f64 = 511.0;
+
 /// Scale factors of an equilibration, and the scaled values.
 #[derive(Debug, Clone)]
 pub(crate) struct Equilibration {
@@ -74,7 +81,7 @@ impl Equilibration {
                 self.row.get(r as usize).copied().unwrap_or(1.0),
                 self.col.get(c as usize).copied().unwrap_or(1.0),
             );
-            *out = ri * v * cj;
+            *out = v * (ri * cj);
         }
     }
 }
@@ -102,8 +109,11 @@ fn sweep(
         else {
             continue;
         };
-        let a = (t * v * o).abs();
-        if a.is_finite() && a > *m {
+        // t·o is normal (see MAX_EXPONENT); a product past f64::MAX counts
+        // as f64::MAX, so its row or column is still scaled down.
+        let a = (v * (t * o)).abs();
+        let a = if a.is_nan() { 0.0 } else { a.min(f64::MAX) };
+        if a > *m {
             *m = a;
         }
     }
@@ -113,8 +123,10 @@ fn sweep(
             // 2^−round(log₂ m / 2): exact, halves the distance to 1.
             let e = -(m.log2() * 0.5).round();
             let e = if e == 0.0 { -m.log2().signum() } else { e };
-            *s *= e.exp2();
-            changed = true;
+            let old = *s;
+            let exponent = (old.log2() + e).clamp(-MAX_EXPONENT, MAX_EXPONENT);
+            *s = exponent.exp2();
+            changed |= *s != old;
         }
     }
     changed
@@ -169,6 +181,25 @@ mod tests {
             permutation_sign([1, 2, 3, 0].into_iter(), &mut scratch),
             -1.0
         );
+    }
+
+    #[test]
+    fn subnormal_and_huge_entries_scale_to_finite_values() {
+        // A column whose only entry is the smallest subnormal needs a factor
+        // of 2^1074, past f64::MAX: factors are bounded, every scaled entry
+        // (zeros of the pattern included) stays finite.
+        let pattern = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 2)];
+        let values = [5e-324, 0.0, 1e300, 1.0, 5e-324];
+        let mut e = Equilibration::new(3, values.len());
+        e.compute(&pattern, &values);
+        assert!(e.values.iter().all(|v| v.is_finite()), "{:?}", e.values);
+        assert!(
+            e.row
+                .iter()
+                .chain(e.col.iter())
+                .all(|s| s.is_finite() && *s > 0.0)
+        );
+        assert!((0.5..=2.0).contains(&e.values[2].abs()), "{:?}", e.values);
     }
 
     #[test]
