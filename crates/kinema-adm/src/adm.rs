@@ -549,7 +549,22 @@ impl<'v> Elem<'v> {
                 );
                 None
             }
-            Ok(Fun::Expr(e)) => Some(e),
+            Ok(Fun::Expr(e)) => match crate::defined::first_undefined(&e) {
+                None => Some(e),
+                Some(u) => {
+                    cx.err(
+                        v.pos_in_string(u.offset),
+                        format!(
+                            "{}: field \"{key}\": \"{}\" is undefined whatever the time: {} (at character {})",
+                            self.label,
+                            text.escape_debug(),
+                            u.what,
+                            u.offset + 1
+                        ),
+                    );
+                    None
+                }
+            },
             Ok(Fun::None) => {
                 cx.err(
                     v.pos,

@@ -229,6 +229,9 @@ pub enum Node {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Expr {
     nodes: Vec<Node>,
+    /// Per node, the character offset of its operator, function name,
+    /// number or name in `text`.
+    offsets: Vec<usize>,
     text: String,
 }
 
@@ -285,6 +288,13 @@ impl Expr {
     #[must_use]
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
+    }
+
+    /// The 0-based character offset in [`text`](Self::text) of node `i`'s
+    /// operator, function name, number or name (0 for an index out of range).
+    #[must_use]
+    pub fn offset_of(&self, i: usize) -> usize {
+        self.offsets.get(i).copied().unwrap_or(0)
     }
 
     /// Whether the expression mentions `t` (then it is a driver).
@@ -653,6 +663,7 @@ struct Parser {
     toks: Vec<(Tok, usize)>,
     pos: usize,
     nodes: Vec<Node>,
+    offsets: Vec<usize>,
     text: String,
     allow_t: bool,
     depth: usize,
@@ -672,6 +683,7 @@ impl Parser {
             toks,
             pos: 0,
             nodes: Vec::new(),
+            offsets: Vec::new(),
             text: text.to_string(),
             allow_t,
             depth: 0,
@@ -698,6 +710,7 @@ impl Parser {
         }
         Ok(Expr {
             nodes: self.nodes,
+            offsets: self.offsets,
             text: self.text,
         })
     }
@@ -723,10 +736,13 @@ impl Parser {
         }
     }
 
-    fn push(&mut self, node: Node) -> Result<u32, FunError> {
+    /// Appends `node`, written at character `offset` (its operator, name or
+    /// number).
+    fn push(&mut self, node: Node, offset: usize) -> Result<u32, FunError> {
         let id = u32::try_from(self.nodes.len())
             .map_err(|_| self.error("expression too large".into()))?;
         self.nodes.push(node);
+        self.offsets.push(offset);
         Ok(id)
     }
 
@@ -749,9 +765,10 @@ impl Parser {
                 Tok::Minus => BinOp::Sub,
                 _ => return Ok(lhs),
             };
+            let at = self.offset();
             self.bump();
             let rhs = self.product()?;
-            lhs = self.push(Node::Bin(op, lhs, rhs))?;
+            lhs = self.push(Node::Bin(op, lhs, rhs), at)?;
         }
     }
 
@@ -763,9 +780,10 @@ impl Parser {
                 Tok::Slash => BinOp::Div,
                 _ => return Ok(lhs),
             };
+            let at = self.offset();
             self.bump();
             let rhs = self.unary()?;
-            lhs = self.push(Node::Bin(op, lhs, rhs))?;
+            lhs = self.push(Node::Bin(op, lhs, rhs), at)?;
         }
     }
 
@@ -773,11 +791,16 @@ impl Parser {
         match self.peek() {
             Tok::Plus | Tok::Minus => {
                 let neg = matches!(self.peek(), Tok::Minus);
+                let at = self.offset();
                 self.bump();
                 self.enter()?;
                 let a = self.unary()?;
                 self.depth -= 1;
-                if neg { self.push(Node::Neg(a)) } else { Ok(a) }
+                if neg {
+                    self.push(Node::Neg(a), at)
+                } else {
+                    Ok(a)
+                }
             }
             _ => self.power(),
         }
@@ -786,9 +809,10 @@ impl Parser {
     fn power(&mut self) -> Result<u32, FunError> {
         let mut lhs = self.primary()?;
         while matches!(self.peek(), Tok::Caret) {
+            let at = self.offset();
             self.bump();
             let rhs = self.operand()?;
-            lhs = self.push(Node::Bin(BinOp::Pow, lhs, rhs))?;
+            lhs = self.push(Node::Bin(BinOp::Pow, lhs, rhs), at)?;
         }
         Ok(lhs)
     }
@@ -798,11 +822,16 @@ impl Parser {
         match self.peek() {
             Tok::Plus | Tok::Minus => {
                 let neg = matches!(self.peek(), Tok::Minus);
+                let at = self.offset();
                 self.bump();
                 self.enter()?;
                 let a = self.operand()?;
                 self.depth -= 1;
-                if neg { self.push(Node::Neg(a)) } else { Ok(a) }
+                if neg {
+                    self.push(Node::Neg(a), at)
+                } else {
+                    Ok(a)
+                }
             }
             _ => self.primary(),
         }
@@ -813,7 +842,7 @@ impl Parser {
         match self.peek().clone() {
             Tok::Num(x) => {
                 self.bump();
-                self.push(Node::Num(x))
+                self.push(Node::Num(x), offset)
             }
             Tok::LParen => {
                 self.bump();
@@ -854,11 +883,11 @@ impl Parser {
     fn name(&mut self, name: &str, offset: usize) -> Result<u32, FunError> {
         let err = |message: String| FunError { offset, message };
         match name {
-            "t" if self.allow_t => self.push(Node::T),
+            "t" if self.allow_t => self.push(Node::T, offset),
             "t" => Err(err(
                 "`t` is not allowed here: a constant number is expected".into(),
             )),
-            "pi" => self.push(Node::Pi),
+            "pi" => self.push(Node::Pi, offset),
             "e" => Err(err(
                 "unknown name `e`: MATLAB has no constant `e`; write `exp(1)`".into(),
             )),
@@ -897,7 +926,7 @@ impl Parser {
         let err = |message: String| FunError { offset, message };
         if let Some(f) = Func::from_name(name) {
             return match args[..] {
-                [a] => self.push(Node::Call(f, a)),
+                [a] => self.push(Node::Call(f, a), offset),
                 _ => Err(err(format!(
                     "`{name}` takes 1 argument, found {}",
                     args.len()
@@ -906,7 +935,7 @@ impl Parser {
         }
         if let Some(f) = Func2::from_name(name) {
             return match args[..] {
-                [a, b] => self.push(Node::Call2(f, a, b)),
+                [a, b] => self.push(Node::Call2(f, a, b), offset),
                 _ => Err(err(format!(
                     "`{name}` takes 2 arguments, found {}",
                     args.len()

@@ -48,6 +48,7 @@
 pub mod acf;
 pub mod adm;
 pub mod check;
+mod defined;
 pub mod emit;
 pub mod error;
 pub mod fun;

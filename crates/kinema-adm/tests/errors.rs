@@ -42,6 +42,21 @@ fn fun_that_does_not_parse() {
     insta::assert_snapshot!("bad_fun", error("bad_fun.adm"));
 }
 
+/// A `fun` whose value is undefined whatever the time (a divisor that is
+/// identically zero, a constant that overflows, `log` of zero) is refused at
+/// the offending operator inside the field, each one, as the `.kin` checker
+/// would refuse the imported model (hostile-input issue, item 7; fuzz F11).
+#[test]
+fn fun_undefined_whatever_the_time() {
+    let e = error("undefined_fun.adm");
+    assert_eq!(
+        e.matches("is undefined whatever the time").count(),
+        4,
+        "{e}"
+    );
+    insta::assert_snapshot!("undefined_fun", e);
+}
+
 #[test]
 fn missing_and_malformed_fields() {
     insta::assert_snapshot!("bad_fields", error("bad_fields.adm"));
