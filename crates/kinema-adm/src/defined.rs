@@ -40,9 +40,7 @@ pub(crate) fn first_undefined(e: &Expr) -> Option<Undefined> {
         // Children precede their parents (the parser's invariant); an index
         // out of range is read as an undefined operand and reported nowhere.
         let get = |k: u32| ids.get(k as usize).copied();
-        let Some((id, has_t, operands)) = build(&mut arena, t, node, get) else {
-            return None;
-        };
+        let (id, has_t, operands) = build(&mut arena, t, node, get)?;
         if arena.is_undefined(id) && operands.iter().flatten().all(|&o| !arena.is_undefined(o)) {
             let what = match node {
                 Node::Bin(BinOp::Div, _, b) if get(b).is_some_and(|(d, _)| arena.is_zero(d)) => {
