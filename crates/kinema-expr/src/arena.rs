@@ -568,12 +568,17 @@ impl Arena {
                         .any(|t| self.undefined[t.expr.index()])
             }
             // A number left as a factor is a power whose fold was not finite
-            // (0^-1, an overflowed coefficient).
+            // (0^-1, an overflowed coefficient), or one that would have
+            // underflowed (defined: its power is finite).
             Node::Mul { coeff, start, len } => {
                 !coeff.is_finite()
                     || self.factors[start as usize..(start + len) as usize]
                         .iter()
-                        .any(|f| self.undefined[f.base.index()] || num(f.base))
+                        .any(|f| {
+                            self.undefined[f.base.index()]
+                                || matches!(self.nodes[f.base.index()], Node::Num(v)
+                                    if !crate::build::number_power_defined(v, f.exp))
+                        })
             }
             // A function of a number is left unfolded only when its value is not finite.
             Node::Unary(_, a) => self.undefined[a.index()] || num(a),

@@ -122,6 +122,30 @@ fn finite_or(v: f64) -> Option<f64> {
     v.is_finite().then_some(if v == 0.0 { 0.0 } else { v })
 }
 
+/// `coeff · v^p` for folding into a coefficient, unless that would lose the
+/// term to underflow: `v^p` not finite, or `v^p` or the product flushed to
+/// zero or into the subnormals from nonzero operands (an underflowed
+/// coefficient would silently turn a whole term into 0). An overflowing
+/// product is returned (±∞): the caller keeps it visible as undefined.
+fn fold_power(coeff: f64, v: f64, p: f64) -> Option<f64> {
+    let tiny = |x: f64| x == 0.0 || x.abs() < f64::MIN_POSITIVE;
+    let r = finite_or(powv(v, p))?;
+    if v != 0.0 && tiny(r) {
+        return None;
+    }
+    let product = coeff * r;
+    if coeff != 0.0 && r != 0.0 && tiny(product) {
+        return None;
+    }
+    Some(if product == 0.0 { 0.0 } else { product })
+}
+
+/// Whether a number left as a factor, `v^p`, has a value: `v` finite and the
+/// power finite (a power that underflows is kept unfolded, and is defined).
+pub(crate) fn number_power_defined(v: f64, p: f64) -> bool {
+    v.is_finite() && powv(v, p).is_finite()
+}
+
 impl Arena {
     /// A number. `-0.0` becomes `0.0`.
     pub fn num(&mut self, v: f64) -> ExprId {
@@ -364,41 +388,48 @@ impl Arena {
             match self.node(base) {
                 NodeRef::Num(v) => {
                     if v.is_finite()
-                        && let Some(r) = finite_or(powv(v, exp))
+                        && let Some(next) = fold_power(coeff, v, exp)
                     {
-                        coeff *= r;
+                        coeff = next;
                         buf[i].exp = 0.0;
                     }
                 }
+                // (c·Π xᵢ^eᵢ)^n = cⁿ · Π xᵢ^(eᵢn) only when cⁿ folds within
+                // f64's range: (ln t / ln 10)^1000 flattened would fold
+                // 0.434^1000 to 0 and the whole term would vanish, and
+                // (1e200·t)^2 would overflow; both stay as written.
                 NodeRef::Mul {
                     coeff: c,
                     factors: inner,
                 } if is_int(exp) && inner.len() <= FLATTEN_MAX => {
-                    buf[i].exp = 0.0;
-                    buf.extend(inner.iter().map(|f| Factor {
-                        base: f.base,
-                        exp: f.exp * exp,
-                    }));
-                    match finite_or(powv(c, exp)) {
-                        Some(r) => coeff *= r,
-                        None => {
-                            let cb = self.intern(Node::Num(c));
-                            buf.push(Factor { base: cb, exp });
-                        }
+                    if let Some(next) = fold_power(coeff, c, exp).filter(|x| x.is_finite()) {
+                        coeff = next;
+                        buf[i].exp = 0.0;
+                        buf.extend(inner.iter().map(|f| Factor {
+                            base: f.base,
+                            exp: f.exp * exp,
+                        }));
                     }
                 }
                 NodeRef::Mul { coeff: c, .. } if c > 0.0 && c != 1.0 => {
-                    // (c·X)^p = c^p · X^p for c > 0.
-                    coeff *= powv(c, exp);
-                    buf[i].base = self.unit_product(base);
+                    // (c·X)^p = c^p · X^p for c > 0, under the same condition.
+                    if let Some(next) = fold_power(coeff, c, exp).filter(|x| x.is_finite()) {
+                        coeff = next;
+                        buf[i].base = self.unit_product(base);
+                    }
                 }
                 _ => {}
             }
             i += 1;
         }
-        // A factor left unfolded or undefined: 0 times it is not 0.
+        // A factor undefined, or a number whose power is not finite: 0 times
+        // it is not 0.
         let undefined = |arena: &Self, f: &Factor| {
-            f.exp != 0.0 && (arena.is_undefined(f.base) || arena.as_num(f.base).is_some())
+            f.exp != 0.0
+                && (arena.is_undefined(f.base)
+                    || arena
+                        .as_num(f.base)
+                        .is_some_and(|v| !number_power_defined(v, f.exp)))
         };
         if coeff == 0.0 {
             return if buf.iter().any(|f| undefined(self, f)) {

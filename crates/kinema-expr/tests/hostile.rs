@@ -221,3 +221,52 @@ fn tree_sizes_count_shared_nodes_at_each_use() {
     assert_eq!(sizes[x.index()], 1);
     assert_eq!(sizes[s.index()], 2);
 }
+
+/// A power of a scaled expression is not distributed when the scale's power
+/// leaves f64's range: (x / ln 10)^1000 flattened would fold 0.434^1000 to 0
+/// and the term would vanish (fuzz, `fun`: `(log10(t)^1000)*t` ran as 0);
+/// (1e200·x)^2 would overflow to a refused constant. All keep their values;
+/// derivatives are checked against finite differences where their
+/// coefficients are representable (that of (1e200·x)^2, 2e400, is not: it is
+/// refused as undefined, never a wrong number).
+#[test]
+fn powers_of_scaled_terms_keep_their_values() {
+    for (scale, n, x0) in [
+        (
+            1.0 / std::f64::consts::LN_10,
+            1000,
+            -std::f64::consts::LN_10,
+        ),
+        (1e200, 2, 3e-200),
+        (1e-200, -2, 5e199),
+    ] {
+        let mut a = Arena::new();
+        let x = a.coordinate("x", 0);
+        let c = a.num(scale);
+        let cx = a.mul(c, x);
+        let p = a.powi(cx, n);
+        assert!(!a.is_undefined(p), "{}", a.display(p));
+        assert!(!a.is_zero(p), "{}", a.display(p));
+        let want = (scale * x0).powi(n);
+        let got = eval(&a, p, &[x0], &[0.0]);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs(),
+            "{}: {got} vs {want}",
+            a.display(p)
+        );
+        let s = a.symbol_of(x).unwrap_or_else(|| unreachable!());
+        let d = a.diff(p, s);
+        if a.is_undefined(d) {
+            assert_eq!(scale, 1e200, "{}", a.display(d));
+            continue;
+        }
+        let h = 1e-6 * x0.abs();
+        let fd = (eval(&a, p, &[x0 + h], &[0.0]) - eval(&a, p, &[x0 - h], &[0.0])) / (2.0 * h);
+        let dv = eval(&a, d, &[x0], &[0.0]);
+        assert!(
+            (dv - fd).abs() <= 1e-5 * fd.abs().max(1e-300),
+            "{}: {dv} vs {fd}",
+            a.display(d)
+        );
+    }
+}
