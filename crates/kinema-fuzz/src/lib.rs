@@ -21,6 +21,7 @@
 //! the driver (`kinema-fuzz` binary), which runs inputs in a child process.
 
 pub mod cli;
+mod fun_oracle;
 pub mod generate;
 pub mod rng;
 pub mod verdict;
@@ -28,7 +29,7 @@ pub mod verdict;
 use std::fmt;
 
 use kinema::{Auto, Solver, State, System, TapeSystem};
-use kinema_adm::fun::{BinOp, Expr, Fun, Func, Func2, Node};
+use kinema_adm::fun::{Expr, Fun};
 
 /// An entry point under test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -424,7 +425,7 @@ fn first_line(s: &str) -> &str {
 }
 
 /// Times at which the `fun` target compares the two evaluators.
-const FUN_TIMES: [f64; 6] = [0.0, 0.1, 0.25, 0.5, 1.0, 2.0];
+pub(crate) const FUN_TIMES: [f64; 6] = [0.0, 0.1, 0.25, 0.5, 1.0, 2.0];
 
 /// The `fun` target.
 ///
@@ -453,9 +454,7 @@ pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
     let kin_expr = expr.to_kin();
     // Finite differences resolve the derivatives only where no intermediate
     // value is large (1e15 + t does not move with t).
-    let resolvable = FUN_TIMES
-        .iter()
-        .all(|&t| eval_with_scale(&expr, t).1 < 1e4 && fun_tolerance(&expr, t).is_some());
+    let resolvable = fun_oracle::resolvable(&expr, &FUN_TIMES);
     let model = generate::kin::driver_model(&kin_expr);
     let (reach, values) = kin_text(&model, "fun.kin", &FUN_TIMES, false, resolvable)?;
     if reach == Reach::Parse {
@@ -481,28 +480,28 @@ pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
     }
     // An expression undefined at isolated times (t/t at 0) may be
     // simplified into a defined one, as any computer algebra does; one that
-    // is undefined at every sample time (0 * (1e308 * 1e308) + t) must not
-    // run.
-    let evaluated: Vec<(f64, f64, f64, f64)> = values
+    // is undefined at every sample time by a part that does not vary with t
+    // (0/0 + t) must not run. See `fun_oracle` for where the reference
+    // stands aside.
+    let traces: Vec<fun_oracle::Trace> = values
         .iter()
-        .map(|&(t, x)| {
-            let (v, scale) = eval_with_scale(&expr, t);
-            (t, x, v, scale)
-        })
+        .map(|&(t, _)| fun_oracle::trace(&expr, t, 0.0))
         .collect();
-    if values.len() == FUN_TIMES.len() && evaluated.iter().all(|e| !e.2.is_finite()) {
+    if values.len() == FUN_TIMES.len() && fun_oracle::undefined_whatever_t(&expr, &traces) {
         return Err(finding(
             "fun-undefined-value-vanished",
             format!(
                 "`{source}` is {} at every t but kinema ran it, giving {} at t = 0",
-                evaluated[0].2, evaluated[0].1
+                traces[0].value(),
+                values[0].1
             ),
         ));
     }
-    for (t, x, v, _) in evaluated {
-        let Some(tolerance) = fun_tolerance(&expr, t) else {
+    for (&(t, x), tr) in values.iter().zip(&traces) {
+        let Some(tolerance) = fun_oracle::tolerance(&expr, t) else {
             continue;
         };
+        let v = tr.value();
         if v.is_finite() && (v - x).abs() > tolerance {
             return Err(finding(
                 "fun-value-mismatch",
@@ -511,97 +510,6 @@ pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
         }
     }
     Ok(reach)
-}
-
-/// The `fun` value at `t` and the largest finite magnitude among its
-/// intermediate values (the scale of its rounding errors).
-fn eval_with_scale(expr: &Expr, t: f64) -> (f64, f64) {
-    let (v, scale, _) = eval_perturbed(expr, t, 0.0);
-    (v, scale)
-}
-
-/// What the comparison of the two evaluators may tolerate at `t`: `None`
-/// where the value is not comparable (atan2 at the origin, where the sign
-/// of a zero decides), else the tolerance: rounding at the scale of the
-/// intermediate values, plus the expression's sensitivity to perturbing
-/// every number and `t` by a few ulps (its conditioning: tan of 1e9).
-fn fun_tolerance(expr: &Expr, t: f64) -> Option<f64> {
-    let (v, scale, singular) = eval_perturbed(expr, t, 0.0);
-    if singular {
-        return None;
-    }
-    let (w, _, _) = eval_perturbed(expr, t, 4.0 * f64::EPSILON);
-    let sensitivity = if (w - v).is_finite() {
-        (w - v).abs()
-    } else {
-        0.0
-    };
-    Some(1e-9 * (1.0 + scale) * (expr.nodes().len() as f64) + 1000.0 * sensitivity)
-}
-
-/// The `fun` value with every number and `t` scaled by 1 ± `delta`
-/// (alternating), the largest finite intermediate magnitude, and whether an
-/// atan2 met (0, 0).
-fn eval_perturbed(expr: &Expr, t: f64, delta: f64) -> (f64, f64, bool) {
-    let mut values: Vec<f64> = Vec::with_capacity(expr.nodes().len());
-    let mut scale: f64 = 0.0;
-    let mut singular = false;
-    for (k, node) in expr.nodes().iter().enumerate() {
-        let get = |i: u32| values.get(i as usize).copied().unwrap_or(f64::NAN);
-        let nudge = if k % 2 == 0 { 1.0 + delta } else { 1.0 - delta };
-        let x = match *node {
-            Node::Num(x) => x * nudge,
-            Node::Pi => std::f64::consts::PI,
-            Node::T => t * nudge,
-            Node::Call2(Func2::Atan2, a, b) if get(a) == 0.0 && get(b) == 0.0 => {
-                singular = true;
-                get(a).atan2(get(b))
-            }
-            Node::Neg(a) => -get(a),
-            Node::Bin(op, a, b) => {
-                let (a, b) = (get(a), get(b));
-                match op {
-                    BinOp::Add => a + b,
-                    BinOp::Sub => a - b,
-                    BinOp::Mul => a * b,
-                    BinOp::Div => a / b,
-                    BinOp::Pow => a.powf(b),
-                }
-            }
-            Node::Call(f, a) => apply(f, get(a)),
-            Node::Call2(Func2::Atan2, a, b) => get(a).atan2(get(b)),
-            Node::Call2(Func2::Power, a, b) => get(a).powf(get(b)),
-        };
-        if x.is_finite() {
-            scale = scale.max(x.abs());
-        }
-        values.push(x);
-    }
-    let v = if delta == 0.0 {
-        expr.eval(t)
-    } else {
-        values.last().copied().unwrap_or(f64::NAN)
-    };
-    (v, scale, singular)
-}
-
-fn apply(f: Func, x: f64) -> f64 {
-    match f {
-        Func::Sin => x.sin(),
-        Func::Cos => x.cos(),
-        Func::Tan => x.tan(),
-        Func::Asin => x.asin(),
-        Func::Acos => x.acos(),
-        Func::Atan => x.atan(),
-        Func::Sinh => x.sinh(),
-        Func::Cosh => x.cosh(),
-        Func::Tanh => x.tanh(),
-        Func::Exp => x.exp(),
-        Func::Log => x.ln(),
-        Func::Log10 => x.log10(),
-        Func::Sqrt => x.sqrt(),
-        Func::Abs => x.abs(),
-    }
 }
 
 /// Finite differences of Φ along a direction at step `h` (first or second
@@ -668,10 +576,15 @@ fn disagreement(
         }
         let tolerance = relative * (1.0 + e.abs().max(c.abs()));
         let off_f = (f - e).abs();
+        // Whether the two differences resolve the derivative: judged on
+        // their own scale, not the derived value's (a derived 1e15 against
+        // differences of 1e5 and 3e7 — cos(3e7 t), which steps of 1e-3
+        // cannot resolve — would otherwise pass under a tolerance of 1e11).
+        let resolved = (c - f).abs() <= 0.01 * c.abs().max(f.abs()) + relative * (1.0 + c.abs());
         (c - e).abs() > tolerance
             && off_f > tolerance
             && (c - f).abs() < 0.01 * off_f
-            && (c - f).abs() <= 0.01 * c.abs().max(f.abs()) + tolerance
+            && resolved
             && k < 0.1 * off_f
     })
 }

@@ -223,6 +223,21 @@ pub struct Dependency {
     pub coordinates: Vec<String>,
 }
 
+impl Dependency {
+    /// A dependency not (yet) diagnosed: `rank` and `condition` `None`, no
+    /// names.
+    pub(crate) fn undiagnosed(dim: usize) -> Self {
+        Self {
+            rank: None,
+            condition: None,
+            dim,
+            equations: Vec::new(),
+            redundant: Vec::new(),
+            coordinates: Vec::new(),
+        }
+    }
+}
+
 impl fmt::Display for Dependency {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let Some(rank) = self.rank else {

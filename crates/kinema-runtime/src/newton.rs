@@ -1,7 +1,7 @@
 //! Position analysis: Newton–Raphson on Φ(q, t) = 0.
 
 use crate::diagnose::dependency;
-use crate::error::{Error, Quantity};
+use crate::error::{Dependency, Error, Quantity};
 use crate::linalg::{Equilibration, LinalgError, LinearSolver, scale_and_finite};
 use crate::options::Options;
 use crate::state::StepStats;
@@ -10,6 +10,14 @@ use crate::system::System;
 /// A contraction worse than this (‖Φ‖ after / before an update) makes
 /// modified Newton factor Φ_q afresh.
 const CONTRACTION: f64 = 0.2;
+
+/// Dense rank diagnoses (an SVD each) a step may spend on failed
+/// factorizations and on confirming small pivot ratios. A passage's
+/// refinement may fail many factorizations whose errors it discards; past
+/// the budget they carry no diagnosis (the solver diagnoses the one it
+/// reports). Bounds a step's diagnosis cost at O(n³) times this (a debug
+/// build spent 13 s in the SVDs of one pathological passage: fuzz F12).
+pub(crate) const DIAGNOSES_PER_STEP: u32 = 32;
 
 /// Scratch vectors of one solver, allocated once.
 #[derive(Debug, Clone)]
@@ -20,6 +28,8 @@ pub(crate) struct Workspace {
     pub(crate) jac: Box<[f64]>,
     /// How Φ_q is handed to the linear solver.
     pub(crate) scaling: Scaling,
+    /// Dense diagnoses left in this step (see [`DIAGNOSES_PER_STEP`]).
+    pub(crate) diagnoses_left: u32,
 }
 
 impl Workspace {
@@ -31,6 +41,7 @@ impl Workspace {
                 eq: Equilibration::new(n, nnz),
                 active: false,
             },
+            diagnoses_left: DIAGNOSES_PER_STEP,
         }
     }
 }
@@ -154,6 +165,7 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
                 &ws.jac,
                 &mut ws.scaling,
                 options.singular_tolerance,
+                &mut ws.diagnoses_left,
             )?;
             stats.factorizations += 1;
             *factorization = Factorization::Stale;
@@ -213,6 +225,7 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
     jac: &[f64],
     scaling: &mut Scaling,
     singular_tolerance: f64,
+    diagnoses_left: &mut u32,
 ) -> Result<(), Error> {
     let result = if scaling.active {
         scaling.eq.apply(system.jacobian_pattern(), jac);
@@ -222,7 +235,15 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
     };
     match result {
         Ok(()) => Ok(()),
-        Err(e) => factor_equilibrated(system, lu, t, jac, scaling, singular_tolerance, e),
+        Err(e) => factor_equilibrated(
+            system,
+            lu,
+            t,
+            jac,
+            scaling,
+            (singular_tolerance, diagnoses_left),
+            e,
+        ),
     }
 }
 
@@ -236,7 +257,7 @@ fn factor_equilibrated<S: System, L: LinearSolver>(
     t: f64,
     jac: &[f64],
     scaling: &mut Scaling,
-    singular_tolerance: f64,
+    (singular_tolerance, diagnoses_left): (f64, &mut u32),
     e: LinalgError,
 ) -> Result<(), Error> {
     if matches!(e, LinalgError::Singular { .. }) && scale_and_finite(jac).1 {
@@ -245,7 +266,13 @@ fn factor_equilibrated<S: System, L: LinearSolver>(
             return Ok(());
         }
     }
-    Err(factor_error(system, t, jac, singular_tolerance, e))
+    Err(factor_error(
+        system,
+        t,
+        jac,
+        (singular_tolerance, diagnoses_left),
+        e,
+    ))
 }
 
 /// The error for a failed factorization (out of line: the hot path only
@@ -256,7 +283,7 @@ fn factor_error<S: System>(
     system: &S,
     t: f64,
     jac: &[f64],
-    singular_tolerance: f64,
+    (singular_tolerance, diagnoses_left): (f64, &mut u32),
     e: LinalgError,
 ) -> Error {
     match e {
@@ -264,7 +291,12 @@ fn factor_error<S: System>(
             Err(non_finite) => non_finite,
             Ok(()) => Error::Singular {
                 t,
-                dependency: dependency(system, jac, singular_tolerance),
+                dependency: if *diagnoses_left > 0 {
+                    *diagnoses_left -= 1;
+                    dependency(system, jac, singular_tolerance)
+                } else {
+                    Dependency::undiagnosed(system.len())
+                },
             },
         },
         e => e.into(),

@@ -5,8 +5,8 @@ use crate::error::{Error, Quantity};
 use crate::event::{SingularEvent, SingularKind};
 use crate::linalg::{Auto, LinalgError, LinearSolver, scale_and_finite};
 use crate::newton::{
-    Factorization, Scaling, Workspace, check_coordinates, check_equations, check_jacobian, factor,
-    inf_norm, solve_position,
+    DIAGNOSES_PER_STEP, Factorization, Scaling, Workspace, check_coordinates, check_equations,
+    check_jacobian, factor, inf_norm, solve_position,
 };
 use crate::options::Options;
 use crate::state::State;
@@ -302,6 +302,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if !t0.is_finite() {
             return Err(Error::NonFiniteTime { t: t0 });
         }
+        self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
         self.system.initial_guess(&mut self.next.q);
         check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
         // Assembly starts afresh: the steps after it follow its branch.
@@ -447,6 +448,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// else internal sub-steps (see "Singular configurations").
     fn advance(&mut self, t0: f64, t: f64) -> Result<(), Error> {
         let span = t - t0;
+        self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
         // After a change of the system (a parameter set between steps) the
         // motion may jump: the converged step is taken as it is, unless it
         // is near singular.
@@ -580,7 +582,19 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                         substeps: tries,
                     },
                 };
-                let e = self.locate_limit(from, t_try, failure);
+                let mut e = self.locate_limit(from, t_try, failure);
+                if let Error::Singular { dependency, .. } = &mut e
+                    && dependency.rank.is_none()
+                    && dependency.dim <= MAX_DENSE_DIAGNOSIS
+                {
+                    // A sub-step's failure past the step's diagnosis budget:
+                    // diagnosed now, at the last Φ_q evaluated near it.
+                    *dependency = crate::diagnose::dependency(
+                        &self.system,
+                        &self.ws.jac,
+                        self.options.singular_tolerance,
+                    );
+                }
                 if let Error::Singular { t, dependency } = &e {
                     self.events.push(SingularEvent {
                         t: *t,
@@ -780,9 +794,12 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let tolerance = self.options.singular_tolerance;
         let n = self.system.len();
         let limit = crate::diagnose::near_singular_condition(tolerance);
-        if n > MAX_DENSE_DIAGNOSIS {
+        // Past the step's budget of dense diagnoses the (equilibrated) pivot
+        // ratio decides alone, as for systems too large for the SVD.
+        if n > MAX_DENSE_DIAGNOSIS || self.ws.diagnoses_left == 0 {
             return ratio * limit <= 1.0;
         }
+        self.ws.diagnoses_left -= 1;
         match rank(n, self.system.jacobian_pattern(), &self.ws.jac, tolerance) {
             Ok(r) if r.near_singular(tolerance) => true,
             Ok(_) => {
@@ -1093,6 +1110,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &self.ws.jac,
             &mut self.ws.scaling,
             self.options.singular_tolerance,
+            &mut self.ws.diagnoses_left,
         )?;
         self.factorization = Factorization::Stale;
 
