@@ -21,6 +21,9 @@ mod generated {
     pub mod long_pendulum {
         kinema::mechanism!(file = "tests/singular/long_pendulum.kin");
     }
+    pub mod six_bar {
+        kinema::mechanism!(file = "tests/singular/six_bar.kin");
+    }
 }
 
 const GRIDS: [usize; 4] = [7, 36, 360, 3600];
@@ -92,13 +95,17 @@ fn change_point_exact(t: f64) -> [f64; 9] {
 /// 2π) to 1e-8, velocities to 1e-5 and accelerations to 1e-3 (1e-4 and
 /// 1e-2 on rows flagged near singular), relative to 1 + |value| (the closed form differentiated by central differences), no
 /// angle jumping by more than π between rows.
-fn assert_matches(what: &str, trajectory: &Trajectory, exact: impl Fn(f64) -> [f64; 9]) {
+fn assert_matches<const N: usize>(
+    what: &str,
+    trajectory: &Trajectory,
+    exact: impl Fn(f64) -> [f64; N],
+) {
     let d = 1e-5;
     let mut previous: Option<&kinema::State> = None;
     for state in trajectory.iter() {
         let t = state.t();
         let (q0, qm, qp) = (exact(t), exact(t - d), exact(t + d));
-        for i in 0..9 {
+        for i in 0..N {
             let angle = i % 3 == 2;
             let diff = |a: f64, b: f64| if angle { wrap(a - b) } else { a - b };
             let q = state.q()[i];
@@ -183,6 +190,96 @@ fn change_point_four_bar_keeps_its_branch_on_every_grid_and_back_end() {
             let what = format!("{what}, {steps} steps per turn");
             assert_matches(&what, trajectory, change_point_exact);
             assert_events(&what, trajectory, &expected);
+        }
+    }
+}
+
+/// The six-bar's dyad pin C (on the crank, (1, 0.3) from O in its frame),
+/// ground pin G and link lengths (tests/singular/six_bar.kin).
+const SIX_BAR_C: [f64; 2] = [1.0, 0.3];
+const SIX_BAR_G: [f64; 2] = [-2.0, -1.0];
+const SIX_BAR_A: f64 = 1.6;
+
+/// When the dyad is straight: the crank points C away from G, t = k + t*.
+fn six_bar_straight() -> f64 {
+    let theta = (-SIX_BAR_G[1]).atan2(-SIX_BAR_G[0]) - SIX_BAR_C[1].atan2(SIX_BAR_C[0]);
+    (theta - FRAC_PI_4).rem_euclid(TAU) / TAU
+}
+
+/// The six-bar's analytic branch: the four-bar as built, the dyad's elbow
+/// E on side +1 of C → G at the start, crossing over at each straightening.
+fn six_bar_exact(t: f64) -> [f64; 15] {
+    let theta = FRAC_PI_4 + TAU * t;
+    let fb = four_bar([1.0, 3.0, 2.5, 2.8], theta, 1.0);
+    let crossings = (t - six_bar_straight()).floor() + 1.0;
+    let side = if crossings as i64 % 2 == 0 { 1.0 } else { -1.0 };
+    let (sn, cs) = theta.sin_cos();
+    let c = [
+        cs * SIX_BAR_C[0] - sn * SIX_BAR_C[1],
+        sn * SIX_BAR_C[0] + cs * SIX_BAR_C[1],
+    ];
+    let g = SIX_BAR_G;
+    let (g_len, c_len) = (g[0].hypot(g[1]), SIX_BAR_C[0].hypot(SIX_BAR_C[1]));
+    let (a, b) = (SIX_BAR_A, g_len + c_len - SIX_BAR_A);
+    let (dx, dy) = (g[0] - c[0], g[1] - c[1]);
+    let r = dx.hypot(dy);
+    // Near the straightening a + b − r is a difference of nearly equal
+    // numbers; from the angle Δ between OC and OG it is exact:
+    // (a + b)² − r² = 2|OG||OC|(1 + cos Δ) = 4|OG||OC| cos²(Δ/2). Heron's
+    // product then gives the elbow's distance h from the line C → G.
+    let delta = theta + SIX_BAR_C[1].atan2(SIX_BAR_C[0]) - g[1].atan2(g[0]);
+    let gap = 4.0 * g_len * c_len * (0.5 * delta).cos().powi(2) / (a + b + r);
+    let along = a - gap * (b + r - a) / (2.0 * r);
+    let h = (gap * (b + r - a) * (a + r - b) * (a + r + b))
+        .max(0.0)
+        .sqrt()
+        / (2.0 * r);
+    let (ex, ey) = (dx / r, dy / r);
+    let e = [
+        c[0] + along * ex - side * h * ey,
+        c[1] + along * ey + side * h * ex,
+    ];
+    let mut q = [0.0; 15];
+    q[..9].copy_from_slice(&fb);
+    q[9..].copy_from_slice(&[
+        (c[0] + e[0]) / 2.0,
+        (c[1] + e[1]) / 2.0,
+        (e[1] - c[1]).atan2(e[0] - c[0]),
+        (g[0] + e[0]) / 2.0,
+        (g[1] + e[1]) / 2.0,
+        (e[1] - g[1]).atan2(e[0] - g[0]),
+    ]);
+    q
+}
+
+#[test]
+fn six_bar_dyad_straightening_mid_turn_crosses_over_on_every_grid_and_back_end() {
+    let t_star = six_bar_straight();
+    let expected = [
+        (SingularKind::Bifurcation, t_star),
+        (SingularKind::Bifurcation, t_star + 1.0),
+    ];
+    for steps in GRIDS {
+        let times = grid(steps, 2);
+        let generated = generated::six_bar::SixBar::default()
+            .solver(Options::default())
+            .and_then(|mut s| s.run(&times))
+            .unwrap_or_else(|e| panic!("generated, {steps} steps per turn: {e}"));
+        let taped = run(tape("tests/singular/six_bar.kin"), &times)
+            .unwrap_or_else(|e| panic!("tape, {steps} steps per turn: {e}"));
+        for (what, trajectory) in [("generated", &generated), ("tape", &taped)] {
+            let what = format!("{what}, {steps} steps per turn");
+            assert_matches(&what, trajectory, six_bar_exact);
+            assert_events(&what, trajectory, &expected);
+            // The straight dyad's load passes through O: the dyad's pins
+            // and the crank's pivot, not the driver nor the four-bar.
+            for event in trajectory.events() {
+                assert_eq!(
+                    event.dependency.equations,
+                    ["o.x", "o.y", "c.x", "c.y", "e.x", "e.y", "g.x", "g.y"],
+                    "{what}: {event:?}"
+                );
+            }
         }
     }
 }
