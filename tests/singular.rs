@@ -399,3 +399,35 @@ fn rank_decisions_do_not_depend_on_units() {
     };
     let _ = run(huge, &times);
 }
+
+/// A run that ends in a singular configuration (the parallelogram flat again
+/// at θ = π, t = 0.5) does not call it a toggle: past the last time nothing
+/// was computed. On every grid, both back ends.
+#[test]
+fn a_run_ending_at_a_singular_configuration_says_so() {
+    for steps in GRIDS {
+        let n = steps / 2 + steps % 2;
+        let times: Vec<f64> = (0..=n).map(|k| 0.5 * k as f64 / n as f64).collect();
+        let generated = generated::parallelogram::Parallelogram::default()
+            .solver(Options::default())
+            .and_then(|mut s| s.run(&times))
+            .unwrap_or_else(|e| panic!("generated, {steps}: {e}"));
+        let taped = run(tape("tests/singular/parallelogram.kin"), &times)
+            .unwrap_or_else(|e| panic!("tape, {steps}: {e}"));
+        for (what, trajectory) in [("generated", &generated), ("tape", &taped)] {
+            let what = format!("{what}, {steps} steps per turn");
+            assert_events(
+                &what,
+                trajectory,
+                &[(SingularKind::Toggle, 0.0), (SingularKind::AtEnd, 0.5)],
+            );
+            let last = &trajectory[trajectory.len() - 1];
+            assert!(last.near_singular(), "{what}: the last row is flagged");
+            let shown = trajectory.events()[1].to_string();
+            assert!(
+                shown.starts_with("singular configuration at t = 0.5") && !shown.contains("toggle"),
+                "{what}: {shown}"
+            );
+        }
+    }
+}

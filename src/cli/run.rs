@@ -531,9 +531,14 @@ fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
         } else {
             format!("t = {} … {}", time(*first), time(*last))
         };
+        let (lie, their) = if flagged.len() == 1 {
+            ("lies", "its")
+        } else {
+            ("lie", "their")
+        };
         eprintln!(
-            "warning: {} row{s} at {at} lie within the threshold of a singular configuration: \
-             their q̇ and q̈ are the limits along the branch, not solves",
+            "warning: {} row{s} at {at} {lie} within the threshold of a singular configuration: \
+             {their} q̇ and q̈ are the limits along the branch, not solves",
             flagged.len()
         );
     }

@@ -968,14 +968,51 @@ fn is_invisible(c: char) -> bool {
 /// Rejects text whose bracket nesting is deeper than the lexer and token
 /// trees should see (deeply nested groups are built and dropped
 /// recursively by proc-macro2), pointing at the first bracket past the
-/// limit. A rough scan: brackets inside comments or string literals also
-/// count, which only matters for absurd input.
+/// limit. Brackets inside comments (`//`, `///`, nested `/* */`) and string
+/// literals are text, not groups, and do not count: an imported simEngine2D
+/// body named `tan(abs(abs(…` appears in a comment.
 fn nesting_error(source: &str) -> Option<Diagnostics> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum In {
+        Code,
+        LineComment,
+        BlockComment(usize),
+        Str,
+    }
     let limit = 4 * MAX_NESTING;
     let mut depth = 0usize;
-    for (offset, c) in source.char_indices() {
-        match c {
-            '(' | '[' | '{' => {
+    let mut state = In::Code;
+    let mut chars = source.char_indices().peekable();
+    while let Some((offset, c)) = chars.next() {
+        let next = chars.peek().map(|&(_, n)| n);
+        match (state, c) {
+            (In::LineComment, '\n') => state = In::Code,
+            (In::LineComment, _) => {}
+            (In::Str, '\\') => {
+                chars.next();
+            }
+            (In::Str, '"') => state = In::Code,
+            (In::Str, _) => {}
+            (In::BlockComment(k), '*') if next == Some('/') => {
+                chars.next();
+                state = if k <= 1 {
+                    In::Code
+                } else {
+                    In::BlockComment(k - 1)
+                };
+            }
+            (In::BlockComment(k), '/') if next == Some('*') => {
+                chars.next();
+                state = In::BlockComment(k + 1);
+            }
+            (In::BlockComment(_), _) => {}
+            (In::Code, '/') if next == Some('/') => state = In::LineComment,
+            (In::Code, '/') if next == Some('*') => {
+                chars.next();
+                state = In::BlockComment(1);
+            }
+            (In::Code, '"') => state = In::Str,
+            (In::Code, '(' | '[' | '{') => {
                 depth += 1;
                 if depth > limit {
                     let index = LineIndex::new(source);
@@ -991,8 +1028,8 @@ fn nesting_error(source: &str) -> Option<Diagnostics> {
                     return Some(d);
                 }
             }
-            ')' | ']' | '}' => depth = depth.saturating_sub(1),
-            _ => {}
+            (In::Code, ')' | ']' | '}') => depth = depth.saturating_sub(1),
+            (In::Code, _) => {}
         }
     }
     None

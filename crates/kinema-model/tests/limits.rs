@@ -87,3 +87,29 @@ fn invalid_utf8_is_located() {
         .unwrap_or_default();
     insta::assert_snapshot!(d.render(&String::from_utf8_lossy(bytes), "latin1.kin"));
 }
+
+/// Brackets in comments and string-like text are not groups: a comment or a
+/// doc comment full of them (an imported simEngine2D body named
+/// `tan(abs(abs(…`, found by the fuzzer) checks; the same depth in code is
+/// still refused at its 513th bracket.
+#[test]
+fn brackets_in_comments_do_not_count_towards_the_nesting_limit() {
+    let deep = "(".repeat(600);
+    let model = format!(
+        "// {deep}\n/* {deep} /* nested */ */\nmechanism M {{\n    /// {deep}\n    body b;\n    \
+         joint x: abs_x(b(0, 0), 0);\n    joint y: abs_y(b(0, 0), 0);\n    driver d: b.phi == t;\n}}\n"
+    );
+    if let Err(d) = check_str(&model) {
+        panic!("{}", d.render(&model, "comments.kin"));
+    }
+    let code = format!("mechanism M {{ body b; driver d: b.phi == {deep}t; }}");
+    let rendered = check_str(&code)
+        .err()
+        .map(|d| d.render(&code, "deep.kin"))
+        .unwrap_or_default();
+    assert!(
+        rendered.contains("brackets nested too deeply"),
+        "{rendered}"
+    );
+    assert!(rendered.contains("level 513"), "{rendered}");
+}

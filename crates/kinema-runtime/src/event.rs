@@ -22,6 +22,11 @@ pub enum SingularKind {
     /// No continuation: past this time the constraints have no solution
     /// near the motion (a dead point). The run stops here.
     LockUp,
+    /// The run ended within the threshold of a singular configuration: past
+    /// its last time the motion was not computed, so whether it would turn
+    /// back (a toggle), cross over (a bifurcation) or have no continuation
+    /// (a lock-up) is not known.
+    AtEnd,
 }
 
 impl fmt::Display for SingularKind {
@@ -30,6 +35,7 @@ impl fmt::Display for SingularKind {
             Self::Bifurcation => "bifurcation",
             Self::Toggle => "toggle",
             Self::LockUp => "lock-up",
+            Self::AtEnd => "singular configuration",
         })
     }
 }
@@ -56,6 +62,9 @@ impl fmt::Display for SingularEvent {
             SingularKind::Bifurcation => f.write_str("; kept the branch on which q̇ is continuous"),
             SingularKind::Toggle => f.write_str("; the motion continues on the same side"),
             SingularKind::LockUp => f.write_str("; the motion has no continuation"),
+            SingularKind::AtEnd => f.write_str(
+                "; the run ends there, so whether the motion turns back, crosses over or locks up is not known (run past it to see)",
+            ),
         }
     }
 }

@@ -278,20 +278,25 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// The singular configurations met so far (see "Singular
     /// configurations" above), in time order. A toggle is recorded when the
     /// motion leaves its neighbourhood, so call
-    /// [`close_events`](Self::close_events) after the last step to have one
-    /// the motion ends in.
+    /// [`close_events`](Self::close_events) after the last step to have the
+    /// one the run ends in ([`SingularKind::AtEnd`]).
     #[must_use]
     pub fn events(&self) -> &[SingularEvent] {
         &self.events
     }
 
-    /// Records a toggle whose neighbourhood the motion has not left yet
-    /// (call after the last step), and returns every event.
+    /// Records the singular configuration whose neighbourhood the motion
+    /// has not left yet, as [`SingularKind::AtEnd`] (call after the last
+    /// step), and returns every event.
     pub fn close_events(&mut self) -> &[SingularEvent] {
+        // A run of near-singular states still open: the run ended in it.
         if let Some(zone) = self.zone.take()
             && !zone.flipped
         {
-            self.events.push(zone.event);
+            self.events.push(SingularEvent {
+                kind: SingularKind::AtEnd,
+                ..zone.event
+            });
         }
         &self.events
     }
