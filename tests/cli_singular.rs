@@ -233,3 +233,32 @@ fn assembly_far_from_the_guess_is_a_warning() {
     );
     assert!(stderr.contains("mirror image"), "{stderr}");
 }
+
+/// A model that lingers near a singular configuration (a rack-and-pinion
+/// whose direction is subnormal: one event per solve, 500 of them, found by
+/// the fuzzer as 123 KB of warnings) gets the first 20 warnings and a count
+/// of the rest: stderr stays bounded.
+#[test]
+fn many_singular_configurations_are_counted_not_listed() {
+    let dir = TempDir::new("lingering");
+    let out = dir.path("out.csv");
+    let o = kinema(&["run", "tests/singular/lingering.adm", "--out", &out]);
+    let stderr = text(&o.stderr);
+    let listed = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: toggle") || l.starts_with("warning: bifurcation"))
+        .count();
+    assert_eq!(listed, 20, "{stderr}");
+    let more = stderr
+        .lines()
+        .find(|l| l.starts_with("warning: … and "))
+        .unwrap_or_else(|| panic!("no count of the rest: {stderr}"));
+    let n: usize = more
+        .trim_start_matches("warning: … and ")
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{more}"));
+    assert!(n > 100, "{more}");
+    assert!(stderr.len() < 20_000, "{} bytes on stderr", stderr.len());
+}

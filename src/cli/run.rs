@@ -518,11 +518,25 @@ fn event_marker(event: &SingularEvent) -> animate::Marker {
     }
 }
 
-/// One `warning:` line per singular configuration met, and one for the
+/// Most singular configurations warned about one by one; a run that meets
+/// more (a mechanism that lingers near singular, one event per step) gets
+/// the first ones and a count, so that stderr stays bounded.
+const MAX_EVENT_WARNINGS: usize = 20;
+
+/// One `warning:` line per singular configuration met (at most
+/// [`MAX_EVENT_WARNINGS`], then a count of the rest), and one for the
 /// output rows that hold branch limits instead of solves.
 fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
-    for e in events {
+    for e in events.iter().take(MAX_EVENT_WARNINGS) {
         eprintln!("warning: {e}");
+    }
+    if let Some(rest) = events.get(MAX_EVENT_WARNINGS..).filter(|r| !r.is_empty()) {
+        let last = rest.last().map_or(0.0, |e| e.t);
+        eprintln!(
+            "warning: … and {} more singular configurations, up to t = {} (not listed;              the motion lingers near singular: check the model's dimensions)",
+            rest.len(),
+            time(last)
+        );
     }
     if let (Some(first), Some(last)) = (flagged.first(), flagged.last()) {
         let s = if flagged.len() == 1 { "" } else { "s" };

@@ -121,7 +121,8 @@ impl Analysis {
             .collect()
     }
 
-    /// Checks that the analysis's times increase: the output spacing
+    /// Checks that the analysis's times increase and are not too many: the
+    /// solves (`tend / stepSize`) at most [`MAX_SOLVES`]; the output spacing
     /// `tend / outputSteps` and `stepSize` must both be resolvable next to
     /// `tend` (a few units in the last place of it). Otherwise consecutive
     /// times would round to the same number (`tend` 5e-324 with 10 output
@@ -164,6 +165,18 @@ impl Analysis {
                 ),
             });
         }
+        let solves = tend / step;
+        if solves > MAX_SOLVES as f64 {
+            return Err(TimesError {
+                field: "stepSize",
+                message: format!(
+                    "simEngine2D solves every stepSize: tend / stepSize = {} / {} = {solves:.3e} \
+                     solves, more than the {MAX_SOLVES} a run may take; use a larger stepSize",
+                    crate::fun::format_number(tend),
+                    crate::fun::format_number(step)
+                ),
+            });
+        }
         Ok(())
     }
 
@@ -179,7 +192,8 @@ impl Analysis {
         let mut next = 1; // index of the next output time
         // Every step advances by stepSize or lands on an output time, so the
         // loop ends; the cap guards against a degenerate stepSize.
-        let cap = outputs.len() + (self.tend / self.step_size).ceil().min(1e8) as usize + 2;
+        let cap =
+            outputs.len() + (self.tend / self.step_size).ceil().min(MAX_SOLVES as f64) as usize + 2;
         while next < outputs.len() && times.len() < cap {
             let target = outputs[next];
             if t + self.step_size >= target {
@@ -193,6 +207,11 @@ impl Analysis {
         times
     }
 }
+
+/// Most solve times an analysis may ask for (`tend / stepSize`): the same
+/// limit as the command line's on a run's times. A 10⁸-entry grid from a
+/// subnormal stepSize would otherwise be built (800 MB) and solved.
+pub const MAX_SOLVES: usize = 10_000_000;
 
 /// Why an analysis's times do not increase ([`Analysis::check_times`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -500,6 +519,20 @@ mod tests {
                 .contains("\"stepSize\": the solve times do not increase"),
             "{e}"
         );
+        assert_eq!(d.pos.map(|p| p.line), Some(3), "{e}");
+        // Resolvable but too many solves: refused at stepSize, not built.
+        let e = Analysis::parse(
+            "simulation: kinematics\ntend: 1e6\nstepSize: 1e-3\noutputSteps: 5\n",
+            "x.acf",
+        )
+        .expect_err("1e9 solves");
+        let d = &e.diagnostics()[0];
+        assert!(
+            d.message
+                .contains("\"stepSize\": simEngine2D solves every stepSize"),
+            "{e}"
+        );
+        assert!(d.message.contains("1.000e9 solves"), "{e}");
         assert_eq!(d.pos.map(|p| p.line), Some(3), "{e}");
         // Tiny but resolvable times are fine, and so are huge ones.
         for (tend, n) in [(1e-310, 10), (1e-300, 1000), (f64::MAX, 1000)] {

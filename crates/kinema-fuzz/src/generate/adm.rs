@@ -238,6 +238,14 @@ pub fn acf(rng: &mut Rng) -> String {
         "1", "5.0", "0.1", "1e-300", "5e-324", "1e300", "1e6", "0", "-1",
     ]);
     let step = *rng.pick(&["0.01", "0.1", "1", "1e-300", "5e-324", "1e300", "0.5"]);
+    // A valid analysis with 10⁵ … 10⁷ solves (tend 1e6, stepSize 1) is a
+    // long job, not a hang: kept to 10⁴ solves so that the 10 s limit
+    // judges kinema, not the size of the work asked for. Beyond 10⁷ kinema
+    // must refuse at once, so those stay.
+    let (t, h): (f64, f64) = (tend.parse().unwrap_or(0.0), step.parse().unwrap_or(0.0));
+    let long = t > 0.0 && h > 0.0 && (1e5..=1e7).contains(&(t / h));
+    let bounded = format!("{:e}", t / 1e4);
+    let step = if long { bounded.as_str() } else { step };
     let steps = *rng.pick(&[
         "10",
         "5",
