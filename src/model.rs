@@ -165,7 +165,7 @@ impl Model {
 }
 
 /// A [`System`] evaluated by tapes: compiled once, evaluated with no
-/// allocation.
+/// allocation. Its scratch is the tapes' register file.
 #[derive(Clone, Debug)]
 pub struct TapeSystem {
     coordinate_names: Vec<String>,
@@ -179,7 +179,8 @@ pub struct TapeSystem {
     both: Tape,
     nu: Tape,
     gamma: Tape,
-    registers: Vec<f64>,
+    /// Registers the largest tape needs (the scratch's length).
+    registers: usize,
     zeros: Vec<f64>,
 }
 
@@ -215,7 +216,7 @@ impl TapeSystem {
             both,
             nu,
             gamma,
-            registers: vec![0.0; registers],
+            registers,
         }
     }
 
@@ -254,17 +255,35 @@ impl TapeSystem {
         }
     }
 
-    /// Runs `tape` and writes its outputs to `out`; on the (impossible for a
-    /// consistent system) size mismatch, writes NaN so the runtime reports
-    /// non-finite values instead of going on silently.
-    fn run(tape: &Tape, registers: &mut [f64], inputs: &TapeInputs<'_>, out: &mut [f64]) {
-        if tape.eval(inputs, registers, out).is_err() {
+    /// Runs `tape` and writes its outputs to `out`; on a size mismatch (a
+    /// slice of the wrong length), writes NaN so the caller sees non-finite
+    /// values instead of going on silently (the `System` trait's rule).
+    fn run(tape: &Tape, registers: &mut Vec<f64>, inputs: &TapeInputs<'_>, out: &mut [f64]) {
+        if tape
+            .eval(inputs, Self::registers(registers, tape), out)
+            .is_err()
+        {
             out.fill(f64::NAN);
         }
+    }
+
+    /// The register file, grown if it came from another system (a scratch
+    /// kept while the solver's system was replaced); no allocation otherwise.
+    fn registers<'a>(registers: &'a mut Vec<f64>, tape: &Tape) -> &'a mut [f64] {
+        if registers.len() < tape.registers() {
+            registers.resize(tape.registers(), 0.0);
+        }
+        registers
     }
 }
 
 impl System for TapeSystem {
+    type Scratch = Vec<f64>;
+
+    fn scratch(&self) -> Vec<f64> {
+        vec![0.0; self.registers]
+    }
+
     fn len(&self) -> usize {
         self.coordinate_names.len()
     }
@@ -279,7 +298,7 @@ impl System for TapeSystem {
 
     fn initial_guess(&self, q: &mut [f64]) {
         // Guesses are rarely evaluated: a scratch register file is fine here.
-        let mut registers = vec![0.0; self.guess.registers()];
+        let mut registers = Vec::new();
         let inputs = TapeInputs {
             q: &[],
             qd: &[],
@@ -293,27 +312,34 @@ impl System for TapeSystem {
         &self.pattern
     }
 
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
+    fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
         let inputs = TapeInputs {
             q,
             qd: &self.zeros,
             params: &self.params,
             t,
         };
-        Self::run(&self.phi, &mut self.registers, &inputs, phi);
+        Self::run(&self.phi, registers, &inputs, phi);
     }
 
-    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
+    fn jacobian(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, values: &mut [f64]) {
         let inputs = TapeInputs {
             q,
             qd: &self.zeros,
             params: &self.params,
             t,
         };
-        Self::run(&self.jacobian, &mut self.registers, &inputs, values);
+        Self::run(&self.jacobian, registers, &inputs, values);
     }
 
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
+    fn phi_and_jacobian(
+        &self,
+        registers: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
         let inputs = TapeInputs {
             q,
             qd: &self.zeros,
@@ -321,7 +347,8 @@ impl System for TapeSystem {
             t,
         };
         // The outputs are Φ then Φ_q's values, read where the tape left them.
-        let outputs = self.both.eval_in_registers(&inputs, &mut self.registers);
+        let registers = Self::registers(registers, &self.both);
+        let outputs = self.both.eval_in_registers(&inputs, registers);
         match outputs {
             Ok(out) if out.len() == phi.len() + values.len() => {
                 let (p, j) = out.split_at(phi.len());
@@ -335,23 +362,23 @@ impl System for TapeSystem {
         }
     }
 
-    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
+    fn nu(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, nu: &mut [f64]) {
         let inputs = TapeInputs {
             q,
             qd: &self.zeros,
             params: &self.params,
             t,
         };
-        Self::run(&self.nu, &mut self.registers, &inputs, nu);
+        Self::run(&self.nu, registers, &inputs, nu);
     }
 
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+    fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
         let inputs = TapeInputs {
             q,
             qd,
             params: &self.params,
             t,
         };
-        Self::run(&self.gamma, &mut self.registers, &inputs, gamma);
+        Self::run(&self.gamma, registers, &inputs, gamma);
     }
 }

@@ -478,13 +478,13 @@ fn run_adm(
 fn worst_residual(adm: &Path, csv: &Csv) -> Result<f64, Box<dyn std::error::Error>> {
     let model = kinema_adm::Model::read(adm)?;
     let kin = kinema::Model::from_source(&kinema_adm::to_kin(&model), "imported.kin")?;
-    let mut system = kin.system();
+    let system = kin.system();
     let n = system.len();
     assert_eq!(csv.header, contract_header(&coordinate_names(&kin)));
     let mut phi = vec![0.0; n];
     let mut worst = 0.0_f64;
     for row in &csv.rows {
-        system.phi(&row[1..=n], row[0], &mut phi);
+        system.phi(&mut system.scratch(), &row[1..=n], row[0], &mut phi);
         worst = phi.iter().fold(worst, |m, v| m.max(v.abs()));
     }
     Ok(worst)

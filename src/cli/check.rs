@@ -27,7 +27,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
     // Φ_q at the guess, for the record.
     let mut guess = vec![0.0; n];
     solver.system().initial_guess(&mut guess);
-    if let Some(rank) = rank_at(solver.system_mut(), &guess, 0.0) {
+    if let Some(rank) = rank_at(solver.system(), &guess, 0.0) {
         let _ = writeln!(report, "  rank of Φ_q at the guess: {}", describe(&rank));
     }
 
@@ -44,7 +44,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                 if stats.iterations == 1 { "" } else { "s" },
                 stats.residual
             );
-            let rank = rank_at(solver.system_mut(), &q, 0.0);
+            let rank = rank_at(solver.system(), &q, 0.0);
             let described = rank.map_or_else(
                 || format!("{n} of {n} (full: the LU's pivots pass; n is too large for the SVD)"),
                 |r| describe(&r),
@@ -66,7 +66,9 @@ pub fn check(path: &Path) -> Result<(), Failure> {
             }
             // At or near a singular configuration: a warning, never "ok".
             let mut values = vec![0.0; solver.system().jacobian_pattern().len()];
-            solver.system_mut().jacobian(&q, 0.0, &mut values);
+            solver
+                .system()
+                .jacobian(&mut solver.system().scratch(), &q, 0.0, &mut values);
             let dependency = diagnose::dependency(solver.system(), &values, tolerance);
             let _ = writeln!(
                 report,
@@ -176,10 +178,10 @@ fn describe(rank: &Rank) -> String {
 /// Rank of Φ_q(q, t) under the runtime's rule (equilibrated SVD, see
 /// [`diagnose::rank`]); `None` when the diagnosis cannot run (n above
 /// [`diagnose::MAX_DENSE_DIAGNOSIS`], a non-finite entry, a failed SVD).
-fn rank_at<S: System>(system: &mut S, q: &[f64], t: f64) -> Option<Rank> {
+fn rank_at<S: System>(system: &S, q: &[f64], t: f64) -> Option<Rank> {
     let n = system.len();
     let mut values = vec![0.0; system.jacobian_pattern().len()];
-    system.jacobian(q, t, &mut values);
+    system.jacobian(&mut system.scratch(), q, t, &mut values);
     diagnose::rank(
         n,
         system.jacobian_pattern(),

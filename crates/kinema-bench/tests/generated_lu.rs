@@ -23,7 +23,7 @@ impl Rng {
 /// Jacobian of the right shape), solved by the generated LU and by
 /// `DenseLu`; returns how often the generated LU fell back.
 fn agrees_with_dense_lu<S: System, L: LinearSolver, const N: usize>(
-    mut system: S,
+    system: S,
     fallback_count: impl Fn(&L) -> u64,
 ) -> Result<u64, LinalgError> {
     let pattern = system.jacobian_pattern().to_vec();
@@ -34,7 +34,7 @@ fn agrees_with_dense_lu<S: System, L: LinearSolver, const N: usize>(
     let mut solved = 0;
     for _ in 0..2000 {
         let q: Vec<f64> = (0..N).map(|_| rng.uniform(-4.0, 4.0)).collect();
-        system.jacobian(&q, 0.0, &mut values);
+        system.jacobian(&mut system.scratch(), &q, 0.0, &mut values);
         let Ok(()) = dense.factor(&values, 1e-10) else {
             // Singular here: the generated LU must say so too.
             assert!(matches!(
@@ -97,8 +97,9 @@ fn solve_before_factor_and_wrong_lengths_are_errors() -> Result<(), LinalgError>
         Err(LinalgError::Dimension { .. })
     ));
     let mut values = vec![0.0; system.jacobian_pattern().len()];
-    let mut s = system.clone();
+    let s = system.clone();
     s.jacobian(
+        &mut s.scratch(),
         &[0.0, 0.0, 0.8, 0.5, 0.3, -0.2, 1.0, 0.0, 0.0],
         0.0,
         &mut values,

@@ -9,8 +9,10 @@
 //! computed once per time. Values are compared bit for bit, so a cache hit
 //! returns exactly what the computation would: results do not change.
 //!
-//! The cache holds nothing that depends on parameters, so changing a
-//! parameter between steps never makes it stale.
+//! The cache is the system's `System::Scratch`, owned by the solver, not a
+//! field of the parameter struct (which stays plain data). It holds nothing
+//! that depends on parameters, so changing a parameter between steps never
+//! makes it stale.
 
 use std::collections::BTreeMap;
 
@@ -108,14 +110,14 @@ impl Cache {
         if let Some(&(slot, sin)) = self.trig.get(&e) {
             let slot = Literal::usize_unsuffixed(slot);
             return Some(if sin {
-                quote!(self.__cache.sin[#slot])
+                quote!(scratch.sin[#slot])
             } else {
-                quote!(self.__cache.cos[#slot])
+                quote!(scratch.cos[#slot])
             });
         }
         self.time_slot.get(&e).map(|&slot| {
             let slot = Literal::usize_unsuffixed(slot);
-            quote!(self.__cache.time[#slot])
+            quote!(scratch.time[#slot])
         })
     }
 
@@ -136,8 +138,8 @@ impl Cache {
         let mut out = TokenStream::new();
         if uses_time {
             out.extend(quote! {
-                if t.to_bits() != self.__cache.t.to_bits() {
-                    self.__cache.refresh_time(t);
+                if t.to_bits() != scratch.t.to_bits() {
+                    scratch.refresh_time(t);
                 }
             });
         }
@@ -154,7 +156,7 @@ impl Cache {
             });
             out.extend(quote! {
                 {
-                    let c = &mut self.__cache;
+                    let c = &mut *scratch;
                     #(#checks)*
                 }
             });
@@ -226,10 +228,10 @@ impl Cache {
             }
         };
         let doc = format!(
-            " Per-step cache of [`{}`]: sin and cos of {} body angles (keyed on the exact \
-             angle), {} functions of time (keyed on the exact t). Not part of the \
-             mechanism: it compares equal to any other, and a clone or a default is as good \
-             as the original.",
+            " The scratch of [`{}`] (its `System::Scratch`): sin and cos of {} body \
+             angles (keyed on the exact angle), {} functions of time (keyed on the exact \
+             t). It holds nothing that depends on parameters, so it never changes a result: \
+             a clone or a default is as good as the original.",
             name.to_string().trim_end_matches("Cache"),
             self.angles.len(),
             self.time.len()
@@ -246,12 +248,6 @@ impl Cache {
             impl ::core::default::Default for #name {
                 fn default() -> Self {
                     #init
-                }
-            }
-
-            impl ::core::cmp::PartialEq for #name {
-                fn eq(&self, _: &Self) -> bool {
-                    true
                 }
             }
 

@@ -18,14 +18,14 @@
 //! for large systems) held inside takes over, and its partial pivoting gives
 //! the singularity verdict and diagnostics. `SliderCrank::solver()` uses it.
 //!
-//! The struct also has a hidden field `__cache` (module `cache`): sin and
-//! cos of the body angles keyed on the exact angle, and the functions of
-//! time alone (a driver's `sin(2*t)`, …; not those that also read a
-//! parameter, such as `sin(omega*t)`) keyed on the exact t, so that the
-//! evaluations of one step — and the next step's first, at the same q —
-//! share them. It never changes a result and compares equal to any other
-//! cache; build the mechanism with `..Default::default()` when setting
-//! parameters: `SliderCrank { l2: 0.3, ..SliderCrank::default() }`.
+//! The struct is plain data — the parameters, nothing else: build it with a
+//! struct literal (`SliderCrank { l2: 0.3, ..SliderCrank::default() }` or
+//! every field), destructure it, compare it. What one step's evaluations
+//! share (module `cache`: sin and cos of the body angles keyed on the exact
+//! angle, and the functions of time alone — a driver's `sin(2*t)`, not
+//! `sin(omega*t)`, which reads a parameter — keyed on the exact t) is the
+//! `System`'s scratch, `SliderCrankCache`, which the solver owns. It never
+//! changes a result.
 //!
 //! Three ways to use it: the `kinema::mechanism!` macro (through
 //! [`expand`]), a build script ([`build::generate`], writing a formatted
@@ -99,14 +99,14 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
         cache.items(&d.arena, &cache_name, &params)
     };
     let (solver, lu_items) = solver_items(d, &name, options);
-    let item = struct_item(
-        d,
-        &name,
-        &params,
-        (!cache.is_empty()).then_some(&cache_name),
-    );
+    let item = struct_item(d, &name, &params);
     let inherent = inherent_items(d, &name, &solver);
-    let system = system_impl(d, &name, &params, &cache, &options.runtime);
+    let scratch = if cache.is_empty() {
+        quote!(())
+    } else {
+        quote!(#cache_name)
+    };
+    let system = system_impl(d, (&name, &scratch), &params, &cache, &options.runtime);
     quote! {
         #item
         #inherent
@@ -116,15 +116,10 @@ pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
     }
 }
 
-/// The struct: the parameters as public fields (documented from the model),
-/// the hidden per-step cache if there is one, and `Default` from the
-/// declared values.
-fn struct_item(
-    d: &Derivation,
-    name: &Ident,
-    params: &[Ident],
-    cache: Option<&Ident>,
-) -> TokenStream {
+/// The struct: the parameters as public fields (documented from the model)
+/// and `Default` from the declared values. Plain data: the per-step cache is
+/// the `System`'s scratch, owned by the solver.
+fn struct_item(d: &Derivation, name: &Ident, params: &[Ident]) -> TokenStream {
     // Generated items are always documented (users may deny missing_docs).
     let docs = if d.docs.is_empty() {
         doc_attrs(&[format!(
@@ -149,19 +144,6 @@ fn struct_item(
         let v = emit::number(p.value).tokens;
         quote! { #f: #v, }
     });
-    let (cache_field, cache_default) = match cache {
-        None => (quote!(), quote!()),
-        Some(cache_name) => (
-            quote! {
-                /// Per-step cache (sin and cos of the body angles, functions of
-                /// time). Not a parameter: construct the mechanism with
-                /// `..Default::default()`; it never affects results or equality.
-                #[doc(hidden)]
-                pub __cache: #cache_name,
-            },
-            quote!(__cache: ::core::default::Default::default(),),
-        ),
-    };
     quote! {
         #docs
         // Field names are the model's parameter names, as the user wrote them.
@@ -169,12 +151,11 @@ fn struct_item(
         #[derive(Clone, Debug, PartialEq)]
         pub struct #name {
             #(#fields)*
-            #cache_field
         }
 
         impl ::core::default::Default for #name {
             fn default() -> Self {
-                Self { #(#defaults)* #cache_default }
+                Self { #(#defaults)* }
             }
         }
     }
@@ -233,10 +214,12 @@ fn inherent_items(d: &Derivation, name: &Ident, solver: &TokenStream) -> TokenSt
 struct Method {
     body: TokenStream,
     used: emit::Used,
+    /// Whether the body reads or refreshes the scratch (the cache).
+    scratch: bool,
 }
 
 impl Method {
-    /// A slice argument's name: `name`, or `_name` when the body ignores it.
+    /// An argument's name: `name`, or `_name` when the body ignores it.
     fn arg(used: bool, name: &str) -> Ident {
         if used {
             format_ident!("{}", name)
@@ -245,45 +228,60 @@ impl Method {
         }
     }
 
-    /// `let Ok(name) = <&[f64; len]>::try_from(name) else { return; };`
-    /// (`&mut` if `mutable`): one conversion per slice, after which indexing
-    /// cannot panic. Nothing when the body does not read it.
-    fn sized(used: bool, name: &str, len: usize, mutable: bool) -> TokenStream {
-        let n = format_ident!("{}", name);
-        let len = Literal::usize_unsuffixed(len);
-        match (used, mutable) {
-            (false, _) => quote!(),
-            (true, false) => quote! { let Ok(#n) = <&[f64; #len]>::try_from(#n) else { return; }; },
-            (true, true) => {
-                quote! { let Ok(#n) = <&mut [f64; #len]>::try_from(#n) else { return; }; }
+    /// The method's whole body. Every slice's length is checked first: a
+    /// wrong one fills the outputs with NaN and returns (the trait's one
+    /// behaviour for wrong lengths, so the caller sees non-finite values).
+    /// Then each slice the body reads becomes a fixed-size array once, after
+    /// which indexing cannot panic.
+    fn wrap(&self, inputs: &[(&str, bool, usize)], outputs: &[(&str, usize)]) -> TokenStream {
+        let lengths = inputs
+            .iter()
+            .map(|&(name, _, len)| (name, len))
+            .chain(outputs.iter().copied())
+            .map(|(name, len)| {
+                let (n, len) = (format_ident!("{}", name), Literal::usize_unsuffixed(len));
+                quote!(#n.len() != #len)
+            });
+        let fills = outputs.iter().map(|&(name, _)| {
+            let n = format_ident!("{}", name);
+            quote!(#n.fill(f64::NAN);)
+        });
+        let sized_outputs = outputs.iter().map(|&(name, len)| {
+            let (n, len) = (format_ident!("{}", name), Literal::usize_unsuffixed(len));
+            quote! { let Ok(#n) = <&mut [f64; #len]>::try_from(#n) else { return; }; }
+        });
+        let sized_inputs = inputs.iter().filter(|i| i.1).map(|&(name, _, len)| {
+            let (n, len) = (format_ident!("{}", name), Literal::usize_unsuffixed(len));
+            quote! { let Ok(#n) = <&[f64; #len]>::try_from(#n) else { return; }; }
+        });
+        let body = &self.body;
+        quote! {
+            if #(#lengths)||* {
+                #(#fills)*
+                return;
             }
+            #(#sized_outputs)*
+            #(#sized_inputs)*
+            #body
         }
-    }
-
-    /// `(q, t)` arguments and the conversion of `q`, for a method of
-    /// q and t.
-    fn q_t(&self, nc: usize) -> (Ident, Ident, TokenStream) {
-        (
-            Self::arg(self.used.q, "q"),
-            Self::arg(self.used.t, "t"),
-            Self::sized(self.used.q, "q", nc, false),
-        )
     }
 }
 
 /// `impl System`: the evaluation methods as straight-line code over the
-/// cache, plus names, pattern and initial guess.
+/// scratch (the cache), plus names, pattern and initial guess. `types` is
+/// the mechanism's type and its scratch type.
 fn system_impl(
     d: &Derivation,
-    name: &Ident,
+    types: (&Ident, &TokenStream),
     params: &[Ident],
     cache: &cache::Cache,
     rt: &syn::Path,
 ) -> TokenStream {
+    let (name, scratch_type) = types;
     let a = &d.arena;
     let nc = d.nc();
     let nc_lit = Literal::usize_unsuffixed(nc);
-    let nnz_lit = Literal::usize_unsuffixed(d.phi_q.entries.len());
+    let nnz = d.phi_q.entries.len();
     let out = format_ident!("out");
     let to_out = |k: usize| emit::index(&out, k);
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
@@ -301,6 +299,7 @@ fn system_impl(
         Method {
             body: quote!(#refresh #body),
             used,
+            scratch: reads_q || reads_t,
         }
     };
 
@@ -330,18 +329,43 @@ fn system_impl(
     };
     let both = method(&both_exprs, &to_both);
 
-    let (phi_q, phi_t, phi_check) = phi.q_t(nc);
-    let (jac_q, jac_t, jac_check) = jac.q_t(nc);
-    let (both_q, both_t, both_check) = both.q_t(nc);
-    let (nu_q, nu_t, nu_check) = nu.q_t(nc);
-    let (gamma_q, gamma_t, gamma_q_check) = gamma.q_t(nc);
-    let gamma_qd = Method::arg(gamma.used.qd, "qd");
-    let gamma_qd_check = Method::sized(gamma.used.qd, "qd", nc, false);
-    let (phi_body, jac_body, both_body) = (&phi.body, &jac.body, &both.body);
-    let (nu_body, gamma_body) = (&nu.body, &gamma.body);
+    let args = |m: &Method| {
+        (
+            Method::arg(m.scratch, "scratch"),
+            Method::arg(m.used.t, "t"),
+        )
+    };
+    let (phi_s, phi_t) = args(&phi);
+    let (jac_s, jac_t) = args(&jac);
+    let (both_s, both_t) = args(&both);
+    let (nu_s, nu_t) = args(&nu);
+    let (gamma_s, gamma_t) = args(&gamma);
+    let phi_body = phi.wrap(&[("q", phi.used.q, nc)], &[("out", nc)]);
+    let jac_body = jac.wrap(&[("q", jac.used.q, nc)], &[("out", nnz)]);
+    let both_body = both.wrap(&[("q", both.used.q, nc)], &[("phi", nc), ("values", nnz)]);
+    let nu_body = nu.wrap(&[("q", nu.used.q, nc)], &[("out", nc)]);
+    let gamma_body = gamma.wrap(
+        &[("q", gamma.used.q, nc), ("qd", gamma.used.qd, nc)],
+        &[("out", nc)],
+    );
+    let scratch_fn = if cache.is_empty() {
+        quote!(
+            fn scratch(&self) -> Self::Scratch {}
+        )
+    } else {
+        quote! {
+            fn scratch(&self) -> Self::Scratch {
+                ::core::default::Default::default()
+            }
+        }
+    };
     quote! {
         #[allow(clippy::approx_constant)]
         impl #rt::System for #name {
+            type Scratch = #scratch_type;
+
+            #scratch_fn
+
             fn len(&self) -> usize {
                 #nc_lit
             }
@@ -355,6 +379,10 @@ fn system_impl(
             }
 
             fn initial_guess(&self, q: &mut [f64]) {
+                if q.len() != #nc_lit {
+                    q.fill(f64::NAN);
+                    return;
+                }
                 let Ok(q) = <&mut [f64; #nc_lit]>::try_from(q) else { return; };
                 #guess
             }
@@ -363,35 +391,23 @@ fn system_impl(
                 &Self::JACOBIAN_PATTERN
             }
 
-            fn phi(&mut self, #phi_q: &[f64], #phi_t: f64, out: &mut [f64]) {
-                #phi_check
-                let Ok(out) = <&mut [f64; #nc_lit]>::try_from(out) else { return; };
+            fn phi(&self, #phi_s: &mut Self::Scratch, q: &[f64], #phi_t: f64, out: &mut [f64]) {
                 #phi_body
             }
 
-            fn jacobian(&mut self, #jac_q: &[f64], #jac_t: f64, out: &mut [f64]) {
-                #jac_check
-                let Ok(out) = <&mut [f64; #nnz_lit]>::try_from(out) else { return; };
+            fn jacobian(&self, #jac_s: &mut Self::Scratch, q: &[f64], #jac_t: f64, out: &mut [f64]) {
                 #jac_body
             }
 
-            fn phi_and_jacobian(&mut self, #both_q: &[f64], #both_t: f64, phi: &mut [f64], values: &mut [f64]) {
-                #both_check
-                let Ok(phi) = <&mut [f64; #nc_lit]>::try_from(phi) else { return; };
-                let Ok(values) = <&mut [f64; #nnz_lit]>::try_from(values) else { return; };
+            fn phi_and_jacobian(&self, #both_s: &mut Self::Scratch, q: &[f64], #both_t: f64, phi: &mut [f64], values: &mut [f64]) {
                 #both_body
             }
 
-            fn nu(&mut self, #nu_q: &[f64], #nu_t: f64, out: &mut [f64]) {
-                #nu_check
-                let Ok(out) = <&mut [f64; #nc_lit]>::try_from(out) else { return; };
+            fn nu(&self, #nu_s: &mut Self::Scratch, q: &[f64], #nu_t: f64, out: &mut [f64]) {
                 #nu_body
             }
 
-            fn gamma(&mut self, #gamma_q: &[f64], #gamma_qd: &[f64], #gamma_t: f64, out: &mut [f64]) {
-                #gamma_q_check
-                #gamma_qd_check
-                let Ok(out) = <&mut [f64; #nc_lit]>::try_from(out) else { return; };
+            fn gamma(&self, #gamma_s: &mut Self::Scratch, q: &[f64], qd: &[f64], #gamma_t: f64, out: &mut [f64]) {
                 #gamma_body
             }
         }

@@ -201,15 +201,17 @@ fn stub(name: Option<syn::Ident>, options: &Options) -> TokenStream {
             }
         }
         impl #rt::System for #name {
+            type Scratch = ();
+            fn scratch(&self) {}
             fn len(&self) -> usize { 0 }
             fn coordinate_name(&self, _i: usize) -> &str { "" }
             fn equation_name(&self, _i: usize) -> &str { "" }
             fn initial_guess(&self, _q: &mut [f64]) {}
             fn jacobian_pattern(&self) -> &[(u32, u32)] { &[] }
-            fn phi(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
-            fn jacobian(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
-            fn nu(&mut self, _q: &[f64], _t: f64, _out: &mut [f64]) {}
-            fn gamma(&mut self, _q: &[f64], _qd: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn phi(&self, _scratch: &mut (), _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn jacobian(&self, _scratch: &mut (), _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn nu(&self, _scratch: &mut (), _q: &[f64], _t: f64, _out: &mut [f64]) {}
+            fn gamma(&self, _scratch: &mut (), _q: &[f64], _qd: &[f64], _t: f64, _out: &mut [f64]) {}
         }
     }
 }

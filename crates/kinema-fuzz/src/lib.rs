@@ -523,12 +523,12 @@ fn differences(
     along: &dyn Fn(&mut [f64], &mut f64, f64),
 ) -> (Vec<f64>, Vec<f64>) {
     let n = system.len();
-    let mut at = |s: f64| {
+    let at = |s: f64| {
         let mut q = state.q().to_vec();
         let mut t = state.t();
         along(&mut q, &mut t, s);
         let mut out = vec![0.0; n];
-        system.phi(&q, t, &mut out);
+        system.phi(&mut system.scratch(), &q, t, &mut out);
         out
     };
     let (plus, centre, minus) = (at(h), at(0.0), at(-h));
@@ -631,9 +631,9 @@ fn check_derivatives(system: &mut TapeSystem, state: &State) -> Result<(), Findi
     let t = state.t();
     let pattern = system.jacobian_pattern().to_vec();
     let mut values = vec![0.0; pattern.len()];
-    system.jacobian(state.q(), t, &mut values);
+    system.jacobian(&mut system.scratch(), state.q(), t, &mut values);
     let mut phi = vec![0.0; n];
-    system.phi(state.q(), t, &mut phi);
+    system.phi(&mut system.scratch(), state.q(), t, &mut phi);
     if !moderate(&values) || !moderate(&phi) {
         return Ok(());
     }
@@ -663,7 +663,7 @@ fn check_derivatives(system: &mut TapeSystem, state: &State) -> Result<(), Findi
         .run(system, t)?;
     }
     let mut nu = vec![0.0; n];
-    system.nu(state.q(), t, &mut nu);
+    system.nu(&mut system.scratch(), state.q(), t, &mut nu);
     let minus_nu: Vec<f64> = nu.iter().map(|v| -v).collect();
     let time = |_: &mut [f64], t: &mut f64, s: f64| *t += s;
     let h = 1e-4 * (1.0 + t.abs());
@@ -680,7 +680,7 @@ fn check_derivatives(system: &mut TapeSystem, state: &State) -> Result<(), Findi
     }
     .run(system, t)?;
     let mut gamma = vec![0.0; n];
-    system.gamma(state.q(), state.qd(), t, &mut gamma);
+    system.gamma(&mut system.scratch(), state.q(), state.qd(), t, &mut gamma);
     let minus_gamma: Vec<f64> = gamma.iter().map(|v| -v).collect();
     let qd = state.qd().to_vec();
     let path = move |q: &mut [f64], t: &mut f64, s: f64| {

@@ -16,7 +16,7 @@ fn jacobian<S: System>(system: &mut S) -> (Vec<(u32, u32)>, Vec<f64>) {
     system.initial_guess(&mut q);
     let pattern = system.jacobian_pattern().to_vec();
     let mut values = vec![0.0; pattern.len()];
-    system.jacobian(&q, 0.0, &mut values);
+    system.jacobian(&mut system.scratch(), &q, 0.0, &mut values);
     (pattern, values)
 }
 

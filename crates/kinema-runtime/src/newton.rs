@@ -109,8 +109,10 @@ pub(crate) struct Converged {
 
 /// Solves Φ(q, t) = 0 by Newton–Raphson from the guess in `q`, as described
 /// in [`Options`]. On success `q` holds the solution.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_position<S: System, L: LinearSolver>(
-    system: &mut S,
+    system: &S,
+    scratch: &mut S::Scratch,
     lu: &mut L,
     factorization: &mut Factorization,
     q: &mut [f64],
@@ -127,10 +129,10 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
         if full {
             // Φ_q's values are checked for finiteness by the factorization
             // (see `factor`).
-            system.phi_and_jacobian(q, t, &mut ws.phi, &mut ws.jac);
+            system.phi_and_jacobian(scratch, q, t, &mut ws.phi, &mut ws.jac);
             stats.jacobian_evaluations += 1;
         } else {
-            system.phi(q, t, &mut ws.phi);
+            system.phi(scratch, q, t, &mut ws.phi);
         }
         // ‖Φ‖∞ and the finiteness check in one pass.
         let (residual, finite) = scale_and_finite(&ws.phi);
@@ -154,7 +156,7 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
         }
         if full || !have_lu || residual > CONTRACTION * previous_residual {
             if !full {
-                system.jacobian(q, t, &mut ws.jac);
+                system.jacobian(scratch, q, t, &mut ws.jac);
                 stats.jacobian_evaluations += 1;
             }
             *factorization = Factorization::None;

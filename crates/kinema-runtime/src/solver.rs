@@ -113,6 +113,8 @@ const LIMIT_RESIDUAL: f64 = 100.0;
 #[derive(Debug)]
 pub struct Solver<S: System, L: LinearSolver = Auto> {
     system: S,
+    /// The system's evaluation scratch (see [`System::Scratch`]).
+    scratch: S::Scratch,
     lu: L,
     options: Options,
     ws: Workspace,
@@ -196,6 +198,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         let nnz = system.jacobian_pattern().len();
         Ok(Self {
+            scratch: system.scratch(),
             system,
             lu,
             options,
@@ -378,7 +381,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             out.qdd[i] = qdd - delta * jerk;
         }
         std::mem::swap(&mut self.next, &mut self.spare);
-        self.system.phi(&self.next.q, t0, &mut self.ws.phi);
+        self.system
+            .phi(&mut self.scratch, &self.next.q, t0, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
         let close =
             residual <= self.options.residual_tolerance.sqrt() * (1.0 + inf_norm(&self.next.q));
@@ -393,7 +397,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             ..Default::default()
         };
         self.next.det_sign = 0.0;
-        self.system.jacobian(&self.next.q, t0, &mut self.ws.jac);
+        self.system
+            .jacobian(&mut self.scratch, &self.next.q, t0, &mut self.ws.jac);
         Ok(())
     }
 
@@ -758,7 +763,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             ..self.options
         };
         let _ = solve_position(
-            &mut self.system,
+            &self.system,
+            &mut self.scratch,
             &mut self.lu,
             &mut self.factorization,
             &mut self.next.q,
@@ -766,7 +772,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &options,
             &mut self.ws,
         );
-        self.system.phi(&self.next.q, t, &mut self.ws.phi);
+        self.system
+            .phi(&mut self.scratch, &self.next.q, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
         let better = residual <= self.spare.stats.residual;
         if !(better && self.rates(t).is_ok()) {
@@ -847,7 +854,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// the Taylor prediction from the current state as q if Φ is nearly
     /// satisfied there (the caller then bridges the rates).
     fn limit(&mut self, t: f64) -> bool {
-        self.system.phi(&self.pred, t, &mut self.ws.phi);
+        self.system
+            .phi(&mut self.scratch, &self.pred, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
         let close = residual <= LIMIT_RESIDUAL * self.options.residual_tolerance;
         if !close {
@@ -915,7 +923,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if !worse {
             return;
         }
-        self.system.jacobian(&self.next.q, t, &mut self.ws.jac);
+        self.system
+            .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         let dependency = crate::diagnose::dependency(
             &self.system,
             &self.ws.jac,
@@ -1006,8 +1015,12 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         // Φ_q at the last state before the change of sign.
         let t_star = singular_at.unwrap_or(lo + 0.5 * (hi - lo));
-        self.system
-            .jacobian(&self.state.q, self.state.t, &mut self.ws.jac);
+        self.system.jacobian(
+            &mut self.scratch,
+            &self.state.q,
+            self.state.t,
+            &mut self.ws.jac,
+        );
         let dependency = crate::diagnose::dependency(
             &self.system,
             &self.ws.jac,
@@ -1047,7 +1060,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             }
             q.copy_from_slice(&q_good);
             let solved = solve_position(
-                &mut self.system,
+                &self.system,
+                &mut self.scratch,
                 &mut self.lu,
                 &mut factorization,
                 &mut q,
@@ -1065,7 +1079,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             }
         }
         self.factorization = Factorization::None;
-        self.system.jacobian(&q_good, lo, &mut self.ws.jac);
+        self.system
+            .jacobian(&mut self.scratch, &q_good, lo, &mut self.ws.jac);
         if check_jacobian(&self.system, lo, &self.ws.jac).is_err() {
             return failure;
         }
@@ -1082,7 +1097,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
         let q = &mut self.next.q;
         let converged = solve_position(
-            &mut self.system,
+            &self.system,
+            &mut self.scratch,
             &mut self.lu,
             &mut self.factorization,
             q,
@@ -1091,7 +1107,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &mut self.ws,
         )?;
         if !converged.jacobian_current {
-            self.system.jacobian(q, t, &mut self.ws.jac);
+            self.system
+                .jacobian(&mut self.scratch, q, t, &mut self.ws.jac);
         }
         self.next.t = t;
         self.next.stats = converged.stats;
@@ -1100,7 +1117,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved.
     fn rates(&mut self, t: f64) -> Result<(), Error> {
-        self.system.jacobian(&self.next.q, t, &mut self.ws.jac);
+        self.system
+            .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         self.factor_and_rates(t)
     }
 
@@ -1124,16 +1142,26 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // every arithmetic operation of a solve. So only the solutions are
         // checked; on failure the right-hand side is evaluated again (the
         // solve overwrote it) to name the culprit.
-        let (system, lu, scaling) = (&mut self.system, &mut self.lu, &self.ws.scaling);
+        let (system, scratch) = (&self.system, &mut self.scratch);
+        let (lu, scaling) = (&mut self.lu, &self.ws.scaling);
         let quantities = (Quantity::Nu, Quantity::Velocity);
-        solve_checked(system, lu, scaling, t, qd, quantities, |s, rhs| {
-            s.nu(q, t, rhs)
+        solve_checked(system, scratch, lu, scaling, t, qd, quantities, |c, rhs| {
+            system.nu(c, q, t, rhs);
         })?;
         let quantities = (Quantity::Gamma, Quantity::Acceleration);
-        solve_checked(system, lu, scaling, t, qdd, quantities, |s, rhs| {
-            s.gamma(q, qd, t, rhs)
-        })
-        .map_err(|e| velocity_overflow(system, q, qd, t, e))?;
+        solve_checked(
+            system,
+            scratch,
+            lu,
+            scaling,
+            t,
+            qdd,
+            quantities,
+            |c, rhs| {
+                system.gamma(c, q, qd, t, rhs);
+            },
+        )
+        .map_err(|e| velocity_overflow(system, scratch, q, qd, t, e))?;
         Ok(())
     }
 }
@@ -1147,7 +1175,14 @@ const OVERFLOWING_VELOCITY: f64 = 1.3e151;
 /// of ν behind it ([`Error::VelocityOverflow`]). Other errors pass through.
 /// Runs on the error path only (it evaluates ν again).
 #[cold]
-fn velocity_overflow<S: System>(system: &mut S, q: &[f64], qd: &[f64], t: f64, e: Error) -> Error {
+fn velocity_overflow<S: System>(
+    system: &S,
+    scratch: &mut S::Scratch,
+    q: &[f64],
+    qd: &[f64],
+    t: f64,
+    e: Error,
+) -> Error {
     let Error::NonFinite {
         quantity: Quantity::Gamma,
         name,
@@ -1170,7 +1205,7 @@ fn velocity_overflow<S: System>(system: &mut S, q: &[f64], qd: &[f64], t: f64, e
         return e;
     }
     let mut nu = vec![0.0; qd.len()];
-    system.nu(q, t, &mut nu);
+    system.nu(scratch, q, t, &mut nu);
     let Some((j, source_value)) = largest(&nu) else {
         return e;
     };
@@ -1188,19 +1223,21 @@ fn velocity_overflow<S: System>(system: &mut S, q: &[f64], qd: &[f64], t: f64, e
 /// and only if x is not finite evaluates the right-hand side again to name
 /// the culprit: a non-finite equation (`quantities.0`) or else a solution
 /// that overflowed (`quantities.1`).
+#[allow(clippy::too_many_arguments)]
 fn solve_checked<S: System, L: LinearSolver>(
-    system: &mut S,
+    system: &S,
+    scratch: &mut S::Scratch,
     lu: &mut L,
     scaling: &Scaling,
     t: f64,
     x: &mut [f64],
     quantities: (Quantity, Quantity),
-    mut fill: impl FnMut(&mut S, &mut [f64]),
+    mut fill: impl FnMut(&mut S::Scratch, &mut [f64]),
 ) -> Result<(), Error> {
-    fill(system, x);
+    fill(scratch, x);
     scaling.solve(lu, x)?;
     if !scale_and_finite(x).1 {
-        fill(system, x);
+        fill(scratch, x);
         check_equations(system, t, quantities.0, x)?;
         scaling.solve(lu, x)?;
         check_coordinates(system, t, quantities.1, x)?;

@@ -20,14 +20,31 @@
 /// * γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt is the right-hand side of the
 ///   acceleration equation Φ_q q̈ = γ.
 ///
-/// Every output slice has exactly the length stated (n, or the pattern's
-/// length for the Jacobian values); the runtime guarantees it and
-/// implementations may rely on it. Implementations must not allocate in the
-/// evaluation methods: they run in every Newton iteration.
+/// Every slice has exactly the length stated (n, or the pattern's length for
+/// the Jacobian values); the runtime guarantees it. Given other lengths, an
+/// implementation must not panic: it fills every output slice it was given
+/// with NaN and returns, so the mistake surfaces as non-finite values (what
+/// generated code and [`TapeSystem`] do). Implementations must not allocate
+/// in the evaluation methods: they run in every Newton iteration.
 ///
-/// The methods take `&mut self` so that an interpreter can keep scratch
-/// registers inside the system.
+/// The system is plain data (parameters, names): every method takes `&self`.
+/// Whatever an evaluation needs to keep between calls — generated code's
+/// cache of sin φ and cos φ per angle and of the functions of time, an
+/// interpreter's registers — lives in its [`Scratch`](System::Scratch),
+/// which the caller owns (a [`Solver`](crate::Solver) makes one with
+/// [`scratch`](System::scratch) and passes it to every evaluation). A
+/// scratch never changes a result, so the system may change (its
+/// parameters, between steps) under the same scratch.
+///
+/// [`TapeSystem`]: https://docs.rs/kinema/latest/kinema/struct.TapeSystem.html
 pub trait System {
+    /// Scratch space of the evaluation methods (`()` when they need none).
+    type Scratch;
+
+    /// A fresh scratch for this system's evaluations. May allocate; called
+    /// once per solver.
+    fn scratch(&self) -> Self::Scratch;
+
     /// Number of generalized coordinates n, which is also the number of
     /// equations.
     fn len(&self) -> usize;
@@ -55,60 +72,84 @@ pub trait System {
     fn jacobian_pattern(&self) -> &[(u32, u32)];
 
     /// Writes Φ(q, t) (length n).
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]);
+    fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
     /// Writes the values of the nonzeros of Φ_q(q, t), in the order of
     /// [`jacobian_pattern`](System::jacobian_pattern).
-    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]);
+    fn jacobian(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, values: &mut [f64]);
 
     /// Writes Φ(q, t) and the nonzeros of Φ_q(q, t) at once.
     ///
     /// Generated code overrides this to share subexpressions (sin φ, cos φ)
     /// between the two; the default calls [`phi`](System::phi) then
     /// [`jacobian`](System::jacobian).
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
-        self.phi(q, t, phi);
-        self.jacobian(q, t, values);
+    fn phi_and_jacobian(
+        &self,
+        scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
+        self.phi(scratch, q, t, phi);
+        self.jacobian(scratch, q, t, values);
     }
 
     /// Writes ν(q, t) = −Φ_t (length n), the right-hand side of Φ_q q̇ = ν.
-    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]);
+    fn nu(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, nu: &mut [f64]);
 
     /// Writes γ(q, q̇, t) = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt (length n), the
     /// right-hand side of Φ_q q̈ = γ.
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]);
+    fn gamma(&self, scratch: &mut Self::Scratch, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]);
 }
 
-/// Forwarding impl so a solver can borrow a system it does not own.
-impl<S: System + ?Sized> System for &mut S {
-    fn len(&self) -> usize {
-        (**self).len()
-    }
-    fn coordinate_name(&self, i: usize) -> &str {
-        (**self).coordinate_name(i)
-    }
-    fn equation_name(&self, i: usize) -> &str {
-        (**self).equation_name(i)
-    }
-    fn initial_guess(&self, q: &mut [f64]) {
-        (**self).initial_guess(q);
-    }
-    fn jacobian_pattern(&self) -> &[(u32, u32)] {
-        (**self).jacobian_pattern()
-    }
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
-        (**self).phi(q, t, phi);
-    }
-    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
-        (**self).jacobian(q, t, values);
-    }
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
-        (**self).phi_and_jacobian(q, t, phi, values);
-    }
-    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
-        (**self).nu(q, t, nu);
-    }
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        (**self).gamma(q, qd, t, gamma);
-    }
+/// Forwarding impls so a solver can borrow a system it does not own.
+macro_rules! forward {
+    ($($ty:ty),*) => {$(
+        impl<S: System + ?Sized> System for $ty {
+            type Scratch = S::Scratch;
+            fn scratch(&self) -> S::Scratch {
+                (**self).scratch()
+            }
+            fn len(&self) -> usize {
+                (**self).len()
+            }
+            fn coordinate_name(&self, i: usize) -> &str {
+                (**self).coordinate_name(i)
+            }
+            fn equation_name(&self, i: usize) -> &str {
+                (**self).equation_name(i)
+            }
+            fn initial_guess(&self, q: &mut [f64]) {
+                (**self).initial_guess(q);
+            }
+            fn jacobian_pattern(&self) -> &[(u32, u32)] {
+                (**self).jacobian_pattern()
+            }
+            fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
+                (**self).phi(scratch, q, t, phi);
+            }
+            fn jacobian(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, values: &mut [f64]) {
+                (**self).jacobian(scratch, q, t, values);
+            }
+            fn phi_and_jacobian(
+                &self,
+                scratch: &mut S::Scratch,
+                q: &[f64],
+                t: f64,
+                phi: &mut [f64],
+                values: &mut [f64],
+            ) {
+                (**self).phi_and_jacobian(scratch, q, t, phi, values);
+            }
+            fn nu(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, nu: &mut [f64]) {
+                (**self).nu(scratch, q, t, nu);
+            }
+            fn gamma(&self, scratch: &mut S::Scratch, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+                (**self).gamma(scratch, q, qd, t, gamma);
+            }
+        }
+    )*};
 }
+
+forward!(&S, &mut S);

@@ -168,6 +168,8 @@ const REDUNDANT_PATTERN: [(u32, u32); 21] = {
 };
 
 impl System for Redundant {
+    type Scratch = ();
+    fn scratch(&self) {}
     fn len(&self) -> usize {
         9
     }
@@ -187,19 +189,19 @@ impl System for Redundant {
     fn jacobian_pattern(&self) -> &[(u32, u32)] {
         &REDUNDANT_PATTERN
     }
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
-        self.0.phi(q, t, phi);
+    fn phi(&self, scratch: &mut (), q: &[f64], t: f64, phi: &mut [f64]) {
+        self.0.phi(scratch, q, t, phi);
         phi[6] = 2.0 * q[8];
     }
-    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
-        self.0.jacobian(q, t, values);
+    fn jacobian(&self, scratch: &mut (), q: &[f64], t: f64, values: &mut [f64]) {
+        self.0.jacobian(scratch, q, t, values);
         values[18] = 2.0;
     }
-    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
-        self.0.nu(q, t, nu);
+    fn nu(&self, scratch: &mut (), q: &[f64], t: f64, nu: &mut [f64]) {
+        self.0.nu(scratch, q, t, nu);
     }
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        self.0.gamma(q, qd, t, gamma);
+    fn gamma(&self, scratch: &mut (), q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        self.0.gamma(scratch, q, qd, t, gamma);
     }
 }
 
@@ -272,6 +274,8 @@ enum Poisoned {
 }
 
 impl System for Broken {
+    type Scratch = ();
+    fn scratch(&self) {}
     fn len(&self) -> usize {
         9
     }
@@ -287,23 +291,23 @@ impl System for Broken {
     fn jacobian_pattern(&self) -> &[(u32, u32)] {
         self.0.jacobian_pattern()
     }
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
-        self.0.phi(q, t, phi);
+    fn phi(&self, scratch: &mut (), q: &[f64], t: f64, phi: &mut [f64]) {
+        self.0.phi(scratch, q, t, phi);
     }
-    fn jacobian(&mut self, q: &[f64], t: f64, values: &mut [f64]) {
-        self.0.jacobian(q, t, values);
+    fn jacobian(&self, scratch: &mut (), q: &[f64], t: f64, values: &mut [f64]) {
+        self.0.jacobian(scratch, q, t, values);
         if self.1 == Poisoned::Jacobian && t >= 0.5 {
             values[11] = f64::NAN;
         }
     }
-    fn nu(&mut self, q: &[f64], t: f64, nu: &mut [f64]) {
-        self.0.nu(q, t, nu);
+    fn nu(&self, scratch: &mut (), q: &[f64], t: f64, nu: &mut [f64]) {
+        self.0.nu(scratch, q, t, nu);
         if self.1 == Poisoned::Nu && t >= 0.5 {
             nu[8] = f64::NAN;
         }
     }
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        self.0.gamma(q, qd, t, gamma);
+    fn gamma(&self, scratch: &mut (), q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        self.0.gamma(scratch, q, qd, t, gamma);
         if self.1 == Poisoned::Gamma && t >= 0.5 {
             gamma[3] = f64::NAN;
         }

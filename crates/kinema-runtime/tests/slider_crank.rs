@@ -169,7 +169,7 @@ fn worked_example_at_t0() -> Result<(), Error> {
     );
     let system = solver.system_mut();
     let mut nu = [0.0; 9];
-    system.nu(state.q(), 0.0, &mut nu);
+    system.nu(&mut system.scratch(), state.q(), 0.0, &mut nu);
     assert_close(
         "ν",
         &nu,
@@ -187,7 +187,13 @@ fn worked_example_at_t0() -> Result<(), Error> {
         1e-15,
     );
     let mut gamma = [0.0; 9];
-    system.gamma(state.q(), state.qd(), 0.0, &mut gamma);
+    system.gamma(
+        &mut system.scratch(),
+        state.q(),
+        state.qd(),
+        0.0,
+        &mut gamma,
+    );
     assert_close(
         "γ",
         &gamma,
@@ -198,7 +204,7 @@ fn worked_example_at_t0() -> Result<(), Error> {
     );
     // Φ_q rows 1–6 as printed; rows 7–9 unit rows on y₃, φ₃, φ₁.
     let mut values = vec![0.0; system.jacobian_pattern().len()];
-    system.jacobian(state.q(), 0.0, &mut values);
+    system.jacobian(&mut system.scratch(), state.q(), 0.0, &mut values);
     let mut dense = [[0.0; 9]; 9];
     for (&(r, c), v) in system.jacobian_pattern().iter().zip(&values) {
         dense[r as usize][c as usize] = *v;
@@ -230,10 +236,10 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
     let t = 0.37;
     let n = 9;
     let mut values = vec![0.0; m.jacobian_pattern().len()];
-    m.jacobian(&q, t, &mut values);
+    m.jacobian(&mut m.scratch(), &q, t, &mut values);
     let jac = |m: &mut SliderCrank, q: &[f64]| {
         let mut v = vec![0.0; 21];
-        m.jacobian(q, t, &mut v);
+        m.jacobian(&mut m.scratch(), q, t, &mut v);
         let mut d = vec![0.0; n * n];
         for (&(r, c), x) in m.jacobian_pattern().iter().zip(&v) {
             d[r as usize * n + c as usize] = *x;
@@ -247,8 +253,8 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
         qp[j] += h;
         qm[j] -= h;
         let (mut fp, mut fm) = ([0.0; 9], [0.0; 9]);
-        m.phi(&qp, t, &mut fp);
-        m.phi(&qm, t, &mut fm);
+        m.phi(&mut m.scratch(), &qp, t, &mut fp);
+        m.phi(&mut m.scratch(), &qm, t, &mut fm);
         for i in 0..n {
             let fd = (fp[i] - fm[i]) / (2.0 * h);
             assert!(
@@ -264,7 +270,7 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
     let qm: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a - eps * b).collect();
     let (jp, jm) = (jac(&mut m, &qp), jac(&mut m, &qm));
     let mut gamma = [0.0; 9];
-    m.gamma(&q, &qd, t, &mut gamma);
+    m.gamma(&mut m.scratch(), &q, &qd, t, &mut gamma);
     for i in 0..n {
         let fd: f64 = -(0..n)
             .map(|j| (jp[i * n + j] - jm[i * n + j]) * qd[j])

@@ -23,8 +23,9 @@ use crate::system::System;
 /// benchmarks.
 ///
 /// The drivers' f(t), f′(t), f″(t) depend on t only, so they are computed
-/// once per time and kept (Newton evaluates Φ several times at the same t) —
-/// the hoisting of t-only subexpressions that generated code should do too.
+/// once per time and kept in the scratch ([`Drivers`]; Newton evaluates Φ
+/// several times at the same t) — the hoisting of t-only subexpressions that
+/// generated code does too.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chain {
     links: usize,
@@ -33,23 +34,15 @@ pub struct Chain {
     coordinate_names: Vec<String>,
     equation_names: Vec<String>,
     pattern: Vec<(u32, u32)>,
-    drivers: Drivers,
 }
 
-/// (f, f′, f″) of every link's driver at time `t` for amplitude `amplitude`.
+/// The scratch of a [`Chain`]: (f, f′, f″) of every link's driver at time
+/// `t` for amplitude `amplitude`.
 #[derive(Debug, Clone)]
-struct Drivers {
+pub struct Drivers {
     t: f64,
     amplitude: f64,
     values: Vec<[f64; 3]>,
-}
-
-/// A cache, so never part of a chain's equality: two chains are equal
-/// whatever times they last evaluated.
-impl PartialEq for Drivers {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
 }
 
 impl Chain {
@@ -87,25 +80,25 @@ impl Chain {
             coordinate_names,
             equation_names,
             pattern,
-            drivers: Drivers {
-                t: f64::NAN,
-                amplitude: f64::NAN,
-                values: vec![[0.0; 3]; links],
-            },
         }
     }
 
-    /// Brings the driver cache to time t (and the current amplitude).
-    fn refresh_drivers(&mut self, t: f64) {
-        let fresh = self.drivers.t == t && self.drivers.amplitude == self.amplitude;
+    /// Brings the driver cache to time t (and the current amplitude), and
+    /// gives its values.
+    fn refresh_drivers<'a>(&self, drivers: &'a mut Drivers, t: f64) -> &'a [[f64; 3]] {
+        let fresh = drivers.t == t
+            && drivers.amplitude == self.amplitude
+            && drivers.values.len() == self.links;
         if !fresh {
+            drivers.values.resize(self.links, [0.0; 3]);
             for k in 0..self.links {
                 let (f, fd, fdd) = self.angle(k + 1, t);
-                self.drivers.values[k] = [f, fd, fdd];
+                drivers.values[k] = [f, fd, fdd];
             }
-            self.drivers.t = t;
-            self.drivers.amplitude = self.amplitude;
+            drivers.t = t;
+            drivers.amplitude = self.amplitude;
         }
+        &drivers.values
     }
 
     /// Number of links N.
@@ -155,6 +148,16 @@ impl Chain {
 }
 
 impl System for Chain {
+    type Scratch = Drivers;
+
+    fn scratch(&self) -> Drivers {
+        Drivers {
+            t: f64::NAN,
+            amplitude: f64::NAN,
+            values: vec![[0.0; 3]; self.links],
+        }
+    }
+
     fn len(&self) -> usize {
         3 * self.links
     }
@@ -184,9 +187,8 @@ impl System for Chain {
         &self.pattern
     }
 
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
-        self.refresh_drivers(t);
-        let drivers = &self.drivers.values;
+    fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
+        let drivers = self.refresh_drivers(scratch, t);
         // Tip of the previous link.
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
         for (k, (qk, out)) in q.chunks_exact(3).zip(phi.chunks_exact_mut(3)).enumerate() {
@@ -207,9 +209,15 @@ impl System for Chain {
     }
 
     /// Φ and Φ_q sharing each link's sine and cosine.
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
-        self.refresh_drivers(t);
-        let drivers = &self.drivers.values;
+    fn phi_and_jacobian(
+        &self,
+        scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
+        let drivers = self.refresh_drivers(scratch, t);
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
         let (mut prev_hs, mut prev_hc) = (0.0, 0.0);
         for (k, (qk, out)) in q.chunks_exact(3).zip(phi.chunks_exact_mut(3)).enumerate() {
@@ -233,7 +241,7 @@ impl System for Chain {
         }
     }
 
-    fn jacobian(&mut self, q: &[f64], _t: f64, values: &mut [f64]) {
+    fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
         let mut at = 0;
         let (mut prev_s, mut prev_c) = (0.0, 0.0);
         for (k, qk) in q.chunks_exact(3).enumerate() {
@@ -251,18 +259,17 @@ impl System for Chain {
         }
     }
 
-    fn nu(&mut self, _q: &[f64], t: f64, nu: &mut [f64]) {
-        self.refresh_drivers(t);
-        for (out, f) in nu.chunks_exact_mut(3).zip(&self.drivers.values) {
+    fn nu(&self, scratch: &mut Self::Scratch, _q: &[f64], t: f64, nu: &mut [f64]) {
+        let drivers = self.refresh_drivers(scratch, t);
+        for (out, f) in nu.chunks_exact_mut(3).zip(drivers) {
             out[0] = 0.0;
             out[1] = 0.0;
             out[2] = f[1];
         }
     }
 
-    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        self.refresh_drivers(t);
-        let drivers = &self.drivers.values;
+    fn gamma(&self, scratch: &mut Self::Scratch, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        let drivers = self.refresh_drivers(scratch, t);
         // A_{k−1} s′_tip φ̇²_{k−1} of the previous link (zero for ground).
         let (mut prev_x, mut prev_y) = (0.0, 0.0);
         for (k, ((qk, qdk), out)) in q

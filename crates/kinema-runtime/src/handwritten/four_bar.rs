@@ -169,6 +169,10 @@ fn sin_cos(q: &[f64]) -> [SinCos; 3] {
 }
 
 impl System for FourBar {
+    type Scratch = ();
+
+    fn scratch(&self) {}
+
     fn len(&self) -> usize {
         9
     }
@@ -189,25 +193,39 @@ impl System for FourBar {
         &PATTERN
     }
 
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
+    fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
         self.write_phi(q, t, sin_cos(q), phi);
     }
 
-    fn jacobian(&mut self, q: &[f64], _t: f64, values: &mut [f64]) {
+    fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
         self.write_jacobian(sin_cos(q), values);
     }
 
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
+    fn phi_and_jacobian(
+        &self,
+        _scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
         let sc = sin_cos(q);
         self.write_phi(q, t, sc, phi);
         self.write_jacobian(sc, values);
     }
 
-    fn nu(&mut self, _q: &[f64], _t: f64, nu: &mut [f64]) {
+    fn nu(&self, _scratch: &mut Self::Scratch, _q: &[f64], _t: f64, nu: &mut [f64]) {
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
     }
 
-    fn gamma(&mut self, q: &[f64], qd: &[f64], _t: f64, gamma: &mut [f64]) {
+    fn gamma(
+        &self,
+        _scratch: &mut Self::Scratch,
+        q: &[f64],
+        qd: &[f64],
+        _t: f64,
+        gamma: &mut [f64],
+    ) {
         let (h1, h2, h3) = (0.5 * self.crank, 0.5 * self.coupler, 0.5 * self.rocker);
         let [(s1, c1), (s2, c2), (s3, c3)] = sin_cos(q);
         let (w1, w2, w3) = (qd[2] * qd[2], qd[5] * qd[5], qd[8] * qd[8]);

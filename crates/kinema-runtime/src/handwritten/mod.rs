@@ -17,6 +17,6 @@ mod chain;
 mod four_bar;
 mod slider_crank;
 
-pub use chain::Chain;
+pub use chain::{Chain, Drivers};
 pub use four_bar::FourBar;
 pub use slider_crank::SliderCrank;

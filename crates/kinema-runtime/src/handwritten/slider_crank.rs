@@ -159,6 +159,10 @@ fn q9(q: &[f64]) -> [f64; 9] {
 }
 
 impl System for SliderCrank {
+    type Scratch = ();
+
+    fn scratch(&self) {}
+
     fn len(&self) -> usize {
         9
     }
@@ -179,25 +183,39 @@ impl System for SliderCrank {
         &PATTERN
     }
 
-    fn phi(&mut self, q: &[f64], t: f64, phi: &mut [f64]) {
+    fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
         self.write_phi(q, t, q[2].sin_cos(), q[5].sin_cos(), phi);
     }
 
-    fn jacobian(&mut self, q: &[f64], _t: f64, values: &mut [f64]) {
+    fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
         self.write_jacobian(q[2].sin_cos(), q[5].sin_cos(), values);
     }
 
-    fn phi_and_jacobian(&mut self, q: &[f64], t: f64, phi: &mut [f64], values: &mut [f64]) {
+    fn phi_and_jacobian(
+        &self,
+        _scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
         let (sc1, sc2) = (q[2].sin_cos(), q[5].sin_cos());
         self.write_phi(q, t, sc1, sc2, phi);
         self.write_jacobian(sc1, sc2, values);
     }
 
-    fn nu(&mut self, _q: &[f64], _t: f64, nu: &mut [f64]) {
+    fn nu(&self, _scratch: &mut Self::Scratch, _q: &[f64], _t: f64, nu: &mut [f64]) {
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
     }
 
-    fn gamma(&mut self, q: &[f64], qd: &[f64], _t: f64, gamma: &mut [f64]) {
+    fn gamma(
+        &self,
+        _scratch: &mut Self::Scratch,
+        q: &[f64],
+        qd: &[f64],
+        _t: f64,
+        gamma: &mut [f64],
+    ) {
         let (h1, h2) = (0.5 * self.crank, 0.5 * self.rod);
         let ((s1, c1), (s2, c2)) = (q[2].sin_cos(), q[5].sin_cos());
         let (w1, w2) = (qd[2] * qd[2], qd[5] * qd[5]);
