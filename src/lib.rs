@@ -34,9 +34,10 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Error, LinalgError, LinearSolver, Options,
-    PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu,
-    State, StepStats, System, Trajectory, diagnose, point_kinematics,
+    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Error, LinalgError, LinearSolver,
+    LinearSolverFor, Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent,
+    SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, diagnose,
+    point_kinematics,
 };
 
 #[cfg(feature = "model")]
@@ -50,8 +51,8 @@ pub mod sweep;
 #[doc(hidden)]
 pub mod __private {
     pub use kinema_runtime::{
-        Auto, DenseLu, Error, LinalgError, LinearSolver, Options, PivotReport, Solver, SparseLu,
-        System,
+        Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, PivotReport,
+        Solver, SparseLu, System,
     };
 }
 

@@ -37,7 +37,9 @@
 
 use std::ops::Range;
 
-use kinema_runtime::{Auto, Error, LinalgError, LinearSolver, Options, Solver, System, Trajectory};
+use kinema_runtime::{
+    Auto, Error, LinalgError, LinearSolverFor, Options, Solver, System, Trajectory,
+};
 use rayon::prelude::*;
 
 use crate::TapeSystem;
@@ -116,7 +118,7 @@ impl<S, F, L> Sweep<S, F, L>
 where
     S: System + Clone + Send + Sync,
     F: SetParams<S>,
-    L: LinearSolver + Send,
+    L: LinearSolverFor<S> + Send,
 {
     /// The same sweep with other solver options.
     #[must_use]
@@ -135,7 +137,7 @@ where
 
     /// The same sweep with another linear solver (e.g. a generated LU).
     #[must_use]
-    pub fn with_linear_solver<M: LinearSolver + Send>(self) -> Sweep<S, F, M> {
+    pub fn with_linear_solver<M: LinearSolverFor<S> + Send>(self) -> Sweep<S, F, M> {
         Sweep {
             prototype: self.prototype,
             set: self.set,

@@ -414,12 +414,14 @@ fn system_impl(
     }
 }
 
-/// `solver()` and the generated LU it uses (if one is generated): the
+/// `solver()`, the `{Name}Solver` type alias it returns, and the generated
+/// LU it uses (if one is generated): the
 /// generated LU when `options.static_lu` and a usable pivot order exists,
 /// else a dense LU sized at compile time up to `static_dense_limit`
 /// coordinates, else the runtime's automatic choice.
 fn solver_items(d: &Derivation, name: &Ident, options: &Options) -> (TokenStream, TokenStream) {
     let rt = &options.runtime;
+    let alias = solver_alias(name);
     let nc = d.nc();
     let nc_lit = Literal::usize_unsuffixed(nc);
     let fallback = if nc <= options.static_dense_limit {
@@ -469,11 +471,23 @@ fn solver_items(d: &Derivation, name: &Ident, options: &Options) -> (TokenStream
         /// # Errors
         /// If the runtime rejects the Jacobian pattern (it cannot for
         /// generated code).
-        pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #lu_type>, #rt::Error> {
+        pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#alias, #rt::Error> {
             #rt::Solver::with_options(self, options)
         }
     };
+    let alias_doc =
+        format!(" The solver [`{name}::solver`] returns: [`{name}`] with its linear solver.");
+    let lu_items = quote! {
+        #[doc = #alias_doc]
+        pub type #alias = #rt::Solver<#name, #lu_type>;
+        #lu_items
+    };
     (solver, lu_items)
+}
+
+/// The name of the generated solver type alias: `SliderCrankSolver`.
+pub(crate) fn solver_alias(name: &Ident) -> Ident {
+    format_ident!("{}Solver", name)
 }
 
 /// The generated LU's plan: Φ_q's pattern, which entries are numbers, and

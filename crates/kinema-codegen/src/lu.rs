@@ -935,6 +935,11 @@ impl Plan {
                 }
             }
 
+            // Only for the system whose constants are folded in (and borrows of it).
+            impl #rt::LinearSolverFor<#system> for #ty {}
+            impl #rt::LinearSolverFor<&#system> for #ty {}
+            impl #rt::LinearSolverFor<&mut #system> for #ty {}
+
             impl #ty {
                 const NONE: u8 = 0;
                 const STATIC: u8 = 1;

@@ -190,13 +190,15 @@ fn stub(name: Option<syn::Ident>, options: &Options) -> TokenStream {
         return TokenStream::new();
     };
     let rt = &options.runtime;
+    let alias = crate::solver_alias(&name);
     quote! {
         #[derive(Clone, Debug, Default, PartialEq)]
         pub struct #name {}
+        pub type #alias = #rt::Solver<#name, #rt::Auto>;
         impl #name {
             pub const DERIVATION: &'static str = "";
             pub fn derivation() -> &'static str { "" }
-            pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#rt::Solver<Self, #rt::Auto>, #rt::Error> {
+            pub fn solver(self, options: #rt::Options) -> ::core::result::Result<#alias, #rt::Error> {
                 #rt::Solver::with_options(self, options)
             }
         }

@@ -6,7 +6,9 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use kinema_runtime::handwritten::{Chain, FourBar, SliderCrank};
-use kinema_runtime::{DenseLu, DynDenseLu, LinearSolver, Options, Solver, SparseLu, System};
+use kinema_runtime::{
+    DenseLu, DynDenseLu, LinearSolver, LinearSolverFor, Options, Solver, SparseLu, System,
+};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -31,7 +33,7 @@ fn run_grid<S: System, L: LinearSolver>(solver: &mut Solver<S, L>) {
     assert!(ok, "the benchmark mechanism failed");
 }
 
-fn bench_mechanism<S: System + Clone, L: LinearSolver>(
+fn bench_mechanism<S: System + Clone, L: LinearSolverFor<S>>(
     c: &mut Criterion,
     group: &str,
     label: &str,

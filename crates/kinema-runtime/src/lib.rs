@@ -61,7 +61,9 @@ pub use diagnose::{Rank, RankError};
 pub use error::{Dependency, Error, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
 pub use kinematics::{PointKinematics, point_kinematics};
-pub use linalg::{Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, PivotReport, SparseLu};
+pub use linalg::{
+    Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, LinearSolverFor, PivotReport, SparseLu,
+};
 pub use options::Options;
 pub use solver::Solver;
 pub use state::{State, StepStats};

@@ -3,7 +3,7 @@
 use crate::diagnose::{MAX_DENSE_DIAGNOSIS, rank};
 use crate::error::{Error, Quantity};
 use crate::event::{SingularEvent, SingularKind};
-use crate::linalg::{Auto, LinalgError, LinearSolver, scale_and_finite};
+use crate::linalg::{Auto, LinalgError, LinearSolver, LinearSolverFor, scale_and_finite};
 use crate::newton::{
     DIAGNOSES_PER_STEP, Factorization, Scaling, Workspace, check_coordinates, check_equations,
     check_jacobian, factor, inf_norm, solve_position,
@@ -168,7 +168,9 @@ struct Zone {
     flipped: bool,
 }
 
-impl<S: System, L: LinearSolver> Solver<S, L> {
+/// Construction: `L` must be a linear solver for `S` ([`LinearSolverFor`]),
+/// which keeps a generated LU to the system it was generated for.
+impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
     /// A solver with [`Options::default`], the linear solver analysed from
     /// the system's Jacobian pattern.
     pub fn new(system: S) -> Result<Self, Error> {
@@ -219,7 +221,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             zone: None,
         })
     }
+}
 
+impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Number of coordinates n.
     #[must_use]
     pub fn dim(&self) -> usize {

@@ -6,7 +6,9 @@ use std::alloc::{GlobalAlloc, Layout, System as SystemAllocator};
 use std::cell::Cell;
 
 use kinema_runtime::handwritten::{Chain, FourBar, SliderCrank};
-use kinema_runtime::{DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu, System};
+use kinema_runtime::{
+    DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu, System,
+};
 
 struct Counting;
 
@@ -46,7 +48,7 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 /// Allocations made by 1000 steps after assembly.
-fn allocations_per_1000_steps<S: System, L: LinearSolver>(
+fn allocations_per_1000_steps<S: System, L: LinearSolverFor<S>>(
     system: S,
     options: Options,
 ) -> Result<usize, Error> {

@@ -5,9 +5,11 @@ mod common;
 
 use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::{Chain, FourBar};
-use kinema_runtime::{Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu};
+use kinema_runtime::{
+    Auto, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu,
+};
 
-fn run<L: LinearSolver>(
+fn run<L: LinearSolverFor<Chain>>(
     links: usize,
     options: Options,
     times: &[f64],

@@ -6,7 +6,7 @@ mod common;
 use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::SliderCrank;
 use kinema_runtime::{
-    Auto, DenseLu, DynDenseLu, Error, LinearSolver, Options, Solver, SparseLu, System,
+    Auto, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu, System,
 };
 use std::f64::consts::{FRAC_PI_4, TAU};
 
@@ -63,7 +63,7 @@ fn closed_form(m: &SliderCrank, t: f64) -> [[f64; 9]; 3] {
     [q, qd, qdd]
 }
 
-fn check_revolution<L: LinearSolver>(options: Options) -> Result<(), Error> {
+fn check_revolution<L: LinearSolverFor<SliderCrank>>(options: Options) -> Result<(), Error> {
     let mut solver = Solver::<SliderCrank, L>::with_options(SliderCrank::default(), options)?;
     let trajectory = solver.run(&benchmark_grid())?;
     assert_eq!(trajectory.len(), 1001);

@@ -239,3 +239,19 @@ pub(crate) fn check_len(
         })
     }
 }
+
+/// A [`LinearSolver`] that may factor the Jacobian of system `S`.
+///
+/// The runtime's solvers factor any matrix of the pattern they were analysed
+/// for, so they implement it for every system. A generated LU (the
+/// `SliderCrankLu` beside a generated `SliderCrank`) folds that system's
+/// constant Jacobian entries into its code and factors only that system's
+/// Jacobian, so it implements it for its own system alone: a
+/// [`Solver`](crate::Solver) for another system with the same pattern does
+/// not compile instead of solving the wrong matrix.
+pub trait LinearSolverFor<S: ?Sized>: LinearSolver {}
+
+impl<S: ?Sized, const N: usize> LinearSolverFor<S> for DenseLu<N> {}
+impl<S: ?Sized> LinearSolverFor<S> for DynDenseLu {}
+impl<S: ?Sized> LinearSolverFor<S> for SparseLu {}
+impl<S: ?Sized> LinearSolverFor<S> for Auto {}
