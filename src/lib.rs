@@ -35,15 +35,15 @@
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
     Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Error, LinalgError, LinearSolver,
-    LinearSolverFor, Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent,
-    SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, diagnose,
-    point_kinematics,
+    LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank,
+    RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory,
+    diagnose, point_kinematics,
 };
 
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
-pub use model::{Model, ModelError, TapeSystem};
+pub use model::{Model, ModelSolver, TapeSystem};
 #[cfg(feature = "parallel")]
 pub mod sweep;
 

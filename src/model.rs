@@ -1,12 +1,11 @@
 //! The tape back end: a model read at run time, derived, compiled to tapes,
 //! and run through the same runtime as generated code.
 
-use std::fmt;
 use std::path::Path;
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
-use kinema_model::{Derivation, Diagnostics};
-use kinema_runtime::System;
+use kinema_model::{Derivation, Diagnostics, Severity};
+use kinema_runtime::{Auto, Error, ModelDiagnostic, ModelError, Options, Solver, System};
 
 /// A mechanism read from model text and derived, ready to run without a
 /// compile step.
@@ -21,10 +20,10 @@ use kinema_runtime::System;
 ///     }",
 ///     "pendulum.kin",
 /// )?;
-/// let mut solver = kinema::Solver::<_, kinema::Auto>::new(model.system())?;
+/// let mut solver = model.solver(kinema::Options::default())?;
 /// let state = solver.step(0.5)?;
 /// assert!((state.q()[0] - 1f64.cos()).abs() < 1e-12);
-/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// # Ok::<(), kinema::Error>(())
 /// ```
 #[derive(Clone, Debug)]
 pub struct Model {
@@ -32,28 +31,31 @@ pub struct Model {
     warnings: Vec<String>,
 }
 
-/// A model that could not be read: every diagnostic, rendered with
-/// `file:line:col`, the source line and a caret.
-#[derive(Clone, Debug)]
-pub struct ModelError {
-    /// The rendered diagnostics (errors and warnings), in order.
-    pub rendered: String,
-    /// How many of them are errors.
-    pub errors: usize,
-}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.rendered)
-    }
-}
-
-impl std::error::Error for ModelError {}
-
-fn render(diagnostics: &Diagnostics, source: &str, file: &str) -> ModelError {
+/// The diagnostics of model text as a [`ModelError`]: each as data and all
+/// rendered against the text.
+fn model_error(diagnostics: &Diagnostics, source: &str, file: &str) -> ModelError {
     let rendered = diagnostics.render_each(source, file).join("\n");
-    let errors = diagnostics.error_count();
-    ModelError { rendered, errors }
+    let diagnostics_data = diagnostics
+        .iter()
+        .map(|d| {
+            let start = d.span.start();
+            ModelDiagnostic {
+                is_error: d.severity == Severity::Error,
+                message: d.message.clone(),
+                // Line 0: a position the text does not have (the renderer
+                // prints the file alone).
+                at: (start.line > 0).then_some((start.line, start.column + 1)),
+                label: d.label.clone(),
+                help: d.help.clone(),
+            }
+        })
+        .collect();
+    ModelError {
+        file: file.to_owned(),
+        diagnostics: diagnostics_data,
+        rendered,
+        errors: diagnostics.error_count(),
+    }
 }
 
 impl Model {
@@ -62,10 +64,11 @@ impl Model {
     /// # Errors
     /// [`ModelError`] with every error found (and the warnings).
     pub fn from_source(source: &str, file: &str) -> Result<Model, ModelError> {
-        let model = kinema_model::Model::parse_str(source).map_err(|d| render(&d, source, file))?;
-        let checked = model.check().map_err(|d| render(&d, source, file))?;
+        let model = kinema_model::ParsedModel::parse_str(source)
+            .map_err(|d| model_error(&d, source, file))?;
+        let checked = model.check().map_err(|d| model_error(&d, source, file))?;
         let warnings = checked.warnings.render_each(source, file);
-        let derivation = Derivation::new(&checked).map_err(|d| render(&d, source, file))?;
+        let derivation = Derivation::new(&checked).map_err(|d| model_error(&d, source, file))?;
         Ok(Model {
             derivation,
             warnings,
@@ -79,13 +82,24 @@ impl Model {
     pub fn from_file(path: impl AsRef<Path>) -> Result<Model, ModelError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| ModelError {
-            rendered: format!("error: cannot read model file `{file}`: {e}"),
-            errors: 1,
+        let bytes = std::fs::read(path).map_err(|e| {
+            let message = format!("cannot read model file `{file}`: {e}");
+            ModelError {
+                rendered: format!("error: {message}"),
+                diagnostics: vec![ModelDiagnostic {
+                    is_error: true,
+                    message,
+                    at: None,
+                    label: None,
+                    help: None,
+                }],
+                file: file.clone(),
+                errors: 1,
+            }
         })?;
         // Not UTF-8: say where, shown on the text read lossily.
         let source = kinema_model::source::decode(&bytes)
-            .map_err(|d| render(&d, &String::from_utf8_lossy(&bytes), &file))?;
+            .map_err(|d| model_error(&d, &String::from_utf8_lossy(&bytes), &file))?;
         Model::from_source(source, &file)
     }
 
@@ -119,7 +133,7 @@ impl Model {
     /// The generated Rust source for this model (what `kinema codegen` prints).
     #[must_use]
     pub fn rust_source(&self) -> String {
-        kinema_codegen::generate_source(&self.derivation, &kinema_codegen::Options::default())
+        kinema_codegen::generate_source(&self.derivation, &kinema_codegen::Config::default())
     }
 
     /// A parameter sweep of this model: each row gives values for the
@@ -162,7 +176,21 @@ impl Model {
     pub fn system(&self) -> TapeSystem {
         TapeSystem::new(&self.derivation)
     }
+
+    /// The solver for this model, as a generated mechanism's `solver()`:
+    /// the tapes of [`system`](Self::system) with the linear solver chosen by
+    /// size ([`Auto`]).
+    ///
+    /// # Errors
+    /// If the runtime rejects the Jacobian pattern (it cannot for a derived
+    /// model).
+    pub fn solver(&self, options: Options) -> Result<ModelSolver, Error> {
+        Solver::with_options(self.system(), options)
+    }
 }
+
+/// The solver [`Model::solver`] returns.
+pub type ModelSolver = Solver<TapeSystem, Auto>;
 
 /// A [`System`] evaluated by tapes: compiled once, evaluated with no
 /// allocation. Its scratch is the tapes' register file.

@@ -27,7 +27,7 @@ fn main() {
     for n in chains {
         let text = kinema_model::chain::chain_kin(n);
         let source = kinema_codegen::build::derive_source(&text, &format!("chain{n}.kin"))
-            .map(|d| kinema_codegen::generate_source(&d, &kinema_codegen::Options::default()));
+            .map(|d| kinema_codegen::generate_source(&d, &kinema_codegen::Config::default()));
         match source {
             Ok(source) => {
                 let path = Path::new(&out_dir).join(format!("chain{n}.rs"));

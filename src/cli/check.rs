@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use kinema::{Auto, Error, Options, Rank, Solver, System, TapeSystem, diagnose};
+use kinema::{Error, Options, Rank, System, TapeSystem, diagnose};
 
 use super::load::{Loaded, load};
 use super::{Failure, print_stdout};
@@ -19,9 +19,10 @@ pub fn check(path: &Path) -> Result<(), Failure> {
     let loaded = load(path, None)?;
     loaded.print_warnings();
     let mut report = header(&loaded);
-    let mut solver =
-        Solver::<TapeSystem, Auto>::with_options(loaded.model.system(), Options::default())
-            .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
+    let mut solver = loaded
+        .model
+        .solver(Options::default())
+        .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
     let n = solver.dim();
 
     // Φ_q at the guess, for the record.

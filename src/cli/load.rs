@@ -110,7 +110,7 @@ pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure>
     } else {
         file.clone()
     };
-    let checked = kinema_model::Model::parse_str(&source)
+    let checked = kinema_model::ParsedModel::parse_str(&source)
         .and_then(|m| m.check())
         .map_err(|d| Failure::Input(d.render(&source, &shown)))?;
     let warnings = checked.warnings.render_each(&source, &shown);

@@ -94,7 +94,7 @@ fn engine_phi(m: &Model, q: &[f64], t: f64) -> Vec<f64> {
 /// validates and derives it and compares Φ with [`engine_phi`].
 fn check(name: &str, m: &Model) {
     let kin = to_kin(m);
-    let parsed = kinema_model::Model::parse_str(&kin)
+    let parsed = kinema_model::ParsedModel::parse_str(&kin)
         .unwrap_or_else(|d| panic!("{name}: {}\n{kin}", d.render(&kin, name)));
     if Counts::of(m).ndof() != 0 {
         return; // validation refuses NDOF != 0, as it should

@@ -9,10 +9,10 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use kinema_model::{Derivation, Model};
+use kinema_model::{Derivation, ParsedModel};
 
 fn derive(text: &str) -> Derivation {
-    let checked = Model::parse_str(text)
+    let checked = ParsedModel::parse_str(text)
         .and_then(|m| m.check())
         .unwrap_or_else(|e| panic!("{}", e.render(text, "chain.kin")));
     Derivation::new(&checked).unwrap_or_else(|e| panic!("{}", e.render(text, "chain.kin")))
@@ -30,7 +30,7 @@ fn derivation(c: &mut Criterion) {
                 b.iter(|| derive(black_box(text)).phi.len());
             },
         );
-        let checked = Model::parse_str(&text)
+        let checked = ParsedModel::parse_str(&text)
             .and_then(|m| m.check())
             .unwrap_or_else(|e| panic!("{}", e.render(&text, "chain.kin")));
         group.bench_with_input(
@@ -49,7 +49,7 @@ fn derivation(c: &mut Criterion) {
             },
         );
         if n == 200 {
-            let options = kinema_codegen::Options::default();
+            let options = kinema_codegen::Config::default();
             group.bench_function(BenchmarkId::new("codegen expand", n), |b| {
                 b.iter(|| kinema_codegen::expand(black_box(&d), &options).is_empty());
             });

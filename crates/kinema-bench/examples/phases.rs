@@ -6,7 +6,7 @@ fn main() {
         let t0 = Instant::now();
         let ts: proc_macro2::TokenStream = text.parse().expect("lexes");
         let t1 = Instant::now();
-        let model = kinema_model::Model::parse_str(&text).expect("parses");
+        let model = kinema_model::ParsedModel::parse_str(&text).expect("parses");
         let t2 = Instant::now();
         let checked = model.check().expect("checks");
         let t3 = Instant::now();

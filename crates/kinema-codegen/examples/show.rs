@@ -3,7 +3,7 @@
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let options = kinema_codegen::Options::default();
+    let options = kinema_codegen::Config::default();
     let result = match args.as_slice() {
         [chain, n] if chain == "chain" => {
             let n: usize = n.parse().unwrap_or(10);

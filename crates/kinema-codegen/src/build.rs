@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use kinema_model::Derivation;
 
-use crate::{Options, generate_source};
+use crate::{Config, generate_source};
 
 /// Why a model file could not be turned into Rust.
 #[derive(Debug)]
@@ -63,7 +63,7 @@ impl std::error::Error for Error {
 /// # Errors
 /// [`Error::Model`] with every diagnostic rendered.
 pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
-    let derived = kinema_model::Model::parse_str(source)
+    let derived = kinema_model::ParsedModel::parse_str(source)
         .and_then(|m| m.check())
         .and_then(|checked| Derivation::new(&checked));
     match derived {
@@ -79,7 +79,7 @@ pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
 /// # Errors
 /// [`Error::Io`] if the file cannot be read, [`Error::Model`] if the model
 /// has errors.
-pub fn source_for_file(model: impl AsRef<Path>, options: &Options) -> Result<String, Error> {
+pub fn source_for_file(model: impl AsRef<Path>, options: &Config) -> Result<String, Error> {
     let path = model.as_ref();
     let source = std::fs::read_to_string(path).map_err(|source| Error::Io {
         path: path.to_owned(),
@@ -98,17 +98,17 @@ pub fn source_for_file(model: impl AsRef<Path>, options: &Options) -> Result<Str
 /// [`Error::NoOutDir`] outside a build script, else as
 /// [`source_for_file`], or [`Error::Io`] if the output cannot be written.
 pub fn generate(model: impl AsRef<Path>, output: impl AsRef<Path>) -> Result<PathBuf, Error> {
-    generate_with(model, output, &Options::default())
+    generate_with(model, output, &Config::default())
 }
 
-/// [`generate`] with explicit [`Options`] (e.g. a different runtime path).
+/// [`generate`] with explicit [`Config`] (e.g. a different runtime path).
 ///
 /// # Errors
 /// As [`generate`].
 pub fn generate_with(
     model: impl AsRef<Path>,
     output: impl AsRef<Path>,
-    options: &Options,
+    options: &Config,
 ) -> Result<PathBuf, Error> {
     let out_dir = std::env::var_os("OUT_DIR").ok_or(Error::NoOutDir)?;
     let model = model.as_ref();

@@ -47,7 +47,7 @@ use quote::{format_ident, quote};
 
 /// How generated code refers to the runtime.
 #[derive(Clone, Debug)]
-pub struct Options {
+pub struct Config {
     /// Path of the module holding `System`, `Solver`, `DenseLu`, `SparseLu`,
     /// `Auto`, `Options` and `Error` (default `::kinema::__private`; use
     /// `::kinema_runtime` for an app that depends on the runtime alone).
@@ -63,9 +63,9 @@ pub struct Options {
     pub static_lu: bool,
 }
 
-impl Default for Options {
+impl Default for Config {
     fn default() -> Self {
-        Options {
+        Config {
             runtime: syn::parse_quote!(::kinema::__private),
             static_dense_limit: 24,
             static_lu: true,
@@ -77,7 +77,7 @@ impl Default for Options {
 /// with its constants and `solver()`, the `System` impl, the per-step
 /// cache and the generated LU.
 #[must_use]
-pub fn expand(derivation: &Derivation, options: &Options) -> TokenStream {
+pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let d = derivation;
     let name = rust_ident(&type_name(&d.name));
     let params: Vec<Ident> = d.params.iter().map(|p| rust_ident(&p.name)).collect();
@@ -419,7 +419,7 @@ fn system_impl(
 /// generated LU when `options.static_lu` and a usable pivot order exists,
 /// else a dense LU sized at compile time up to `static_dense_limit`
 /// coordinates, else the runtime's automatic choice.
-fn solver_items(d: &Derivation, name: &Ident, options: &Options) -> (TokenStream, TokenStream) {
+fn solver_items(d: &Derivation, name: &Ident, options: &Config) -> (TokenStream, TokenStream) {
     let rt = &options.runtime;
     let alias = solver_alias(name);
     let nc = d.nc();
@@ -525,7 +525,7 @@ fn static_lu_plan(d: &Derivation) -> Option<lu::Plan> {
 /// The generated items as formatted Rust source (prettyplease), with a
 /// header saying where they came from.
 #[must_use]
-pub fn generate_source(derivation: &Derivation, options: &Options) -> String {
+pub fn generate_source(derivation: &Derivation, options: &Config) -> String {
     let tokens = expand(derivation, options);
     let body = match syn::parse2::<syn::File>(tokens.clone()) {
         Ok(file) => prettyplease::unparse(&file),

@@ -14,22 +14,22 @@
 
 use std::path::PathBuf;
 
-use kinema_model::{Derivation, Model, Severity};
+use kinema_model::{Derivation, ParsedModel, Severity};
 use proc_macro2::{Span, TokenStream, TokenTree};
 use quote::quote;
 
-use crate::{Options, expand};
+use crate::{Config, expand};
 
 /// Expands the macro input. Never fails: errors are returned as
 /// `compile_error!` tokens.
 #[must_use]
 pub fn expand_macro(input: TokenStream) -> TokenStream {
-    expand_macro_with(input, &Options::default())
+    expand_macro_with(input, &Config::default())
 }
 
-/// [`expand_macro`] with explicit [`Options`].
+/// [`expand_macro`] with explicit [`Config`].
 #[must_use]
-pub fn expand_macro_with(input: TokenStream, options: &Options) -> TokenStream {
+pub fn expand_macro_with(input: TokenStream, options: &Config) -> TokenStream {
     match file_form(&input) {
         Some(Ok((path, span))) => expand_file(&path, span, options),
         Some(Err(e)) => e.to_compile_error(),
@@ -58,8 +58,8 @@ fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
     )
 }
 
-fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
-    let model = Model::parse_tokens(input.clone());
+fn expand_inline(input: TokenStream, options: &Config) -> TokenStream {
+    let model = ParsedModel::parse_tokens(input.clone());
     let derived = model
         .and_then(|m| m.check())
         .and_then(|checked| Derivation::new(&checked));
@@ -77,7 +77,7 @@ fn expand_inline(input: TokenStream, options: &Options) -> TokenStream {
     }
 }
 
-fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
+fn expand_file(path: &str, span: Span, options: &Config) -> TokenStream {
     let full = resolve(path, span);
     let source = match std::fs::read(&full) {
         Ok(bytes) => match kinema_model::source::decode(&bytes) {
@@ -106,7 +106,7 @@ fn expand_file(path: &str, span: Span, options: &Options) -> TokenStream {
         .ok()
         .and_then(|t| mechanism_name(&t))
         .map(|i| i.to_string());
-    let derived = Model::parse_str(&source)
+    let derived = ParsedModel::parse_str(&source)
         .and_then(|m| m.check())
         .and_then(|checked| Derivation::new(&checked));
     let outcome = match derived {
@@ -185,7 +185,7 @@ fn mechanism_name(input: &TokenStream) -> Option<syn::Ident> {
 /// A stand-in for the mechanism's type when the model has errors: it has the
 /// generated type's API, so the user sees the model's errors and not a
 /// cascade of "cannot find type" errors.
-fn stub(name: Option<syn::Ident>, options: &Options) -> TokenStream {
+fn stub(name: Option<syn::Ident>, options: &Config) -> TokenStream {
     let Some(name) = name else {
         return TokenStream::new();
     };

@@ -1,7 +1,7 @@
 //! The generated source of the benchmark slider-crank, pinned (formatted with
 //! prettyplease), and structural properties every generated file must have.
 
-use kinema_codegen::{Options, build::source_for_file, expand};
+use kinema_codegen::{Config, build::source_for_file, expand};
 
 fn model(name: &str) -> String {
     format!("{}/../../models/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -10,7 +10,7 @@ fn model(name: &str) -> String {
 #[test]
 fn slider_crank_source() {
     let source =
-        source_for_file(model("slider_crank.kin"), &Options::default()).expect("model derives");
+        source_for_file(model("slider_crank.kin"), &Config::default()).expect("model derives");
     insta::assert_snapshot!(source);
 }
 
@@ -22,7 +22,7 @@ fn generated_code_neither_allocates_nor_panics_by_construction() {
         "chain10.kin",
         "parabola_follower.kin",
     ] {
-        let source = source_for_file(model(file), &Options::default()).expect("model derives");
+        let source = source_for_file(model(file), &Config::default()).expect("model derives");
         for forbidden in [
             "Vec", "vec!", "Box", "unwrap()", "expect(", "panic!", "String", "format!",
         ] {
@@ -44,9 +44,9 @@ fn runtime_path_is_configurable() {
         "pendulum.kin",
     )
     .expect("model derives");
-    let options = Options {
+    let options = Config {
         runtime: syn::parse_quote!(::kinema_runtime),
-        ..Options::default()
+        ..Config::default()
     };
     let tokens = expand(&derivation, &options).to_string();
     assert!(tokens.contains(":: kinema_runtime :: System"));
@@ -116,7 +116,7 @@ fn long_sums_and_products_are_emitted_in_bounded_chains() {
         factors.join(" * ")
     );
     let derivation = kinema_codegen::build::derive_source(&text, "big.kin").expect("model derives");
-    let tokens = expand(&derivation, &Options::default());
+    let tokens = expand(&derivation, &Config::default());
     // Chains of 32 operands (a leading sign may add one operator); without
     // the partial results these would be 1 000 and 40 long.
     let longest = longest_operator_chains(tokens);
@@ -124,7 +124,7 @@ fn long_sums_and_products_are_emitted_in_bounded_chains() {
         (31..=34).contains(&longest.0) && (31..=34).contains(&longest.1),
         "longest operator chains {longest:?}"
     );
-    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    let source = kinema_codegen::generate_source(&derivation, &Config::default());
     assert!(source.contains("impl ::kinema::__private::System for Big"));
 }
 
@@ -139,7 +139,7 @@ fn raw_names_and_overflowed_exponents_generate() {
                constraint c: b.x == r#type;\n    constraint d: b.phi == 0;\n    \
                driver drive: b.y == t;\n}\n";
     let derivation = kinema_codegen::build::derive_source(raw, "raw.kin").expect("model derives");
-    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    let source = kinema_codegen::generate_source(&derivation, &Config::default());
     assert!(source.contains("pub struct r#e"), "{source}");
     assert!(source.contains("pub r#type: f64"), "{source}");
 
@@ -151,6 +151,6 @@ fn raw_names_and_overflowed_exponents_generate() {
                        driver e3: abs_x(b1(0, 0), t);\n    driver e4: abs_angle(b1, 2 * t);\n}\n";
     let derivation =
         kinema_codegen::build::derive_source(overflowing, "inf.kin").expect("model derives");
-    let source = kinema_codegen::generate_source(&derivation, &Options::default());
+    let source = kinema_codegen::generate_source(&derivation, &Config::default());
     assert!(source.contains("powf(f64::INFINITY)"), "{source}");
 }

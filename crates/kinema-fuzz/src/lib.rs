@@ -258,7 +258,7 @@ fn kin_text(
     codegen: bool,
     derivatives: bool,
 ) -> Result<(Reach, Vec<(f64, f64)>), Finding> {
-    let parsed = match kinema_model::Model::parse_str(source) {
+    let parsed = match kinema_model::ParsedModel::parse_str(source) {
         Ok(m) => m,
         Err(d) => {
             check_error_size(&d.render(source, file), source.len())?;

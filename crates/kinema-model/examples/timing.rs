@@ -9,7 +9,7 @@ fn main() {
     let text = kinema_model::chain::chain_kin(n);
     for _ in 0..3 {
         let t0 = Instant::now();
-        let model = kinema_model::Model::parse_str(&text);
+        let model = kinema_model::ParsedModel::parse_str(&text);
         let t1 = Instant::now();
         let checked = model.and_then(|m| m.check());
         let t2 = Instant::now();

@@ -3,10 +3,10 @@
 //!
 //! Three phases, three types:
 //!
-//! 1. [`Model`] — the syntax tree ([`syntax`]), parsed with syn from text
-//!    ([`Model::parse_str`]) or from the tokens of a proc-macro
-//!    ([`Model::parse_tokens`]). It keeps tokens and spans.
-//! 2. [`CheckedModel`] — validated by [`Model::check`] ([`check`]): names
+//! 1. [`ParsedModel`] — the syntax tree ([`syntax`]), parsed with syn from text
+//!    ([`ParsedModel::parse_str`]) or from the tokens of a proc-macro
+//!    ([`ParsedModel::parse_tokens`]). It keeps tokens and spans.
+//! 2. [`CheckedModel`] — validated by [`ParsedModel::check`] ([`check`]): names
 //!    resolved, expressions typed, counts right. Every independent error is
 //!    reported at once as [`Diagnostics`], which render like rustc for text
 //!    ([`Diagnostics::render`]) or become one combined `syn::Error` for the
@@ -17,7 +17,7 @@
 //!    [`kinema_expr::Arena`], the DOF report, and [`Derivation::render`].
 //!
 //! ```
-//! use kinema_model::{Derivation, Model};
+//! use kinema_model::{Derivation, ParsedModel};
 //! let src = r#"
 //! mechanism Pendulum {
 //!     /// bar half-length [m]
@@ -26,7 +26,7 @@
 //!     joint pin: revolute(bar(-L, 0), ground(0, 0));
 //!     driver swing: bar.phi == 4 * t * t;
 //! }"#;
-//! let model = Model::parse_str(src).and_then(|m| m.check());
+//! let model = ParsedModel::parse_str(src).and_then(|m| m.check());
 //! let checked = match model {
 //!     Ok(c) => c,
 //!     Err(d) => panic!("{}", d.render(src, "pendulum.kin")),
@@ -143,25 +143,25 @@ pub use syntax::EquationKeyword;
 
 /// A parsed (not yet validated) mechanism.
 #[derive(Clone, Debug)]
-pub struct Model {
+pub struct ParsedModel {
     syntax: syntax::Mechanism,
 }
 
-impl Model {
+impl ParsedModel {
     /// Parses the text of a `.kin` file.
     ///
     /// # Errors
     /// Lexer and parser errors.
-    pub fn parse_str(source: &str) -> Result<Model, Diagnostics> {
-        syntax::parse_str(source).map(|syntax| Model { syntax })
+    pub fn parse_str(source: &str) -> Result<ParsedModel, Diagnostics> {
+        syntax::parse_str(source).map(|syntax| ParsedModel { syntax })
     }
 
     /// Parses the tokens of a `mechanism! { … }` invocation.
     ///
     /// # Errors
     /// Parser errors.
-    pub fn parse_tokens(tokens: proc_macro2::TokenStream) -> Result<Model, Diagnostics> {
-        syntax::parse_tokens(tokens).map(|syntax| Model { syntax })
+    pub fn parse_tokens(tokens: proc_macro2::TokenStream) -> Result<ParsedModel, Diagnostics> {
+        syntax::parse_tokens(tokens).map(|syntax| ParsedModel { syntax })
     }
 
     /// The syntax tree.
@@ -184,7 +184,7 @@ impl Model {
 /// # Errors
 /// Every error found, with the warnings.
 pub fn check_str(source: &str) -> Result<CheckedModel, Diagnostics> {
-    Model::parse_str(source)?.check()
+    ParsedModel::parse_str(source)?.check()
 }
 
 /// Parses, checks and derives the text of a `.kin` file in one go.

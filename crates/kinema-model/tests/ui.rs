@@ -43,7 +43,7 @@ fn syn_error_is_combined() {
     )
     .unwrap_or_default();
     let tokens: proc_macro2::TokenStream = src.parse().unwrap_or_default();
-    let model = kinema_model::Model::parse_tokens(tokens).unwrap_or_else(|e| panic!("{e}"));
+    let model = kinema_model::ParsedModel::parse_tokens(tokens).unwrap_or_else(|e| panic!("{e}"));
     let diagnostics = model.check().err().unwrap_or_default();
     let n = diagnostics.error_count();
     assert!(n >= 5, "{diagnostics}");

@@ -58,7 +58,7 @@ pub mod trajectory;
 
 pub use csv::CsvWriter;
 pub use diagnose::{Rank, RankError};
-pub use error::{Dependency, Error, Quantity, Time};
+pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{
