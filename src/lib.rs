@@ -50,6 +50,7 @@ pub mod sweep;
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
 pub mod __private {
+    pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
         Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, PivotReport,
         Solver, SparseLu, System,

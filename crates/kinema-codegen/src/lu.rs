@@ -25,10 +25,12 @@
 //!
 //! # Checks and fallback
 //!
-//! A factorization is accepted under the runtime's criteria (see
-//! `kinema_runtime::linalg`): every input value finite, every pivot |u_kk| >
-//! τ · maxᵢⱼ |aᵢⱼ| and every multiplier |l_ik| ≤ 1/θ, where a NaN pivot or
-//! multiplier (finite inputs whose products overflow) fails the test. When the static order fails
+//! A factorization is accepted under the runtime's rule, which the generated
+//! code calls through `__private` (`linalg::scale_and_finite` on the
+//! run-time inputs, then `linalg::order_accepted`): every input value finite,
+//! every pivot |u_kk| > τ · maxᵢⱼ |aᵢⱼ| and every multiplier |l_ik| ≤ 1/θ,
+//! where a NaN pivot or multiplier (finite inputs whose products overflow)
+//! fails the test. When the static order fails
 //! them at some q, the generated type factors with the runtime solver it
 //! holds (`DenseLu<N>` or `Auto`), whose partial pivoting also gives the
 //! singularity verdict and so the diagnostics.
@@ -38,7 +40,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
-/// θ of the runtime's replay: accepted multipliers satisfy |l| ≤ 1/θ.
+/// θ of the runtime's replay (`kinema_runtime::linalg::PIVOT_THRESHOLD`):
+/// generation refuses an order whose constant multipliers exceed 1/θ. The
+/// generated code checks every multiplier, constants included, with the
+/// runtime's own rule (`linalg::order_accepted`, through `__private`), so a
+/// change of the runtime's θ cannot be silently ignored.
 const RUNTIME_THRESHOLD: f64 = 0.1;
 /// θ_g used to choose pivots on the values at the initial guess.
 const GENERATION_THRESHOLD: f64 = 0.5;
@@ -553,71 +559,35 @@ impl Plan {
             let ks = ks.iter().map(|&k| Literal::usize_unsuffixed(k));
             quote!(const #name: [usize; #len] = [#(#ks),*];)
         };
-        let inputs_name = format_ident!("INPUTS");
+        // The runtime's finiteness and scale test (`linalg::scale_and_finite`)
+        // over the run-time inputs, gathered into an array (straight-line for
+        // small systems, by a loop over a table of positions for large ones).
+        let scale_and_finite = quote!(#rt::linalg::scale_and_finite);
+        let nm_inputs = Literal::usize_unsuffixed(self.runtime_inputs.len());
         let scale_stmts = if self.runtime_inputs.is_empty() {
             quote! {
-                let (finite, input_max) = (true, 0.0f64);
+                let (input_max, finite) = (0.0f64, true);
             }
         } else if self.runtime_inputs.len() <= MAX_UNROLLED {
-            // max |bits| in four scalar lanes: for IEEE doubles with the sign
-            // cleared, integer order is the order of |a|, and every ±∞ or NaN
-            // lies at or above the bits of +∞.
-            let lanes = self.runtime_inputs.len().min(4);
-            let mut stmts = quote!(
-                const ABS: u64 = !(1 << 63);
-            );
-            for (i, &k) in self.runtime_inputs.iter().enumerate() {
-                let m = format_ident!("m{}", i % 4);
-                let k = Literal::usize_unsuffixed(k);
-                stmts.extend(if i < lanes {
-                    let reassigned = self.runtime_inputs.len() > i + 4;
-                    if reassigned {
-                        quote!(let mut #m = a[#k].to_bits() & ABS;)
-                    } else {
-                        quote!(let #m = a[#k].to_bits() & ABS;)
-                    }
-                } else {
-                    quote!(#m = #m.max(a[#k].to_bits() & ABS);)
-                });
-            }
-            let rest = (1..lanes).map(|i| {
-                let m = format_ident!("m{}", i);
-                quote!(.max(#m))
-            });
+            let ks = self
+                .runtime_inputs
+                .iter()
+                .map(|&k| Literal::usize_unsuffixed(k));
             quote! {
-                #stmts
-                let bits = m0 #(#rest)*;
-                let finite = bits < 0x7FF0_0000_0000_0000;
-                let input_max = f64::from_bits(bits);
+                let inputs: [f64; #nm_inputs] = [#(a[#ks]),*];
+                let (input_max, finite) = #scale_and_finite(&inputs);
             }
         } else {
-            let t = table(&inputs_name, &self.runtime_inputs);
+            let t = table(&format_ident!("INPUTS"), &self.runtime_inputs);
             quote! {
                 #t
-                let (mut sum, mut max) = ([0.0f64; 4], [0.0f64; 4]);
-                let chunks = INPUTS.chunks_exact(4);
-                for &k in chunks.remainder() {
-                    if let Some(x) = a.get(k) {
-                        let x = x.abs();
-                        sum[0] += x;
-                        if x > max[0] {
-                            max[0] = x;
-                        }
+                let mut inputs = [0.0f64; #nm_inputs];
+                for (x, &k) in inputs.iter_mut().zip(&INPUTS) {
+                    if let Some(&v) = a.get(k) {
+                        *x = v;
                     }
                 }
-                for ks in chunks {
-                    for ((s, m), &k) in sum.iter_mut().zip(max.iter_mut()).zip(ks) {
-                        if let Some(x) = a.get(k) {
-                            let x = x.abs();
-                            *s += x;
-                            if x > *m {
-                                *m = x;
-                            }
-                        }
-                    }
-                }
-                let finite = (sum[0] + sum[1]) + (sum[2] + sum[3]) < f64::INFINITY;
-                let input_max = max[0].max(max[1]).max(max[2].max(max[3]));
+                let (input_max, finite) = #scale_and_finite(&inputs);
             }
         };
         let constant_pivot_min = self
@@ -670,10 +640,21 @@ impl Plan {
             }
         }
         let all_inputs = identity.len() == self.runtime_inputs.len();
+        // The constant multipliers, folded in: checked at run time too, so
+        // the runtime's rule (not generation's copy of θ) has the last word.
+        let constant_multiplier = self
+            .lower
+            .iter()
+            .filter_map(|&(_, _, l)| match l {
+                Val::Const(v) => Some(v.abs()),
+                Val::Var(_) => None,
+            })
+            .fold(0.0f64, f64::max);
+        let seed = lit(constant_multiplier);
         let mut multiplier_stmts = if all_inputs && !identity.is_empty() {
-            quote!(let mut max_multiplier = input_max;)
+            quote!(let mut max_multiplier = input_max.max(#seed);)
         } else {
-            quote!(let mut max_multiplier = 0.0f64;)
+            quote!(let mut max_multiplier: f64 = #seed;)
         };
         if !all_inputs && !identity.is_empty() && identity.len() <= MAX_UNROLLED {
             for &k in &identity {
@@ -711,9 +692,9 @@ impl Plan {
         }
         let multiplier_stmts = if (all_inputs || identity.is_empty()) && computed.is_empty() {
             if all_inputs && !identity.is_empty() {
-                quote!(let max_multiplier = input_max;)
+                quote!(let max_multiplier = input_max.max(#seed);)
             } else {
-                quote!(let max_multiplier = 0.0f64;)
+                quote!(let max_multiplier: f64 = #seed;)
             }
         } else {
             multiplier_stmts
@@ -724,7 +705,6 @@ impl Plan {
         } else {
             quote!(f64::INFINITY)
         };
-        let bound = lit(1.0 / RUNTIME_THRESHOLD);
         let pivot_decl = if pivot_stmts.is_empty() {
             quote!(let min_pivot: f64 = #min_pivot0; let negative = #static_negative;)
         } else {
@@ -894,9 +874,7 @@ impl Plan {
                     #pivot_decl
                     #pivot_stmts
                     #multiplier_stmts
-                    let accept = finite
-                        && max_multiplier <= #bound
-                        && min_pivot > singular_tolerance * scale;
+                    let accept = #rt::linalg::order_accepted(finite, max_multiplier, min_pivot, singular_tolerance, scale);
                     if !accept {
                         return self.factor_fallback(values, singular_tolerance);
                     }

@@ -56,7 +56,31 @@ pub use dense::{DenseLu, DynDenseLu};
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
-pub(crate) use schedule::scale_and_finite;
+pub use schedule::scale_and_finite;
+
+/// θ of the threshold test |u_kk| ≥ θ |a_ik| on a factorization with a
+/// recorded pivot order (see "Refactorization" above): its multipliers must
+/// satisfy |l_ik| ≤ 1/θ.
+pub const PIVOT_THRESHOLD: f64 = 0.1;
+
+/// The runtime's one acceptance rule for a factorization in a pivot order
+/// chosen beforehand — a replay of a recorded elimination, or a generated
+/// LU's static order: every input value finite, every multiplier
+/// |l_ik| ≤ 1/θ ([`PIVOT_THRESHOLD`]) and every pivot |u_kk| > τ · scale,
+/// `scale` = maxᵢⱼ |aᵢⱼ| from [`scale_and_finite`]. A NaN multiplier or
+/// pivot fails. When it fails, the solver factors again with partial
+/// pivoting, whose verdict on singularity is the one reported.
+#[inline]
+#[must_use]
+pub fn order_accepted(
+    finite: bool,
+    max_multiplier: f64,
+    min_pivot: f64,
+    singular_tolerance: f64,
+    scale: f64,
+) -> bool {
+    finite && max_multiplier <= 1.0 / PIVOT_THRESHOLD && min_pivot > singular_tolerance * scale
+}
 
 /// What the pivots of the last factorization P A Q = L U say about A's
 /// distance to singularity, for the runtime's monitor (see

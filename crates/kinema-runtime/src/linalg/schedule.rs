@@ -4,10 +4,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{PivotReport, permutation_sign};
-
-/// θ of the threshold test on replayed pivots.
-pub(crate) const PIVOT_THRESHOLD: f64 = 0.1;
+use super::{PivotReport, order_accepted, permutation_sign};
 
 /// Why a replay stopped.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -432,8 +429,7 @@ impl Schedule {
         }
         // With finite inputs, a zero pivot makes `min_pivot` 0 before any ∞
         // or NaN can spread; an overflow shows in the multipliers.
-        let stable = max_multiplier <= 1.0 / PIVOT_THRESHOLD && finite;
-        if stable && min_pivot > singular_tolerance * scale {
+        if order_accepted(finite, max_multiplier, min_pivot, singular_tolerance, scale) {
             Ok(())
         } else {
             Err(Replay::Repivot)
@@ -480,8 +476,12 @@ impl Schedule {
 /// every infinity or NaN lies at or above the bits of +∞ — short latency.
 /// Long ones through f64 lanes that vectorize: |v| kept when larger (a NaN
 /// never is), and v − v, 0 for a finite v and NaN otherwise, summed.
+///
+/// This is the runtime's one finiteness and scale test: of a factorization's
+/// input (the scale of its singularity test), of Φ (its norm), of Newton's
+/// updates, of the solutions. Generated LUs call it too.
 #[inline]
-pub(crate) fn scale_and_finite(values: &[f64]) -> (f64, bool) {
+pub fn scale_and_finite(values: &[f64]) -> (f64, bool) {
     if values.len() <= 32 {
         scale_and_finite_bits(values)
     } else {
