@@ -1,0 +1,703 @@
+//! Emission of a [`Plan`]: the generated LU type, its `factor` built from
+//! the plan's numerics piece by piece (the elimination's arithmetic, the
+//! runtime's scale and acceptance tests through `__private::linalg`, the
+//! memo, the stored values), its solves, and the impls that bind it to its
+//! system.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+use super::{Def, MAX_LETS, MAX_UNROLLED, Plan, Product, Val};
+
+/// Names for the emitted code.
+pub(crate) struct Names<'a> {
+    /// The runtime path (`::kinema::__private`).
+    pub rt: &'a syn::Path,
+    /// The generated type.
+    pub ty: &'a proc_macro2::Ident,
+    /// The system type it serves.
+    pub system: &'a proc_macro2::Ident,
+    /// The fallback solver type.
+    pub fallback: TokenStream,
+}
+
+/// Whether the permutation (images of 0..n) is odd.
+fn permutation_odd(perm: &[usize]) -> bool {
+    let mut p = perm.to_vec();
+    let mut odd = false;
+    for i in 0..p.len() {
+        while p[i] != i && p[i] < p.len() && p[p[i]] != p[i] {
+            let j = p[i];
+            p.swap(i, j);
+            odd = !odd;
+        }
+    }
+    odd
+}
+
+/// `x` as a literal, negative ones parenthesized (a folded constant that
+/// overflowed as the runtime's value).
+fn lit(x: f64) -> TokenStream {
+    if !x.is_finite() {
+        // A folded constant that overflowed (`pow(8, 7)` squared into a
+        // length): spelled as the runtime's value, since a literal cannot be.
+        let t = crate::emit::number(x).tokens;
+        return quote!((#t));
+    }
+    let l = Literal::f64_unsuffixed(x.abs());
+    if x < 0.0 { quote!((-#l)) } else { quote!(#l) }
+}
+
+/// `const NAME: [usize; len] = [...];`: a table of positions the generated
+/// code loops over.
+fn table(name: &str, ks: &[usize]) -> TokenStream {
+    let name = format_ident!("{}", name);
+    let len = Literal::usize_unsuffixed(ks.len());
+    let ks = ks.iter().map(|&k| Literal::usize_unsuffixed(k));
+    quote!(const #name: [usize; #len] = [#(#ks),*];)
+}
+
+/// The memo of the last accepted factorization's run-time inputs: fields,
+/// their initial values, the early return when the inputs repeat, the
+/// update after an accepted factorization, and its invalidation. All empty
+/// when a memo would not pay.
+#[derive(Default)]
+struct Memo {
+    fields: TokenStream,
+    init: TokenStream,
+    check: TokenStream,
+    store: TokenStream,
+    invalidate: TokenStream,
+}
+
+/// Numerics → statements: each piece of the generated `factor`, in the order
+/// it runs.
+impl Plan {
+    /// Factorizations with more operations than this keep their values in a
+    /// local array `w` instead of `let`s.
+    fn large(&self) -> bool {
+        self.operations() > MAX_LETS
+    }
+
+    /// How the factorization reads var `x`: an input `a[k]`, a `let` `f{x}`,
+    /// or a slot `w[x]` of the work array.
+    fn var(&self, x: u32) -> TokenStream {
+        match &self.vars[x as usize] {
+            Def::Input(k) => {
+                let k = Literal::usize_unsuffixed(*k);
+                quote!(a[#k])
+            }
+            _ if self.large() => {
+                let x = Literal::usize_unsuffixed(x as usize);
+                quote!(w[#x])
+            }
+            _ => {
+                let id = format_ident!("f{}", x);
+                quote!(#id)
+            }
+        }
+    }
+
+    /// The expression computing `def`.
+    fn def_value(&self, def: &Def) -> TokenStream {
+        match *def {
+            Def::Input(k) => {
+                let k = Literal::usize_unsuffixed(k);
+                quote!(a[#k])
+            }
+            Def::Neg(a) => {
+                let a = self.var(a);
+                quote!(-#a)
+            }
+            Def::Scale(k, a) => {
+                let (k, a) = (lit(k), self.var(a));
+                quote!(#k * #a)
+            }
+            Def::Mul(a, b) => {
+                let (a, b) = (self.var(a), self.var(b));
+                quote!(#a * #b)
+            }
+            Def::Recip(a) => {
+                let a = self.var(a);
+                quote!(1.0 / #a)
+            }
+            Def::Sub(old, p) => self.sub_value(old, p),
+        }
+    }
+
+    /// old − p as `old ∓ |k|·v`, or −p when old is 0.
+    fn sub_value(&self, old: Val, p: Product) -> TokenStream {
+        let (negative, p) = match p {
+            Product::Const(k) => (k < 0.0, lit(k.abs())),
+            Product::Scaled(k, v) if k.abs() == 1.0 => (k < 0.0, self.var(v)),
+            Product::Scaled(k, v) => {
+                let (k_abs, v) = (lit(k.abs()), self.var(v));
+                (k < 0.0, quote!(#k_abs * #v))
+            }
+            Product::Mul(a, b) => {
+                let (a, b) = (self.var(a), self.var(b));
+                (false, quote!(#a * #b))
+            }
+        };
+        match (old, negative) {
+            (Val::Const(0.0), false) => quote!(-(#p)),
+            (Val::Const(0.0), true) => p,
+            (old, negative) => {
+                let o = match old {
+                    Val::Const(c) => lit(c),
+                    Val::Var(o) => self.var(o),
+                };
+                if negative {
+                    quote!(#o + #p)
+                } else {
+                    quote!(#o - #p)
+                }
+            }
+        }
+    }
+
+    /// The elimination's arithmetic, one statement per computed value,
+    /// after the declaration of the work array of large factorizations.
+    fn emit_elimination(&self) -> TokenStream {
+        let large = self.large();
+        let mut body = if large {
+            let nv = Literal::usize_unsuffixed(self.vars.len());
+            quote!(let mut w = [0.0f64; #nv];)
+        } else {
+            TokenStream::new()
+        };
+        for (x, def) in self.vars.iter().enumerate() {
+            if matches!(def, Def::Input(_)) {
+                continue;
+            }
+            let value = self.def_value(def);
+            let place = self.var(x as u32);
+            body.extend(if large {
+                quote!(#place = #value;)
+            } else {
+                quote!(let #place = #value;)
+            });
+        }
+        body
+    }
+
+    /// `input_max` and `finite` by the runtime's own test
+    /// (`linalg::scale_and_finite`) over the run-time inputs, gathered into
+    /// an array (straight-line for small systems, by a loop over a table of
+    /// positions for large ones).
+    fn emit_scale(&self, rt: &syn::Path) -> TokenStream {
+        let scale_and_finite = quote!(#rt::linalg::scale_and_finite);
+        let nm = Literal::usize_unsuffixed(self.runtime_inputs.len());
+        if self.runtime_inputs.is_empty() {
+            quote!(let (input_max, finite) = (0.0f64, true);)
+        } else if self.runtime_inputs.len() <= MAX_UNROLLED {
+            let ks = self
+                .runtime_inputs
+                .iter()
+                .map(|&k| Literal::usize_unsuffixed(k));
+            quote! {
+                let inputs: [f64; #nm] = [#(a[#ks]),*];
+                let (input_max, finite) = #scale_and_finite(&inputs);
+            }
+        } else {
+            let t = table("INPUTS", &self.runtime_inputs);
+            quote! {
+                #t
+                let mut inputs = [0.0f64; #nm];
+                for (x, &k) in inputs.iter_mut().zip(&INPUTS) {
+                    if let Some(&v) = a.get(k) {
+                        *x = v;
+                    }
+                }
+                let (input_max, finite) = #scale_and_finite(&inputs);
+            }
+        }
+    }
+
+    /// `min_pivot` (min |u_kk|, a NaN pivot winning) and `negative` (the
+    /// sign of det A): the part known at generation time — the constant
+    /// pivots and sign(P) sign(Q) — folded into the initial values.
+    fn emit_pivots(&self) -> TokenStream {
+        let constant_pivot_min = self
+            .pivots
+            .iter()
+            .filter_map(|p| match p {
+                Val::Const(v) => Some(v.abs()),
+                Val::Var(_) => None,
+            })
+            .fold(f64::INFINITY, f64::min);
+        let mut negative = permutation_odd(&self.row_order) != permutation_odd(&self.col_order);
+        for p in &self.pivots {
+            if let Val::Const(v) = *p
+                && v < 0.0
+            {
+                negative = !negative;
+            }
+        }
+        let mut stmts = TokenStream::new();
+        for p in &self.pivots {
+            if let Val::Var(x) = *p {
+                let v = self.var(x);
+                // Not `f64::min`, which drops a NaN: a NaN pivot becomes the
+                // minimum and fails the acceptance test.
+                stmts.extend(quote! {{
+                    let x = #v.abs();
+                    if !(x >= min_pivot) {
+                        min_pivot = x;
+                    }
+                    negative ^= #v < 0.0;
+                }});
+            }
+        }
+        let min_pivot0 = if constant_pivot_min.is_finite() {
+            lit(constant_pivot_min)
+        } else {
+            quote!(f64::INFINITY)
+        };
+        if stmts.is_empty() {
+            quote!(let min_pivot: f64 = #min_pivot0; let negative = #negative;)
+        } else {
+            quote! {
+                let mut min_pivot: f64 = #min_pivot0;
+                let mut negative = #negative;
+                #stmts
+            }
+        }
+    }
+
+    /// `max_multiplier` as max |l_ik| (a NaN exceeds any bound). The
+    /// constant multipliers, folded in, seed it, so the runtime's θ has the
+    /// last word on them too. Multipliers that are inputs as they are (unit
+    /// pivots) are bounded by the inputs' maximum when they are all of them.
+    fn emit_multipliers(&self) -> TokenStream {
+        let mut identity = BTreeSet::new();
+        let mut computed = BTreeSet::new();
+        let mut constant = 0.0f64;
+        for &(_, _, l) in &self.lower {
+            match l {
+                Val::Var(x) => match self.vars[x as usize] {
+                    Def::Input(k) => identity.insert(k),
+                    _ => computed.insert(x),
+                },
+                Val::Const(v) => {
+                    constant = constant.max(v.abs());
+                    false
+                }
+            };
+        }
+        let seed = lit(constant);
+        let all_inputs = !identity.is_empty() && identity.len() == self.runtime_inputs.len();
+        let start = if all_inputs {
+            quote!(input_max.max(#seed))
+        } else {
+            quote!(#seed)
+        };
+        let mut stmts = TokenStream::new();
+        if !all_inputs && identity.len() > MAX_UNROLLED {
+            let ks: Vec<usize> = identity.iter().copied().collect();
+            let t = table("MULTIPLIERS", &ks);
+            stmts.extend(quote! {
+                #t
+                for &k in &MULTIPLIERS {
+                    if let Some(x) = a.get(k) {
+                        let x = x.abs();
+                        if x > max_multiplier {
+                            max_multiplier = x;
+                        }
+                    }
+                }
+            });
+        } else if !all_inputs {
+            for &k in &identity {
+                let k = Literal::usize_unsuffixed(k);
+                stmts.extend(quote! {{
+                    let x = a[#k].abs();
+                    if x > max_multiplier {
+                        max_multiplier = x;
+                    }
+                }});
+            }
+        }
+        for &x in &computed {
+            let v = self.var(x);
+            stmts.extend(quote! {{
+                let x = #v.abs();
+                if !(x <= max_multiplier) {
+                    max_multiplier = x;
+                }
+            }});
+        }
+        if stmts.is_empty() {
+            quote!(let max_multiplier: f64 = #start;)
+        } else {
+            quote! {
+                let mut max_multiplier: f64 = #start;
+                #stmts
+            }
+        }
+    }
+
+    /// The values the solves read, into `f`: stored inputs (the first slots)
+    /// by a loop over their positions when many, the computed values one by
+    /// one.
+    fn emit_store(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
+        let mut inputs_by_slot: Vec<(usize, usize)> = stored
+            .iter()
+            .filter_map(|(&x, &slot)| match self.vars[x as usize] {
+                Def::Input(k) => Some((slot, k)),
+                _ => None,
+            })
+            .collect();
+        inputs_by_slot.sort_unstable();
+        let looped = inputs_by_slot.len() > MAX_UNROLLED;
+        let mut store = TokenStream::new();
+        if looped {
+            let ks: Vec<usize> = inputs_by_slot.iter().map(|&(_, k)| k).collect();
+            let t = table("STORED", &ks);
+            store.extend(quote! {
+                #t
+                for (d, &k) in f.iter_mut().zip(&STORED) {
+                    if let Some(&x) = a.get(k) {
+                        *d = x;
+                    }
+                }
+            });
+        }
+        for (&x, &slot) in stored {
+            if looped && matches!(self.vars[x as usize], Def::Input(_)) {
+                continue;
+            }
+            let v = self.var(x);
+            let slot = Literal::usize_unsuffixed(slot);
+            store.extend(quote!(f[#slot] = #v;));
+        }
+        store
+    }
+
+    /// The memo of the run-time inputs, when the factorization costs at
+    /// least as much as comparing them.
+    fn emit_memo(&self) -> Memo {
+        let nm = self.runtime_inputs.len();
+        if nm == 0 || self.operations() < nm {
+            return Memo::default();
+        }
+        let nm_lit = Literal::usize_unsuffixed(nm);
+        let pairs = || {
+            self.runtime_inputs
+                .iter()
+                .enumerate()
+                .map(|(i, &k)| (Literal::usize_unsuffixed(i), Literal::usize_unsuffixed(k)))
+        };
+        let same = pairs().map(|(i, k)| quote!(a[#k].to_bits() == self.memo[#i].to_bits()));
+        let set = pairs().map(|(i, k)| quote!(self.memo[#i] = a[#k];));
+        Memo {
+            fields: quote! {
+                /// Run-time inputs of the last accepted factorization, and its τ.
+                memo: [f64; #nm_lit],
+                memo_tolerance: f64,
+                memo_valid: bool,
+            },
+            init: quote! {
+                memo: [0.0; #nm_lit],
+                memo_tolerance: 0.0,
+                memo_valid: false,
+            },
+            check: quote! {
+                if self.memo_valid
+                    && singular_tolerance.to_bits() == self.memo_tolerance.to_bits()
+                    && #(#same)&&*
+                {
+                    return Ok(());
+                }
+            },
+            store: quote! {
+                #(#set)*
+                self.memo_tolerance = singular_tolerance;
+                self.memo_valid = true;
+            },
+            invalidate: quote!(self.memo_valid = false;),
+        }
+    }
+}
+
+/// Emission: the generated type and its impls around the numerics above.
+impl Plan {
+    /// The generated type, its `LinearSolver` impl (factorization checked by
+    /// the runtime's rule, fallback to the runtime's solver), and the
+    /// `LinearSolverFor` impls that bind it to its system.
+    pub(crate) fn emit(&self, names: &Names<'_>) -> TokenStream {
+        let Names {
+            rt,
+            ty,
+            system,
+            fallback,
+        } = names;
+        let n_lit = Literal::usize_unsuffixed(self.n);
+        let nnz_lit = Literal::usize_unsuffixed(self.nnz);
+        let stored = self.stored();
+        let nf_lit = Literal::usize_unsuffixed(stored.len().max(1));
+        let constant_scale = lit(self.constant_scale);
+        let scale = self.emit_scale(rt);
+        let elimination = self.emit_elimination();
+        let pivots = self.emit_pivots();
+        let multipliers = self.emit_multipliers();
+        let store = self.emit_store(&stored);
+        let Memo {
+            fields: memo_fields,
+            init: memo_init,
+            check: memo_check,
+            store: memo_store,
+            invalidate: memo_invalidate,
+        } = self.emit_memo();
+        let solve = self.emit_solve(&stored);
+        let doc = self.type_doc(system, fallback);
+        quote! {
+            #[doc = #doc]
+            #[derive(Debug)]
+            pub struct #ty {
+                /// Run-time values of L, U and 1/u_kk read by the solves.
+                f: [f64; #nf_lit],
+                #memo_fields
+                /// False when analysed for another pattern: the fallback does everything.
+                fits: bool,
+                /// Which factorization the solves use: `NONE`, `STATIC` or `FALLBACK`.
+                active: u8,
+                /// Factorizations done by the fallback.
+                fallbacks: u64,
+                /// minₖ |u_kk| / maxᵢⱼ |aᵢⱼ| and the sign of det A, of the last static factorization.
+                report: #rt::PivotReport,
+                fallback: #fallback,
+            }
+
+            #[allow(
+                clippy::approx_constant,
+                clippy::excessive_precision,
+                clippy::unreadable_literal,
+                unused_parens
+            )]
+            impl #rt::LinearSolver for #ty {
+                fn analyze(n: usize, pattern: &[(u32, u32)]) -> ::core::result::Result<Self, #rt::LinalgError> {
+                    let fallback = <#fallback as #rt::LinearSolver>::analyze(n, pattern)?;
+                    Ok(Self {
+                        f: [0.0; #nf_lit],
+                        #memo_init
+                        fits: n == #n_lit && pattern == &<#system>::JACOBIAN_PATTERN[..],
+                        active: Self::NONE,
+                        fallbacks: 0,
+                        report: #rt::PivotReport { ratio: 0.0, det_sign: 1.0 },
+                        fallback,
+                    })
+                }
+
+                fn dim(&self) -> usize {
+                    #n_lit
+                }
+
+                fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
+                    let a = match <&[f64; #nnz_lit]>::try_from(values) {
+                        Ok(a) if self.fits => a,
+                        _ => return self.factor_fallback(values, singular_tolerance),
+                    };
+                    #memo_check
+                    #scale
+                    let scale = input_max.max(#constant_scale);
+                    #elimination
+                    #pivots
+                    #multipliers
+                    let accept = #rt::linalg::order_accepted(finite, max_multiplier, min_pivot, singular_tolerance, scale);
+                    if !accept {
+                        return self.factor_fallback(values, singular_tolerance);
+                    }
+                    let f = &mut self.f;
+                    #store
+                    #memo_store
+                    self.report = #rt::PivotReport {
+                        ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
+                        det_sign: if negative { -1.0 } else { 1.0 },
+                    };
+                    self.active = Self::STATIC;
+                    Ok(())
+                }
+
+                fn solve_in_place(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
+                    match self.active {
+                        Self::STATIC => {}
+                        Self::FALLBACK => return #rt::LinearSolver::solve_in_place(&mut self.fallback, rhs),
+                        _ => return Err(#rt::LinalgError::NotFactored),
+                    }
+                    let found = rhs.len();
+                    let Ok(b) = <&mut [f64; #n_lit]>::try_from(rhs) else {
+                        return Err(#rt::LinalgError::Dimension { what: "right-hand side", expected: #n_lit, found });
+                    };
+                    let f = &self.f;
+                    #solve
+                    Ok(())
+                }
+
+                fn pivot_report(&self) -> ::core::option::Option<#rt::PivotReport> {
+                    match self.active {
+                        Self::STATIC => ::core::option::Option::Some(self.report),
+                        Self::FALLBACK => #rt::LinearSolver::pivot_report(&self.fallback),
+                        _ => ::core::option::Option::None,
+                    }
+                }
+            }
+
+            // Only for the system whose constants are folded in (and borrows of it).
+            impl #rt::LinearSolverFor<#system> for #ty {}
+            impl #rt::LinearSolverFor<&#system> for #ty {}
+            impl #rt::LinearSolverFor<&mut #system> for #ty {}
+
+            impl #ty {
+                const NONE: u8 = 0;
+                const STATIC: u8 = 1;
+                const FALLBACK: u8 = 2;
+
+                /// How many factorizations the runtime's solver did because the
+                /// generated pivot order did not suit the matrix (or it failed).
+                #[must_use]
+                pub fn fallback_count(&self) -> u64 {
+                    self.fallbacks
+                }
+
+                /// Factors with the runtime's solver (pivot order of its own).
+                #[cold]
+                fn factor_fallback(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
+                    self.active = Self::NONE;
+                    #memo_invalidate
+                    self.fallbacks += 1;
+                    #rt::LinearSolver::factor(&mut self.fallback, values, singular_tolerance)?;
+                    self.active = Self::FALLBACK;
+                    Ok(())
+                }
+            }
+        }
+    }
+
+    /// The generated type's doc comment.
+    fn type_doc(&self, system: &proc_macro2::Ident, fallback: &TokenStream) -> String {
+        let fallback = fallback.to_string().replace(' ', "");
+        let fallback = fallback.rsplit("::").next().unwrap_or(&fallback);
+        format!(
+            " The LU of [`{system}`]'s Jacobian, generated for its pattern: a pivot order \
+             chosen at generation time, {} floating-point operations per factorization, \
+             straight-line solves; the runtime's `{fallback}` takes over when that order does \
+             not suit the matrix (see the `LinearSolver` trait for the contract). The \
+             Jacobian's constant entries are folded in and never read from `values`: \
+             this type factors that Jacobian, not any matrix of its pattern, and only \
+             a solver of [`{system}`] accepts it.",
+            self.operations(),
+        )
+    }
+
+    /// Forward then backward substitution on `b` (a `[f64; n]`), reading
+    /// stored run-time values from `f`.
+    fn emit_solve(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
+        let n = self.n;
+        let large = n > MAX_LETS / 2;
+        let read = |v: Val| -> Result<TokenStream, f64> {
+            match v {
+                Val::Const(c) => Err(c),
+                Val::Var(x) => {
+                    let slot = stored
+                        .get(&x)
+                        .copied()
+                        .expect("every run-time value the solves read is stored (Plan::stored)");
+                    let slot = Literal::usize_unsuffixed(slot);
+                    Ok(quote!(f[#slot]))
+                }
+            }
+        };
+        let y = |k: usize| -> TokenStream {
+            if large {
+                let k = Literal::usize_unsuffixed(k);
+                quote!(y[#k])
+            } else {
+                let id = format_ident!("y{}", k);
+                quote!(#id)
+            }
+        };
+        // Terms −Σ c·x: `- c * x`, with ±1 folded.
+        let minus_terms = |terms: &[(Val, TokenStream)]| -> TokenStream {
+            let mut out = TokenStream::new();
+            for (c, x) in terms {
+                out.extend(match read(*c) {
+                    Ok(v) => quote!(- #v * #x),
+                    Err(1.0) => quote!(- #x),
+                    Err(-1.0) => quote!(+ #x),
+                    Err(0.0) => quote!(),
+                    Err(k) if k < 0.0 => {
+                        let k = lit(-k);
+                        quote!(+ #k * #x)
+                    }
+                    Err(k) => {
+                        let k = lit(k);
+                        quote!(- #k * #x)
+                    }
+                });
+            }
+            out
+        };
+        let mut l_rows: Vec<Vec<(Val, usize)>> = vec![Vec::new(); n];
+        for &(i, k, l) in &self.lower {
+            l_rows[i].push((l, k));
+        }
+        let mut u_rows: Vec<Vec<(Val, usize)>> = vec![Vec::new(); n];
+        for &(k, j, u) in &self.upper {
+            u_rows[k].push((u, j));
+        }
+        let mut out = TokenStream::new();
+        if large {
+            let n_lit = Literal::usize_unsuffixed(n);
+            out.extend(quote!(let mut y = [0.0f64; #n_lit];));
+        }
+        // Forward: y_i = b[p_i] − Σ_k l_ik y_k.
+        for (i, (l_row, &r)) in l_rows.iter().zip(&self.row_order).enumerate() {
+            let r = Literal::usize_unsuffixed(r);
+            let terms: Vec<(Val, TokenStream)> = l_row.iter().map(|&(l, k)| (l, y(k))).collect();
+            let rest = minus_terms(&terms);
+            let place = y(i);
+            out.extend(if large {
+                quote!(#place = b[#r] #rest;)
+            } else {
+                quote!(let #place = b[#r] #rest;)
+            });
+        }
+        // Backward: x_k = (y_k − Σ_j u_kj x_j) / u_kk, into y_k.
+        for k in (0..n).rev() {
+            let terms: Vec<(Val, TokenStream)> =
+                u_rows[k].iter().map(|&(u, j)| (u, y(j))).collect();
+            let rest = minus_terms(&terms);
+            let yk = y(k);
+            let sum = if terms.is_empty() {
+                quote!(#yk)
+            } else {
+                quote!((#yk #rest))
+            };
+            let value = match read(self.inv[k]) {
+                Ok(v) => quote!(#sum * #v),
+                Err(1.0) => sum,
+                Err(-1.0) => quote!(-#sum),
+                Err(c) => {
+                    let c = lit(c);
+                    quote!(#sum * #c)
+                }
+            };
+            if large {
+                out.extend(quote!(#yk = #value;));
+            } else if terms.is_empty() && matches!(self.inv[k], Val::Const(c) if c == 1.0) {
+                // y_k is already x_k.
+            } else {
+                out.extend(quote!(let #yk = #value;));
+            }
+        }
+        for k in 0..n {
+            let c = Literal::usize_unsuffixed(self.col_order[k]);
+            let yk = y(k);
+            out.extend(quote!(b[#c] = #yk;));
+        }
+        out
+    }
+}
