@@ -267,21 +267,24 @@ impl Method {
     }
 }
 
-/// `impl System`: the evaluation methods as straight-line code over the
-/// scratch (the cache), plus names, pattern and initial guess. `types` is
-/// the mechanism's type and its scratch type.
-fn system_impl(
-    d: &Derivation,
-    types: (&Ident, &TokenStream),
-    params: &[Ident],
-    cache: &cache::Cache,
-    rt: &syn::Path,
-) -> TokenStream {
-    let (name, scratch_type) = types;
+/// The initial guess's statements (parameters only, no cache), writing `q`.
+fn guess_body(d: &Derivation, params: &[Ident]) -> TokenStream {
+    let q = format_ident!("q");
+    let no_cache = |_| None;
+    let inputs = emit::Inputs {
+        params,
+        cached: &no_cache,
+    };
+    let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
+    emit::body(&d.arena, &guesses, &|k| emit::index(&q, k), &inputs).0
+}
+
+/// The evaluation methods' bodies: Φ, Φ_q, both at once (one schedule, so
+/// sin/cos are computed once per body), ν and γ, each refreshing the cache
+/// it reads first.
+fn evaluation_methods(d: &Derivation, params: &[Ident], cache: &cache::Cache) -> [Method; 5] {
     let a = &d.arena;
     let nc = d.nc();
-    let nc_lit = Literal::usize_unsuffixed(nc);
-    let nnz = d.phi_q.entries.len();
     let out = format_ident!("out");
     let to_out = |k: usize| emit::index(&out, k);
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
@@ -290,7 +293,6 @@ fn system_impl(
         params,
         cached: &lookup,
     };
-    // The body of a method computing `outputs`, the cache refreshed first.
     let method = |outputs: &[kinema_expr::ExprId], target: &dyn Fn(usize) -> TokenStream| {
         let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
         let (body, mut used) = emit::body(a, outputs, target, &inputs);
@@ -302,22 +304,6 @@ fn system_impl(
             scratch: reads_q || reads_t,
         }
     };
-
-    let guess = {
-        let q = format_ident!("q");
-        let no_cache = |_| None;
-        let guess_inputs = emit::Inputs {
-            params,
-            cached: &no_cache,
-        };
-        let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
-        emit::body(a, &guesses, &|k| emit::index(&q, k), &guess_inputs).0
-    };
-    let phi = method(&d.phi, &to_out);
-    let jac = method(&jac_exprs, &to_out);
-    let nu = method(&d.nu, &to_out);
-    let gamma = method(&d.gamma, &to_out);
-    // Φ and Φ_q together: one schedule, so sin/cos are computed once per body.
     let both_exprs: Vec<_> = d.phi.iter().chain(&jac_exprs).copied().collect();
     let (phi_name, values_name) = (format_ident!("phi"), format_ident!("values"));
     let to_both = |k: usize| {
@@ -327,8 +313,31 @@ fn system_impl(
             emit::index(&values_name, k - nc)
         }
     };
-    let both = method(&both_exprs, &to_both);
+    [
+        method(&d.phi, &to_out),
+        method(&jac_exprs, &to_out),
+        method(&both_exprs, &to_both),
+        method(&d.nu, &to_out),
+        method(&d.gamma, &to_out),
+    ]
+}
 
+/// `impl System`: the evaluation methods as straight-line code over the
+/// scratch (the cache), plus names, pattern and initial guess. `types` is
+/// the mechanism's type and its scratch type.
+fn system_impl(
+    d: &Derivation,
+    types: (&Ident, &TokenStream),
+    params: &[Ident],
+    cache: &cache::Cache,
+    rt: &syn::Path,
+) -> TokenStream {
+    let (name, scratch_type) = types;
+    let nc = d.nc();
+    let nc_lit = Literal::usize_unsuffixed(nc);
+    let nnz = d.phi_q.entries.len();
+    let guess = guess_body(d, params);
+    let [phi, jac, both, nu, gamma] = evaluation_methods(d, params, cache);
     let args = |m: &Method| {
         (
             Method::arg(m.scratch, "scratch"),

@@ -183,10 +183,10 @@ impl Plan {
         body
     }
 
-    /// `input_max` and `finite` by the runtime's own test
-    /// (`linalg::scale_and_finite`) over the run-time inputs, gathered into
-    /// an array (straight-line for small systems, by a loop over a table of
-    /// positions for large ones).
+    /// `input_max` and `finite` by the runtime's own test over the run-time
+    /// inputs: `linalg::scale_and_finite` on them gathered into an array for
+    /// small systems, `linalg::scale_and_finite_at` over a table of their
+    /// positions for large ones.
     fn emit_scale(&self, rt: &syn::Path) -> TokenStream {
         let scale_and_finite = quote!(#rt::linalg::scale_and_finite);
         let nm = Literal::usize_unsuffixed(self.runtime_inputs.len());
@@ -205,13 +205,7 @@ impl Plan {
             let t = table("INPUTS", &self.runtime_inputs);
             quote! {
                 #t
-                let mut inputs = [0.0f64; #nm];
-                for (x, &k) in inputs.iter_mut().zip(&INPUTS) {
-                    if let Some(&v) = a.get(k) {
-                        *x = v;
-                    }
-                }
-                let (input_max, finite) = #scale_and_finite(&inputs);
+                let (input_max, finite) = #rt::linalg::scale_and_finite_at(a, &INPUTS);
             }
         }
     }
@@ -435,22 +429,16 @@ impl Plan {
             fallback,
         } = names;
         let n_lit = Literal::usize_unsuffixed(self.n);
-        let nnz_lit = Literal::usize_unsuffixed(self.nnz);
         let stored = self.stored();
         let nf_lit = Literal::usize_unsuffixed(stored.len().max(1));
-        let constant_scale = lit(self.constant_scale);
-        let scale = self.emit_scale(rt);
-        let elimination = self.emit_elimination();
-        let pivots = self.emit_pivots();
-        let multipliers = self.emit_multipliers();
-        let store = self.emit_store(&stored);
+        let memo = self.emit_memo();
+        let factor = self.emit_factor(rt, &stored, &memo);
         let Memo {
             fields: memo_fields,
             init: memo_init,
-            check: memo_check,
-            store: memo_store,
             invalidate: memo_invalidate,
-        } = self.emit_memo();
+            ..
+        } = memo;
         let solve = self.emit_solve(&stored);
         let doc = self.type_doc(system, fallback);
         quote! {
@@ -495,31 +483,7 @@ impl Plan {
                     #n_lit
                 }
 
-                fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
-                    let a = match <&[f64; #nnz_lit]>::try_from(values) {
-                        Ok(a) if self.fits => a,
-                        _ => return self.factor_fallback(values, singular_tolerance),
-                    };
-                    #memo_check
-                    #scale
-                    let scale = input_max.max(#constant_scale);
-                    #elimination
-                    #pivots
-                    #multipliers
-                    let accept = #rt::linalg::order_accepted(finite, max_multiplier, min_pivot, singular_tolerance, scale);
-                    if !accept {
-                        return self.factor_fallback(values, singular_tolerance);
-                    }
-                    let f = &mut self.f;
-                    #store
-                    #memo_store
-                    self.report = #rt::PivotReport {
-                        ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
-                        det_sign: if negative { -1.0 } else { 1.0 },
-                    };
-                    self.active = Self::STATIC;
-                    Ok(())
-                }
+                #factor
 
                 fn solve_in_place(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
                     match self.active {
@@ -573,6 +537,51 @@ impl Plan {
                     Ok(())
                 }
             }
+        }
+    }
+
+    /// `LinearSolver::factor`: the static order's factorization, accepted by
+    /// the runtime's rule or handed to the fallback.
+    fn emit_factor(
+        &self,
+        rt: &syn::Path,
+        stored: &BTreeMap<u32, usize>,
+        memo: &Memo,
+    ) -> TokenStream {
+        let nnz_lit = Literal::usize_unsuffixed(self.nnz);
+        let constant_scale = lit(self.constant_scale);
+        let scale = self.emit_scale(rt);
+        let elimination = self.emit_elimination();
+        let pivots = self.emit_pivots();
+        let multipliers = self.emit_multipliers();
+        let store = self.emit_store(stored);
+        let (memo_check, memo_store) = (&memo.check, &memo.store);
+        quote! {
+        fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
+            let a = match <&[f64; #nnz_lit]>::try_from(values) {
+                Ok(a) if self.fits => a,
+                _ => return self.factor_fallback(values, singular_tolerance),
+            };
+            #memo_check
+            #scale
+            let scale = input_max.max(#constant_scale);
+            #elimination
+            #pivots
+            #multipliers
+            let accept = #rt::linalg::order_accepted(finite, max_multiplier, min_pivot, singular_tolerance, scale);
+            if !accept {
+                return self.factor_fallback(values, singular_tolerance);
+            }
+            let f = &mut self.f;
+            #store
+            #memo_store
+            self.report = #rt::PivotReport {
+                ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
+                det_sign: if negative { -1.0 } else { 1.0 },
+            };
+            self.active = Self::STATIC;
+            Ok(())
+        }
         }
     }
 

@@ -254,22 +254,26 @@ impl Plan {
                 }
             }
         }
-        // L's rows and U's columns as elimination positions.
-        let mut row_pos = vec![0usize; n];
-        for (k, &r) in plan.row_order.iter().enumerate() {
+        plan.renumber_by_position();
+        Some(plan)
+    }
+
+    /// Renumbers L's rows and U's columns as elimination positions.
+    fn renumber_by_position(&mut self) {
+        let mut row_pos = vec![0usize; self.n];
+        for (k, &r) in self.row_order.iter().enumerate() {
             row_pos[r] = k;
         }
-        let mut col_pos = vec![0usize; n];
-        for (k, &c) in plan.col_order.iter().enumerate() {
+        let mut col_pos = vec![0usize; self.n];
+        for (k, &c) in self.col_order.iter().enumerate() {
             col_pos[c] = k;
         }
-        for e in &mut plan.lower {
+        for e in &mut self.lower {
             e.0 = row_pos[e.0];
         }
-        for e in &mut plan.upper {
+        for e in &mut self.upper {
             e.1 = col_pos[e.1];
         }
-        Some(plan)
     }
 
     fn push(&mut self, def: Def) -> Val {

@@ -489,10 +489,15 @@ pub fn scale_and_finite(values: &[f64]) -> (f64, bool) {
     }
 }
 
+/// The sign bit cleared: for IEEE doubles, the integer order of the result
+/// is the order of |v|.
+const ABS: u64 = !(1 << 63);
+/// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
+/// cleared.
+const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
+
 #[inline]
 fn scale_and_finite_bits(values: &[f64]) -> (f64, bool) {
-    const ABS: u64 = !(1 << 63);
-    const INFINITY: u64 = 0x7FF0_0000_0000_0000;
     let bits = |v: f64| v.to_bits() & ABS;
     let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
     let chunks = values.chunks_exact(4);
@@ -507,11 +512,28 @@ fn scale_and_finite_bits(values: &[f64]) -> (f64, bool) {
         m0 = m0.max(bits(v));
     }
     let max_bits = m0.max(m1).max(m2.max(m3));
-    (f64::from_bits(max_bits), max_bits < INFINITY)
+    (f64::from_bits(max_bits), max_bits < INFINITY_BITS)
 }
 
+/// One lane's step of the test: |v| kept when larger (a NaN never is), and
+/// v − v (0 for a finite v, NaN otherwise) summed.
 // `v - v` is the point: 0 or NaN.
 #[allow(clippy::eq_op)]
+#[inline(always)]
+fn lane(max: &mut f64, nan: &mut f64, v: f64) {
+    let a = v.abs();
+    *max = if a > *max { a } else { *max };
+    *nan += v - v;
+}
+
+/// The four lanes' verdict: (max |v|, all finite).
+#[inline(always)]
+fn lanes_verdict(max: [f64; 4], nan: [f64; 4]) -> (f64, bool) {
+    let scale = max[0].max(max[1]).max(max[2].max(max[3]));
+    let finite = (nan[0] + nan[1]) + (nan[2] + nan[3]) == 0.0;
+    (scale, finite)
+}
+
 #[inline(never)]
 fn scale_and_finite_lanes(values: &[f64]) -> (f64, bool) {
     let mut max = [0.0f64; 4];
@@ -520,19 +542,35 @@ fn scale_and_finite_lanes(values: &[f64]) -> (f64, bool) {
     let rest = chunks.remainder();
     for c in chunks {
         for ((m, z), &v) in max.iter_mut().zip(nan.iter_mut()).zip(c) {
-            let a = v.abs();
-            *m = if a > *m { a } else { *m };
-            *z += v - v;
+            lane(m, z, v);
         }
     }
     for (&v, (m, z)) in rest.iter().zip(max.iter_mut().zip(nan.iter_mut())) {
-        let a = v.abs();
-        *m = if a > *m { a } else { *m };
-        *z += v - v;
+        lane(m, z, v);
     }
-    let scale = max[0].max(max[1]).max(max[2].max(max[3]));
-    let finite = (nan[0] + nan[1]) + (nan[2] + nan[3]) == 0.0;
-    (scale, finite)
+    lanes_verdict(max, nan)
+}
+
+/// [`scale_and_finite`] over the entries `values[k]` for the positions `at`
+/// (a generated LU's run-time inputs, its other entries being constants),
+/// without gathering them first. Positions outside `values` are skipped.
+/// Scattered reads do not vectorize, so this takes the bit-pattern lanes of
+/// the short path (equal to the f64 lanes, see the tests).
+#[inline]
+pub fn scale_and_finite_at(values: &[f64], at: &[usize]) -> (f64, bool) {
+    let bits = |k: usize| values.get(k).map_or(0, |v| v.to_bits() & ABS);
+    let mut m = [0u64; 4];
+    let chunks = at.chunks_exact(4);
+    for &k in chunks.remainder() {
+        m[0] = m[0].max(bits(k));
+    }
+    for c in chunks {
+        for (m, &k) in m.iter_mut().zip(c) {
+            *m = (*m).max(bits(k));
+        }
+    }
+    let max_bits = m[0].max(m[1]).max(m[2].max(m[3]));
+    (f64::from_bits(max_bits), max_bits < INFINITY_BITS)
 }
 
 /// Map from a filled position (i, j) to its slot while building.
@@ -588,6 +626,26 @@ mod tests {
                     let mut w = v.clone();
                     w[at] = bad;
                     assert!(!scale_and_finite_bits(&w).1 && !scale_and_finite_lanes(&w).1);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn scale_and_finite_at_agrees_with_gathering() {
+        let values: Vec<f64> = (0..50).map(|i| (i as f64 * 0.37).sin() * 1e3).collect();
+        for len in [0, 3, 4, 17, 40] {
+            let at: Vec<usize> = (0..len).map(|i| (i * 7) % 50).collect();
+            let gathered: Vec<f64> = at.iter().map(|&k| values[k]).collect();
+            assert_eq!(
+                scale_and_finite_at(&values, &at),
+                scale_and_finite(&gathered)
+            );
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut v = values.clone();
+                if let Some(&k) = at.last() {
+                    v[k] = bad;
+                    assert!(!scale_and_finite_at(&v, &at).1);
                 }
             }
         }
