@@ -173,6 +173,10 @@ impl System for Chain {
     /// The exact configuration at t = 0, computed as the benchmarks do:
     /// φ_k = π/4 + 0.3 sin k, r_k = ∑_{m<k} (cos φ_m, sin φ_m) + ½ (cos φ_k, sin φ_k).
     fn initial_guess(&self, q: &mut [f64]) {
+        if q.len() != self.len() {
+            q.fill(f64::NAN);
+            return;
+        }
         let (mut px, mut py) = (0.0, 0.0);
         for (k, qk) in q.chunks_exact_mut(3).take(self.links).enumerate() {
             let phi = FRAC_PI_4 + 0.3 * ((k + 1) as f64).sin();
@@ -188,6 +192,10 @@ impl System for Chain {
     }
 
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
+        if q.len() != self.len() || phi.len() != self.len() {
+            phi.fill(f64::NAN);
+            return;
+        }
         let drivers = self.refresh_drivers(scratch, t);
         // Tip of the previous link.
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
@@ -217,6 +225,11 @@ impl System for Chain {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
+        if q.len() != self.len() || phi.len() != self.len() || values.len() != self.pattern.len() {
+            phi.fill(f64::NAN);
+            values.fill(f64::NAN);
+            return;
+        }
         let drivers = self.refresh_drivers(scratch, t);
         let (mut tip_x, mut tip_y) = (0.0, 0.0);
         let (mut prev_hs, mut prev_hc) = (0.0, 0.0);
@@ -242,6 +255,10 @@ impl System for Chain {
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
+        if q.len() != self.len() || values.len() != self.pattern.len() {
+            values.fill(f64::NAN);
+            return;
+        }
         let mut at = 0;
         let (mut prev_s, mut prev_c) = (0.0, 0.0);
         for (k, qk) in q.chunks_exact(3).enumerate() {
@@ -259,7 +276,11 @@ impl System for Chain {
         }
     }
 
-    fn nu(&self, scratch: &mut Self::Scratch, _q: &[f64], t: f64, nu: &mut [f64]) {
+    fn nu(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, nu: &mut [f64]) {
+        if q.len() != self.len() || nu.len() != self.len() {
+            nu.fill(f64::NAN);
+            return;
+        }
         let drivers = self.refresh_drivers(scratch, t);
         for (out, f) in nu.chunks_exact_mut(3).zip(drivers) {
             out[0] = 0.0;
@@ -269,6 +290,10 @@ impl System for Chain {
     }
 
     fn gamma(&self, scratch: &mut Self::Scratch, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        if q.len() != self.len() || qd.len() != self.len() || gamma.len() != self.len() {
+            gamma.fill(f64::NAN);
+            return;
+        }
         let drivers = self.refresh_drivers(scratch, t);
         // A_{k−1} s′_tip φ̇²_{k−1} of the previous link (zero for ground).
         let (mut prev_x, mut prev_y) = (0.0, 0.0);

@@ -186,6 +186,10 @@ impl System for FourBar {
     }
 
     fn initial_guess(&self, q: &mut [f64]) {
+        if q.len() != 9 {
+            q.fill(f64::NAN);
+            return;
+        }
         q[..9].copy_from_slice(&self.guess);
     }
 
@@ -194,10 +198,18 @@ impl System for FourBar {
     }
 
     fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
+        if q.len() != 9 || phi.len() != 9 {
+            phi.fill(f64::NAN);
+            return;
+        }
         self.write_phi(q, t, sin_cos(q), phi);
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
+        if q.len() != 9 || values.len() != PATTERN.len() {
+            values.fill(f64::NAN);
+            return;
+        }
         self.write_jacobian(sin_cos(q), values);
     }
 
@@ -209,12 +221,21 @@ impl System for FourBar {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
+        if q.len() != 9 || phi.len() != 9 || values.len() != PATTERN.len() {
+            phi.fill(f64::NAN);
+            values.fill(f64::NAN);
+            return;
+        }
         let sc = sin_cos(q);
         self.write_phi(q, t, sc, phi);
         self.write_jacobian(sc, values);
     }
 
-    fn nu(&self, _scratch: &mut Self::Scratch, _q: &[f64], _t: f64, nu: &mut [f64]) {
+    fn nu(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, nu: &mut [f64]) {
+        if q.len() != 9 || nu.len() != 9 {
+            nu.fill(f64::NAN);
+            return;
+        }
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
     }
 
@@ -226,6 +247,10 @@ impl System for FourBar {
         _t: f64,
         gamma: &mut [f64],
     ) {
+        if q.len() != 9 || qd.len() != 9 || gamma.len() != 9 {
+            gamma.fill(f64::NAN);
+            return;
+        }
         let (h1, h2, h3) = (0.5 * self.crank, 0.5 * self.coupler, 0.5 * self.rocker);
         let [(s1, c1), (s2, c2), (s3, c3)] = sin_cos(q);
         let (w1, w2, w3) = (qd[2] * qd[2], qd[5] * qd[5], qd[8] * qd[8]);

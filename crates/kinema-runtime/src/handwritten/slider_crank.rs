@@ -176,6 +176,10 @@ impl System for SliderCrank {
     }
 
     fn initial_guess(&self, q: &mut [f64]) {
+        if q.len() != 9 {
+            q.fill(f64::NAN);
+            return;
+        }
         q[..9].copy_from_slice(&self.guess);
     }
 
@@ -184,10 +188,18 @@ impl System for SliderCrank {
     }
 
     fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
+        if q.len() != 9 || phi.len() != 9 {
+            phi.fill(f64::NAN);
+            return;
+        }
         self.write_phi(q, t, q[2].sin_cos(), q[5].sin_cos(), phi);
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
+        if q.len() != 9 || values.len() != PATTERN.len() {
+            values.fill(f64::NAN);
+            return;
+        }
         self.write_jacobian(q[2].sin_cos(), q[5].sin_cos(), values);
     }
 
@@ -199,12 +211,21 @@ impl System for SliderCrank {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
+        if q.len() != 9 || phi.len() != 9 || values.len() != PATTERN.len() {
+            phi.fill(f64::NAN);
+            values.fill(f64::NAN);
+            return;
+        }
         let (sc1, sc2) = (q[2].sin_cos(), q[5].sin_cos());
         self.write_phi(q, t, sc1, sc2, phi);
         self.write_jacobian(sc1, sc2, values);
     }
 
-    fn nu(&self, _scratch: &mut Self::Scratch, _q: &[f64], _t: f64, nu: &mut [f64]) {
+    fn nu(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, nu: &mut [f64]) {
+        if q.len() != 9 || nu.len() != 9 {
+            nu.fill(f64::NAN);
+            return;
+        }
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
     }
 
@@ -216,6 +237,10 @@ impl System for SliderCrank {
         _t: f64,
         gamma: &mut [f64],
     ) {
+        if q.len() != 9 || qd.len() != 9 || gamma.len() != 9 {
+            gamma.fill(f64::NAN);
+            return;
+        }
         let (h1, h2) = (0.5 * self.crank, 0.5 * self.rod);
         let ((s1, c1), (s2, c2)) = (q[2].sin_cos(), q[5].sin_cos());
         let (w1, w2) = (qd[2] * qd[2], qd[5] * qd[5]);
