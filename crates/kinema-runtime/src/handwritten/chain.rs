@@ -192,8 +192,7 @@ impl System for Chain {
     }
 
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
-        if q.len() != self.len() || phi.len() != self.len() {
-            phi.fill(f64::NAN);
+        if !super::sized(self.len(), &[q], &mut [(&mut *phi, self.len())]) {
             return;
         }
         let drivers = self.refresh_drivers(scratch, t);
@@ -225,9 +224,11 @@ impl System for Chain {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
-        if q.len() != self.len() || phi.len() != self.len() || values.len() != self.pattern.len() {
-            phi.fill(f64::NAN);
-            values.fill(f64::NAN);
+        if !super::sized(
+            self.len(),
+            &[q],
+            &mut [(&mut *phi, self.len()), (&mut *values, self.pattern.len())],
+        ) {
             return;
         }
         let drivers = self.refresh_drivers(scratch, t);
@@ -255,8 +256,7 @@ impl System for Chain {
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
-        if q.len() != self.len() || values.len() != self.pattern.len() {
-            values.fill(f64::NAN);
+        if !super::sized(self.len(), &[q], &mut [(&mut *values, self.pattern.len())]) {
             return;
         }
         let mut at = 0;
@@ -277,8 +277,7 @@ impl System for Chain {
     }
 
     fn nu(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, nu: &mut [f64]) {
-        if q.len() != self.len() || nu.len() != self.len() {
-            nu.fill(f64::NAN);
+        if !super::sized(self.len(), &[q], &mut [(&mut *nu, self.len())]) {
             return;
         }
         let drivers = self.refresh_drivers(scratch, t);
@@ -290,8 +289,7 @@ impl System for Chain {
     }
 
     fn gamma(&self, scratch: &mut Self::Scratch, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        if q.len() != self.len() || qd.len() != self.len() || gamma.len() != self.len() {
-            gamma.fill(f64::NAN);
+        if !super::sized(self.len(), &[q, qd], &mut [(&mut *gamma, self.len())]) {
             return;
         }
         let drivers = self.refresh_drivers(scratch, t);

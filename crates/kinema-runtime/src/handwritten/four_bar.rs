@@ -198,16 +198,14 @@ impl System for FourBar {
     }
 
     fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
-        if q.len() != 9 || phi.len() != 9 {
-            phi.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *phi, 9)]) {
             return;
         }
         self.write_phi(q, t, sin_cos(q), phi);
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
-        if q.len() != 9 || values.len() != PATTERN.len() {
-            values.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *values, PATTERN.len())]) {
             return;
         }
         self.write_jacobian(sin_cos(q), values);
@@ -221,9 +219,11 @@ impl System for FourBar {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
-        if q.len() != 9 || phi.len() != 9 || values.len() != PATTERN.len() {
-            phi.fill(f64::NAN);
-            values.fill(f64::NAN);
+        if !super::sized(
+            9,
+            &[q],
+            &mut [(&mut *phi, 9), (&mut *values, PATTERN.len())],
+        ) {
             return;
         }
         let sc = sin_cos(q);
@@ -232,8 +232,7 @@ impl System for FourBar {
     }
 
     fn nu(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, nu: &mut [f64]) {
-        if q.len() != 9 || nu.len() != 9 {
-            nu.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *nu, 9)]) {
             return;
         }
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
@@ -247,8 +246,7 @@ impl System for FourBar {
         _t: f64,
         gamma: &mut [f64],
     ) {
-        if q.len() != 9 || qd.len() != 9 || gamma.len() != 9 {
-            gamma.fill(f64::NAN);
+        if !super::sized(9, &[q, qd], &mut [(&mut *gamma, 9)]) {
             return;
         }
         let (h1, h2, h3) = (0.5 * self.crank, 0.5 * self.coupler, 0.5 * self.rocker);

@@ -20,3 +20,16 @@ mod slider_crank;
 pub use chain::{Chain, Drivers};
 pub use four_bar::FourBar;
 pub use slider_crank::SliderCrank;
+
+/// The `System` trait's rule for slices of the wrong length: `true` when
+/// every input has length `n` and every output the length paired with it;
+/// otherwise every output is filled with NaN (never a panic).
+fn sized(n: usize, inputs: &[&[f64]], outputs: &mut [(&mut [f64], usize)]) -> bool {
+    let ok = inputs.iter().all(|i| i.len() == n) && outputs.iter().all(|(o, len)| o.len() == *len);
+    if !ok {
+        for (o, _) in outputs.iter_mut() {
+            o.fill(f64::NAN);
+        }
+    }
+    ok
+}

@@ -188,16 +188,14 @@ impl System for SliderCrank {
     }
 
     fn phi(&self, _scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
-        if q.len() != 9 || phi.len() != 9 {
-            phi.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *phi, 9)]) {
             return;
         }
         self.write_phi(q, t, q[2].sin_cos(), q[5].sin_cos(), phi);
     }
 
     fn jacobian(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, values: &mut [f64]) {
-        if q.len() != 9 || values.len() != PATTERN.len() {
-            values.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *values, PATTERN.len())]) {
             return;
         }
         self.write_jacobian(q[2].sin_cos(), q[5].sin_cos(), values);
@@ -211,9 +209,11 @@ impl System for SliderCrank {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
-        if q.len() != 9 || phi.len() != 9 || values.len() != PATTERN.len() {
-            phi.fill(f64::NAN);
-            values.fill(f64::NAN);
+        if !super::sized(
+            9,
+            &[q],
+            &mut [(&mut *phi, 9), (&mut *values, PATTERN.len())],
+        ) {
             return;
         }
         let (sc1, sc2) = (q[2].sin_cos(), q[5].sin_cos());
@@ -222,8 +222,7 @@ impl System for SliderCrank {
     }
 
     fn nu(&self, _scratch: &mut Self::Scratch, q: &[f64], _t: f64, nu: &mut [f64]) {
-        if q.len() != 9 || nu.len() != 9 {
-            nu.fill(f64::NAN);
+        if !super::sized(9, &[q], &mut [(&mut *nu, 9)]) {
             return;
         }
         nu[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.omega]);
@@ -237,8 +236,7 @@ impl System for SliderCrank {
         _t: f64,
         gamma: &mut [f64],
     ) {
-        if q.len() != 9 || qd.len() != 9 || gamma.len() != 9 {
-            gamma.fill(f64::NAN);
+        if !super::sized(9, &[q, qd], &mut [(&mut *gamma, 9)]) {
             return;
         }
         let (h1, h2) = (0.5 * self.crank, 0.5 * self.rod);
