@@ -1015,6 +1015,21 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                 );
                 return None;
             }
+            let r2 = r2?;
+            // The rolling row is scaled by L = |sQ1 − sP1|: L·R2 is a
+            // constant of the imported equations, and must be a number.
+            let scale = crate::emit::length(u) * r2;
+            if !scale.is_finite() {
+                let pos = v.get("R2").map_or(v.pos, |x| x.pos);
+                cx.err(
+                    pos,
+                    format!(
+                        "{}: field \"R2\": R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number (about 1.8e308)",
+                        e.label
+                    ),
+                );
+                return None;
+            }
             let (body1, body2) = bodies?;
             ConstraintKind::RackPinion {
                 body1,
@@ -1022,7 +1037,7 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                 sp1,
                 sq1,
                 sp2: sp2?,
-                r2: r2?,
+                r2,
                 theta1: theta1?,
                 theta2: theta2?,
                 fun: e.ignored_fun(),

@@ -57,6 +57,19 @@ fn fun_undefined_whatever_the_time() {
     insta::assert_snapshot!("undefined_fun", e);
 }
 
+/// A rack-and-pinion whose rolling row's scale L·R2 overflows is refused at
+/// R2 (fuzz run 2: 391 imported models refused at "this constant is
+/// infinite" in text the user never wrote).
+#[test]
+fn rack_pinion_scale_that_overflows() {
+    let e = error("rack_scale_overflow.adm");
+    assert!(
+        e.contains("field \"R2\": R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number"),
+        "{e}"
+    );
+    assert!(e.contains("rack_scale_overflow.adm:9:"), "{e}");
+}
+
 #[test]
 fn missing_and_malformed_fields() {
     insta::assert_snapshot!("bad_fields", error("bad_fields.adm"));

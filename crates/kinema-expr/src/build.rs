@@ -124,17 +124,18 @@ fn finite_or(v: f64) -> Option<f64> {
 
 /// `coeff · v^p` for folding into a coefficient, unless that would lose the
 /// term to underflow: `v^p` not finite, or `v^p` or the product flushed to
-/// zero or into the subnormals from nonzero operands (an underflowed
-/// coefficient would silently turn a whole term into 0). An overflowing
-/// product is returned (±∞): the caller keeps it visible as undefined.
+/// zero from nonzero operands (an underflowed coefficient would silently
+/// turn a whole term into 0; a subnormal one keeps it, less precisely, and
+/// folds so that constants stay numbers: acos(π + 1e-3/1.8e308) is still
+/// seen to be undefined). An overflowing product is returned (±∞): the
+/// caller keeps it visible as undefined.
 fn fold_power(coeff: f64, v: f64, p: f64) -> Option<f64> {
-    let tiny = |x: f64| x == 0.0 || x.abs() < f64::MIN_POSITIVE;
     let r = finite_or(powv(v, p))?;
-    if v != 0.0 && tiny(r) {
+    if v != 0.0 && r == 0.0 {
         return None;
     }
     let product = coeff * r;
-    if coeff != 0.0 && r != 0.0 && tiny(product) {
+    if coeff != 0.0 && r != 0.0 && product == 0.0 {
         return None;
     }
     Some(if product == 0.0 { 0.0 } else { product })
