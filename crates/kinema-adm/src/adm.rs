@@ -1030,6 +1030,19 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                 );
                 return None;
             }
+            // The rolling angle's constant, θ1 − θ2 + 3π/2, must be a number.
+            let (theta1, theta2) = (theta1?, theta2?);
+            if !(theta1 - theta2).is_finite() {
+                let pos = v.get("theta2").map_or(v.pos, |x| x.pos);
+                cx.err(
+                    pos,
+                    format!(
+                        "{}: field \"theta2\": theta1 - theta2 is larger than the largest number (about 1.8e308)",
+                        e.label
+                    ),
+                );
+                return None;
+            }
             let (body1, body2) = bodies?;
             ConstraintKind::RackPinion {
                 body1,
@@ -1038,8 +1051,8 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                 sq1,
                 sp2: sp2?,
                 r2,
-                theta1: theta1?,
-                theta2: theta2?,
+                theta1,
+                theta2,
                 fun: e.ignored_fun(),
             }
         }

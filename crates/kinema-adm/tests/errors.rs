@@ -68,6 +68,12 @@ fn rack_pinion_scale_that_overflows() {
         "{e}"
     );
     assert!(e.contains("rack_scale_overflow.adm:9:"), "{e}");
+    // Its rolling angle's constant θ1 − θ2 likewise, at theta2.
+    let e = error("rack_angle_overflow.adm");
+    assert!(
+        e.contains("field \"theta2\": theta1 - theta2 is larger than the largest number"),
+        "{e}"
+    );
 }
 
 #[test]
