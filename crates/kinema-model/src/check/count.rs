@@ -1,0 +1,81 @@
+//! Rules over the whole model: the counts (NDOF) and the parts of
+//! equations that have no value whatever the coordinates.
+
+use crate::ctxt::Ctxt;
+use crate::diagnostic::Diagnostic;
+
+use super::model::{CheckedModel, Form, LibArg, TExpr};
+
+/// Rule: the mechanism is kinematically determined, NDOF = 0.
+///   error: mechanism `M` has NDOF = 1, expected 0: nc = 9, kinematic equations = 7, drivers = 1, KDOF = 2
+///   = help: add 1 driving or kinematic equation
+pub(super) fn check_dof(cx: &mut Ctxt, model: &CheckedModel) {
+    let dof = model.dof();
+    let n = dof.ndof();
+    if n == 0 {
+        return;
+    }
+    let help = if n > 0 {
+        format!("add {n} driving or kinematic equation{}", plural(n))
+    } else {
+        format!("remove {} equation{}, or add a body", -n, plural(n))
+    };
+    cx.push(
+        Diagnostic::error(
+            model.span,
+            format!(
+                "mechanism `{}` has NDOF = {n}, expected 0: nc = {}, kinematic equations = {}, drivers = {}, KDOF = {}",
+                model.name,
+                dof.coordinates,
+                dof.kinematic,
+                dof.driving,
+                dof.kdof()
+            ),
+        )
+        .with_help(help),
+    );
+}
+
+fn plural(n: i64) -> &'static str {
+    if n.abs() == 1 { "" } else { "s" }
+}
+
+/// Rule: no part of an equation is undefined whatever the coordinates and
+/// time, once simplified: a divisor that is identically zero (`(B.x − B.x)`)
+/// or a function of one (`ln(B.y − B.y)`). The engine's constructors keep
+/// such parts undefined (NaN) instead of simplifying them away
+/// ([`kinema_expr::Arena::is_undefined`]); this reports each at its span.
+///   error: division by zero: this divisor is identically zero
+pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
+    let mut arena = kinema_expr::Arena::new();
+    let lo = crate::lower::Lowerer::new(&mut arena, model);
+    for eq in &model.equations {
+        let exprs: Vec<&TExpr> = match &eq.form {
+            Form::User { lhs, rhs } => vec![lhs, rhs],
+            Form::Library(_, args) => args
+                .iter()
+                .filter_map(|a| match a {
+                    LibArg::Point(_, t) | LibArg::Vector(t) | LibArg::Scalar(t) => Some(t),
+                    LibArg::Body(_) => None,
+                })
+                .collect(),
+        };
+        for t in exprs {
+            lo.lower_reporting(&mut arena, t, &mut |i, why| {
+                let span = t.span(i).unwrap_or(eq.span);
+                cx.push(match why {
+                    crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+                        span,
+                        "division by zero: this divisor is identically zero",
+                    )
+                    .with_help("the quotient is undefined whatever the coordinates and time"),
+                    crate::lower::Undefined::Value => Diagnostic::error(
+                        span,
+                        "this expression is undefined whatever the coordinates and time",
+                    )
+                    .with_help("a function is applied where it has no finite value (such as `ln` of an expression that is identically zero)"),
+                });
+            });
+        }
+    }
+}
