@@ -21,6 +21,7 @@
 //! parents, so every later pass is a forward loop, never a recursion.
 
 use proc_macro2::TokenStream;
+use syn::ext::IdentExt;
 use syn::parse::{Parse, ParseStream};
 use syn::{Ident, Token, braced, bracketed, parenthesized};
 
@@ -330,7 +331,7 @@ fn parse_postfix(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
     let mut e = parse_primary(input, b, depth)?;
     while input.peek(Token![.]) && !input.peek(Token![..]) {
         input.parse::<Token![.]>()?;
-        let field: Ident = expect(
+        let field = name(
             input,
             "a field name after `.` (`x`, `y`, `phi` or a point name)",
         )?;
@@ -433,10 +434,7 @@ fn found(input: ParseStream<'_>) -> Option<String> {
 fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
     use proc_macro2::TokenTree;
     let hint = match input.cursor().token_tree() {
-        // An identifier that syn does not take as a name is a keyword.
-        Some((TokenTree::Ident(_), _)) if !input.peek(Ident) => {
-            " (a Rust keyword, which cannot be a name)"
-        }
+        Some((TokenTree::Ident(i), _)) if i == "_" => " (`_` cannot be a name)",
         Some((TokenTree::Punct(p), _)) if p.as_char() == '^' => {
             " (a power is `powi(x, 2)` or `pow(x, y)`)"
         }
@@ -451,6 +449,21 @@ fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
         Some(f) => input.error(format!("expected {what}, found {f}{hint}")),
         None => input.error(format!("expected {what}")),
     }
+}
+
+/// True when the next token is a name (see [`name`]).
+fn is_name(input: ParseStream<'_>) -> bool {
+    input.peek(Ident::peek_any) && !input.peek(Token![_])
+}
+
+/// A name: any identifier, Rust keywords included (`body box`, `param
+/// type`, `point B.ref`); `r#type` is the name `type`. Generated code spells
+/// a name that is a Rust keyword as a raw identifier. `_` is not a name.
+fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Ident> {
+    if is_name(input) {
+        return Ok(Ident::parse_any(input)?.unraw());
+    }
+    Err(expected(input, what))
 }
 
 /// Parses a `T` (a token or a name), or says what was expected and found.
@@ -490,8 +503,8 @@ fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
             },
             Span::new(lit.span()),
         ))
-    } else if lookahead.peek(Ident) {
-        let name: Ident = input.parse()?;
+    } else if lookahead.peek(Ident) || is_name(input) {
+        let name = name(input, "a name")?;
         if input.peek(syn::token::Paren) {
             let content;
             let paren = parenthesized!(content in input);
@@ -587,7 +600,7 @@ impl Parse for Mechanism {
         docs.extend(parse_docs(input)?);
         // error: expected `mechanism Name { … }`, found `param`
         expect::<kw::mechanism>(input, "`mechanism Name { … }`")?;
-        let name: Ident = expect(input, "the mechanism's name after `mechanism`")?;
+        let name = name(input, "the mechanism's name after `mechanism`")?;
         if !input.peek(syn::token::Brace) {
             return Err(expected(input, "`{` after the mechanism's name"));
         }
@@ -705,7 +718,7 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
     let lookahead = input.lookahead1();
     if lookahead.peek(kw::param) {
         let keyword = Span::new(input.parse::<kw::param>()?.span);
-        let name: Ident = expect(input, "the param's name after `param`")?;
+        let name = name(input, "the param's name after `param`")?;
         let value = if input.peek(Token![=]) {
             input.parse::<Token![=]>()?;
             Some(input.parse::<Expr>()?)
@@ -721,7 +734,7 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         }))
     } else if lookahead.peek(kw::body) {
         input.parse::<kw::body>()?;
-        let name: Ident = expect(input, "the body's name after `body`")?;
+        let name = name(input, "the body's name after `body`")?;
         let lookahead = input.lookahead1();
         let guess = if lookahead.peek(Token![;]) {
             input.parse::<Token![;]>()?;
@@ -770,9 +783,9 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
     } else if lookahead.peek(kw::point) {
         input.parse::<kw::point>()?;
         // point body.name = (sx, sy);
-        let body: Ident = expect(input, "a body's name after `point`")?;
+        let body = name(input, "a body's name after `point`")?;
         expect::<Token![.]>(input, "`.`: a point is `point body.name = (sx, sy);`")?;
-        let name: Ident = expect(input, "the point's name after `.`")?;
+        let name = name(input, "the point's name after `.`")?;
         expect::<Token![=]>(input, "`=`: a point is `point body.name = (sx, sy);`")?;
         let value: Expr = input.parse()?;
         expect::<Token![;]>(input, "`;` at the end of the point")?;
@@ -796,7 +809,7 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         } else {
             (EquationKeyword::Driver, input.parse::<kw::driver>()?.span)
         };
-        let name: Ident = expect(input, "the equation's name")?;
+        let name = name(input, "the equation's name")?;
         expect::<Token![:]>(input, "`:` after the equation's name")?;
         let lhs: Expr = input.parse()?;
         let rhs = if input.peek(Token![==]) {
