@@ -26,7 +26,8 @@ use crate::check::ignored_by_kinematics;
 use crate::fun::format_number;
 
 /// Words an identifier must not be: Rust keywords (the language is parsed as
-/// Rust tokens), the model language's keywords and built-in names.
+/// Rust tokens), the model language's keywords and built-in names; and the
+/// names of its functions (kinema-expr's table, see [`reserved`]).
 const RESERVED: &[&str] = &[
     // Rust keywords, strict and reserved.
     "as",
@@ -94,34 +95,17 @@ const RESERVED: &[&str] = &[
     "ground",
     "t",
     "pi",
-    "sin",
-    "cos",
-    "tan",
-    "asin",
-    "acos",
-    "atan",
-    "sinh",
-    "cosh",
-    "tanh",
-    "exp",
-    "ln",
-    "sqrt",
-    "atan2",
-    "pow",
-    "powi",
-    "abs",
-    "step",
-    "dot",
-    "cross",
-    "norm",
-    "rot",
-    "perp",
     "revolute",
     "translational",
     "abs_x",
     "abs_y",
     "abs_angle",
 ];
+
+/// True for a word an identifier must not be.
+fn reserved(s: &str) -> bool {
+    RESERVED.contains(&s) || kinema_expr::function(s).is_some()
+}
 
 /// The identifiers used for a model in kinema's language.
 ///
@@ -245,7 +229,7 @@ fn identifier(name: &str, prefix: &str, id: usize) -> String {
     if s.starts_with(|c: char| c.is_ascii_digit()) {
         s = format!("{prefix}_{s}");
     }
-    if RESERVED.contains(&s.as_str()) {
+    if reserved(&s) {
         s.push('_');
     }
     s
@@ -276,7 +260,7 @@ fn camel_identifier(name: &str) -> String {
     if s.starts_with(|c: char| c.is_ascii_digit()) {
         s.insert_str(0, "Model");
     }
-    if RESERVED.contains(&s.as_str()) {
+    if reserved(&s) {
         s.push('_');
     }
     s

@@ -26,6 +26,8 @@
 
 use std::fmt;
 
+use kinema_expr::UnaryOp;
+
 /// Deepest nesting of parentheses, calls and signs the parser accepts.
 const MAX_DEPTH: usize = 100;
 
@@ -143,30 +145,45 @@ impl Func {
             .map_or("?", |&(n, _)| n)
     }
 
+    /// Every function of the `fun` language, by its MATLAB name.
+    pub fn all() -> impl Iterator<Item = Func> {
+        Func::ALL.iter().map(|&(_, f)| f)
+    }
+
+    /// The engine's function of one argument this is; `None` for `log10`
+    /// (kinema writes `ln(x) / ln(10)`) and `sqrt` (a power in the engine).
+    fn op(self) -> Option<UnaryOp> {
+        Some(match self {
+            Func::Sin => UnaryOp::Sin,
+            Func::Cos => UnaryOp::Cos,
+            Func::Tan => UnaryOp::Tan,
+            Func::Asin => UnaryOp::Asin,
+            Func::Acos => UnaryOp::Acos,
+            Func::Atan => UnaryOp::Atan,
+            Func::Sinh => UnaryOp::Sinh,
+            Func::Cosh => UnaryOp::Cosh,
+            Func::Tanh => UnaryOp::Tanh,
+            Func::Exp => UnaryOp::Exp,
+            Func::Log => UnaryOp::Ln,
+            Func::Abs => UnaryOp::Abs,
+            Func::Log10 | Func::Sqrt => return None,
+        })
+    }
+
     fn apply(self, x: f64) -> f64 {
-        match self {
-            Func::Sin => x.sin(),
-            Func::Cos => x.cos(),
-            Func::Tan => x.tan(),
-            Func::Asin => x.asin(),
-            Func::Acos => x.acos(),
-            Func::Atan => x.atan(),
-            Func::Sinh => x.sinh(),
-            Func::Cosh => x.cosh(),
-            Func::Tanh => x.tanh(),
-            Func::Exp => x.exp(),
-            Func::Log => x.ln(),
-            Func::Log10 => x.log10(),
-            Func::Sqrt => x.sqrt(),
-            Func::Abs => x.abs(),
+        match (self, self.op()) {
+            (_, Some(op)) => op.apply(x),
+            (Func::Log10, None) => x.log10(),
+            (_, None) => x.sqrt(),
         }
     }
 
     /// kinema's name of the function (all the same except `log` → `ln`).
     fn kin_name(self) -> &'static str {
-        match self {
-            Func::Log | Func::Log10 => "ln",
-            f => f.name(),
+        match (self, self.op()) {
+            (_, Some(op)) => op.name(),
+            (Func::Log10, None) => "ln",
+            (_, None) => "sqrt",
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Straight-line Rust from a schedule: every shared subexpression is bound
 //! once with `let`, single-use ones are inlined up to a depth limit.
 
-use kinema_expr::{Arena, ExprId, Factor, NodeRef, SymKind, UnaryOp};
+use kinema_expr::{Arena, ExprId, Factor, NodeRef, Schedule, SymKind, UnaryOp};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 
@@ -68,75 +68,6 @@ pub(crate) struct Inputs<'a> {
     /// Nodes whose value is read from somewhere else (a per-step cache):
     /// emitted as the given tokens, their operands not visited.
     pub cached: &'a dyn Fn(ExprId) -> Option<TokenStream>,
-}
-
-/// The nodes `outputs` need, children before parents (depth-first
-/// post-order, first child first), not descending below cached nodes; with
-/// use counts. Like `Arena::schedule`, which cannot stop at given nodes.
-struct Schedule {
-    nodes: Vec<ExprId>,
-    /// Position of each arena node (`usize::MAX` if absent).
-    position: Vec<usize>,
-    /// Uses of each scheduled node as an operand and as an output.
-    uses: Vec<u32>,
-}
-
-impl Schedule {
-    fn new(arena: &Arena, outputs: &[ExprId], stop: &dyn Fn(ExprId) -> bool) -> Self {
-        let mut position = vec![usize::MAX; arena.len()];
-        let mut nodes = Vec::new();
-        let mut stack: Vec<(ExprId, bool)> = Vec::new();
-        let mut kids = Vec::new();
-        for &root in outputs {
-            stack.push((root, false));
-            while let Some((n, expanded)) = stack.pop() {
-                if position[n.index()] != usize::MAX {
-                    continue;
-                }
-                if expanded || stop(n) {
-                    position[n.index()] = nodes.len();
-                    nodes.push(n);
-                } else {
-                    stack.push((n, true));
-                    kids.clear();
-                    arena.children(n, &mut kids);
-                    for &c in kids.iter().rev() {
-                        if position[c.index()] == usize::MAX {
-                            stack.push((c, false));
-                        }
-                    }
-                }
-            }
-        }
-        let mut uses = vec![0u32; nodes.len()];
-        for &n in &nodes {
-            if stop(n) {
-                continue;
-            }
-            kids.clear();
-            arena.children(n, &mut kids);
-            kids.sort_unstable();
-            kids.dedup();
-            for c in &kids {
-                uses[position[c.index()]] += 1;
-            }
-        }
-        for o in outputs {
-            uses[position[o.index()]] += 1;
-        }
-        Schedule {
-            nodes,
-            position,
-            uses,
-        }
-    }
-
-    fn position(&self, e: ExprId) -> Option<usize> {
-        self.position
-            .get(e.index())
-            .copied()
-            .filter(|&p| p != usize::MAX)
-    }
 }
 
 /// Which inputs a generated body reads: decides whether a function argument
@@ -230,8 +161,8 @@ pub(crate) fn body(
     target: &dyn Fn(usize) -> TokenStream,
     inputs: &Inputs<'_>,
 ) -> (TokenStream, Used) {
-    let schedule = Schedule::new(arena, outputs, &|e| (inputs.cached)(e).is_some());
-    let nodes = &schedule.nodes;
+    let schedule = arena.schedule_until(outputs, |e| (inputs.cached)(e).is_some());
+    let nodes = schedule.nodes();
     let mut code: Vec<Code> = Vec::with_capacity(nodes.len());
     let mut used = Used::default();
     // Past `MAX_LETS` bindings, values live in one local array (see
@@ -254,7 +185,7 @@ pub(crate) fn body(
             };
             node(arena, n, &child, inputs, &mut used, &mut binder)
         };
-        let uses = schedule.uses[i];
+        let uses = schedule.parent_uses()[i] + schedule.output_uses()[i];
         let leaf = matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_));
         let bind = !leaf && (uses > 1 || c.depth > MAX_INLINE_DEPTH);
         code.push(if bind { binder.bind(&c.tokens) } else { c });
@@ -272,11 +203,16 @@ pub(crate) fn body(
 /// How many values [`body`] binds for `schedule`: the shared ones (the
 /// depth limit adds a few more, which `MAX_LETS` leaves room for).
 fn count_bindings(arena: &Arena, schedule: &Schedule, inputs: &Inputs<'_>) -> usize {
-    schedule
-        .nodes
+    let uses = schedule
+        .parent_uses()
         .iter()
-        .zip(&schedule.uses)
-        .filter(|&(&n, &uses)| {
+        .zip(schedule.output_uses())
+        .map(|(p, o)| p + o);
+    schedule
+        .nodes()
+        .iter()
+        .zip(uses)
+        .filter(|&(&n, uses)| {
             uses > 1
                 && !matches!(arena.node(n), NodeRef::Num(_) | NodeRef::Sym(_))
                 && (inputs.cached)(n).is_none()
@@ -291,7 +227,7 @@ pub(crate) fn reachable(
     outputs: &[ExprId],
     stop: &dyn Fn(ExprId) -> bool,
 ) -> Vec<ExprId> {
-    Schedule::new(arena, outputs, stop).nodes
+    arena.schedule_until(outputs, stop).nodes().to_vec()
 }
 
 /// A finite number as a literal (negation emitted separately), or a named
@@ -398,12 +334,14 @@ fn node<'c>(
             let c = child(a);
             let depth = c.depth + 1;
             let x = c.at(Prec::Atom);
-            let tokens = match op {
-                UnaryOp::Smooth(k) => smooth(k, &c.tokens),
-                _ => {
-                    let method = Ident::new(method_name(op), Span::call_site());
-                    quote!(#x.#method())
-                }
+            let tokens = if let UnaryOp::Smooth(k) = op {
+                smooth(k, &c.tokens)
+            } else {
+                let method = op
+                    .rust_method()
+                    .expect("every UnaryOp but Smooth(k) is an f64 method");
+                let method = Ident::new(method, Span::call_site());
+                quote!(#x.#method())
             };
             Code {
                 tokens,
@@ -569,23 +507,6 @@ fn raise(base: &Code, p: f64) -> Code {
         tokens,
         prec: Prec::Atom,
         depth: base.depth + 1,
-    }
-}
-
-fn method_name(op: UnaryOp) -> &'static str {
-    match op {
-        UnaryOp::Sin => "sin",
-        UnaryOp::Cos => "cos",
-        UnaryOp::Tan => "tan",
-        UnaryOp::Asin => "asin",
-        UnaryOp::Acos => "acos",
-        UnaryOp::Atan => "atan",
-        UnaryOp::Sinh => "sinh",
-        UnaryOp::Cosh => "cosh",
-        UnaryOp::Tanh => "tanh",
-        UnaryOp::Exp => "exp",
-        UnaryOp::Ln => "ln",
-        UnaryOp::Abs | UnaryOp::Smooth(_) => "abs",
     }
 }
 

@@ -140,7 +140,8 @@ fn raw_names_and_overflowed_exponents_generate() {
                driver drive: b.y == t;\n}\n";
     let derivation = kinema_codegen::build::derive_source(raw, "raw.kin").expect("model derives");
     let source = kinema_codegen::generate_source(&derivation, &Config::default());
-    assert!(source.contains("pub struct r#e"), "{source}");
+    // `r#e` is the name `e` (a raw identifier in a model is its plain name).
+    assert!(source.contains("pub struct e "), "{source}");
     assert!(source.contains("pub r#type: f64"), "{source}");
 
     let overflowing = "mechanism u {\n    param p0 = 1;\n    \

@@ -157,6 +157,16 @@ impl UnaryOp {
         }
     }
 
+    /// The `f64` method generated code calls (`x.sin()`): the name; `None`
+    /// for `Smooth(k)`, which is emitted inline.
+    #[must_use]
+    pub fn rust_method(self) -> Option<&'static str> {
+        match self {
+            UnaryOp::Smooth(_) => None,
+            op => Some(op.name()),
+        }
+    }
+
     pub(crate) fn tag(self) -> u64 {
         match self {
             UnaryOp::Sin => 1,

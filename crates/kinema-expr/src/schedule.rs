@@ -73,6 +73,27 @@ impl Arena {
     /// The schedule of the nodes that `outputs` need.
     #[must_use]
     pub fn schedule(&self, outputs: &[ExprId]) -> Schedule {
+        self.schedule_until(outputs, |_| false)
+    }
+
+    /// [`schedule`](Self::schedule), not descending below the nodes for
+    /// which `stop` holds: they are scheduled as leaves (their value comes
+    /// from elsewhere, such as a per-step cache), and their operands are
+    /// neither scheduled nor counted as used by them.
+    ///
+    /// ```
+    /// use kinema_expr::Arena;
+    /// let mut a = Arena::new();
+    /// let x = a.coordinate("x", 0);
+    /// let s = a.sin(x);
+    /// let e = a.mul(s, s);
+    /// assert_eq!(a.schedule(&[e]).len(), 3);
+    /// let until = a.schedule_until(&[e], |n| n == s);
+    /// assert_eq!(until.nodes(), &[s, e]);
+    /// assert_eq!(until.parent_uses(), &[1, 0]);
+    /// ```
+    #[must_use]
+    pub fn schedule_until(&self, outputs: &[ExprId], stop: impl Fn(ExprId) -> bool) -> Schedule {
         let mut position: Vec<u32> = vec![ABSENT; self.len()];
         let mut nodes: Vec<ExprId> = Vec::new();
         let mut stack: Vec<(ExprId, bool)> = Vec::new();
@@ -83,7 +104,7 @@ impl Arena {
                 if position[n.index()] != ABSENT {
                     continue;
                 }
-                if expanded {
+                if expanded || stop(n) {
                     position[n.index()] = nodes.len() as u32;
                     nodes.push(n);
                 } else {
@@ -102,6 +123,9 @@ impl Arena {
         let mut parent_uses = vec![0u32; nodes.len()];
         let mut last_use: Vec<u32> = (0..nodes.len() as u32).collect();
         for (i, &n) in nodes.iter().enumerate() {
+            if stop(n) {
+                continue;
+            }
             kids.clear();
             self.children(n, &mut kids);
             kids.sort_unstable();

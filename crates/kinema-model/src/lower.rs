@@ -4,7 +4,7 @@
 use kinema_expr::{Arena, ExprId, Factor, Term};
 
 use crate::algebra::{Vec2, VecAlgebra};
-use crate::check::{BodyRef, CheckedModel, Comp, Func1, TExpr, TNode, Ty};
+use crate::check::{BodyRef, CheckedModel, Comp, TExpr, TNode, Ty};
 
 /// A lowered value: scalar or vector.
 #[derive(Clone, Copy, Debug)]
@@ -263,24 +263,8 @@ impl<'m> Lowerer<'m> {
                     Some(Value::V(u)) => Value::V(arena.vdiv(*u, s(&vals, b))),
                     _ => Value::S(arena.div(s(&vals, a), s(&vals, b))),
                 },
-                TNode::F1(f, a) => {
-                    let x = s(&vals, a);
-                    Value::S(match f {
-                        Func1::Sin => arena.sin(x),
-                        Func1::Cos => arena.cos(x),
-                        Func1::Tan => arena.tan(x),
-                        Func1::Asin => arena.asin(x),
-                        Func1::Acos => arena.acos(x),
-                        Func1::Atan => arena.atan(x),
-                        Func1::Sinh => arena.sinh(x),
-                        Func1::Cosh => arena.cosh(x),
-                        Func1::Tanh => arena.tanh(x),
-                        Func1::Exp => arena.exp(x),
-                        Func1::Ln => arena.ln(x),
-                        Func1::Sqrt => arena.sqrt(x),
-                        Func1::Abs => arena.abs(x),
-                    })
-                }
+                TNode::F1(f, a) => Value::S(arena.unary(f, s(&vals, a))),
+                TNode::Sqrt(a) => Value::S(arena.sqrt(s(&vals, a))),
                 TNode::Atan2(a, b) => Value::S(arena.atan2(s(&vals, a), s(&vals, b))),
                 TNode::Pow(a, b) => Value::S(arena.pow(s(&vals, a), s(&vals, b))),
                 TNode::Powi(a, k) => Value::S(arena.powi(s(&vals, a), k)),
@@ -327,6 +311,7 @@ fn children(n: &TNode, out: &mut Vec<u32>) {
         | TNode::Y(a)
         | TNode::Neg(a)
         | TNode::F1(_, a)
+        | TNode::Sqrt(a)
         | TNode::Powi(a, _)
         | TNode::Norm(a)
         | TNode::Perp(a) => out.push(a),

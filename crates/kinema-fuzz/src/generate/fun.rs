@@ -6,10 +6,9 @@
 use super::EXTREME;
 use crate::rng::Rng;
 
-const FUNCS1: &[&str] = &[
-    "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log", "log10",
-    "sqrt", "abs",
-];
+/// One-argument functions of `fun` (kinema-adm's table).
+static FUNCS1: std::sync::LazyLock<Vec<&'static str>> =
+    std::sync::LazyLock::new(|| kinema_adm::fun::Func::all().map(|f| f.name()).collect());
 
 fn number(rng: &mut Rng) -> String {
     match rng.weighted(&[4, 2, 3]) {
@@ -70,7 +69,7 @@ fn expr_in(rng: &mut Rng, depth: usize, wild: bool) -> String {
         }
         6 => format!("-{}", expr_in(rng, d, wild)),
         7 => {
-            let f = *rng.pick(FUNCS1);
+            let f = *rng.pick(&FUNCS1);
             format!("{f}({})", expr_in(rng, d, wild))
         }
         8 => format!(

@@ -12,10 +12,19 @@ use std::fmt::Write as _;
 use super::{EXTREME, KEYWORDS};
 use crate::rng::Rng;
 
-/// One-argument scalar functions of the language.
-const FUNCS1: &[&str] = &[
-    "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "ln", "sqrt", "abs",
-];
+/// One-argument scalar functions of the language (kinema-expr's table).
+static FUNCS1: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(|| {
+    kinema_expr::FUNCTIONS
+        .iter()
+        .filter(|f| {
+            matches!(
+                f.kind,
+                kinema_expr::FunctionKind::Unary(_) | kinema_expr::FunctionKind::Sqrt
+            )
+        })
+        .map(|f| f.name)
+        .collect()
+});
 
 /// What an expression may mention, by where it appears.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -120,7 +129,7 @@ impl Gen<'_> {
             4 => format!("{} / {}", self.scalar(ctx, d), self.scalar(ctx, d)),
             5 => format!("-{}", self.scalar(ctx, d)),
             6 => {
-                let f = *self.rng.pick(FUNCS1);
+                let f = *self.rng.pick(&FUNCS1);
                 format!("{f}({})", self.scalar(ctx, d))
             }
             7 => format!("atan2({}, {})", self.scalar(ctx, d), self.scalar(ctx, d)),

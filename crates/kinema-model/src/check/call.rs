@@ -1,6 +1,8 @@
 //! Rules on function calls: the function exists, its arguments are as many
 //! as its signature says and of the types it needs.
 
+use kinema_expr::{FUNCTIONS, Function, FunctionKind, FunctionKind as K};
+
 use crate::ctxt::Ctxt;
 use crate::diagnostic::Diagnostic;
 use crate::span::Span;
@@ -8,7 +10,7 @@ use crate::syntax::ExprKind;
 
 use super::expr::{ExprCheck, Node};
 use super::library::library;
-use super::model::{Func1, TNode, Ty};
+use super::model::{TNode, Ty};
 use super::{Deps, describe, plural_args};
 
 /// One argument of a call: its syntax node, its typed node, its deps.
@@ -25,40 +27,15 @@ impl From<(&u32, (u32, Deps))> for Arg {
     }
 }
 
-const FUNCTIONS: &[(&str, &str)] = &[
-    ("sin", "sin(x)"),
-    ("cos", "cos(x)"),
-    ("tan", "tan(x)"),
-    ("asin", "asin(x)"),
-    ("acos", "acos(x)"),
-    ("atan", "atan(x)"),
-    ("sinh", "sinh(x)"),
-    ("cosh", "cosh(x)"),
-    ("tanh", "tanh(x)"),
-    ("exp", "exp(x)"),
-    ("ln", "ln(x)"),
-    ("sqrt", "sqrt(x)"),
-    ("abs", "abs(x)"),
-    ("atan2", "atan2(y, x)"),
-    ("pow", "pow(x, y)"),
-    ("powi", "powi(x, n)"),
-    ("step", "step(x, x0, h0, x1, h1)"),
-    ("dot", "dot(a, b)"),
-    ("cross", "cross(a, b)"),
-    ("norm", "norm(a)"),
-    ("rot", "rot(angle, v)"),
-    ("perp", "perp(v)"),
-];
-
 /// True for the name of a function of the language.
 pub(super) fn is_function(name: &str) -> bool {
-    FUNCTIONS.iter().any(|(f, _)| *f == name)
+    kinema_expr::function(name).is_some()
 }
 
 fn function_names() -> String {
     FUNCTIONS
         .iter()
-        .map(|(n, _)| format!("`{n}`"))
+        .map(|f| format!("`{}`", f.name))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -73,19 +50,15 @@ pub(super) fn check_call(
     span: Span,
     args: &[Arg],
 ) -> Option<Node> {
-    let signature = known_function(cx, f, fspan)?;
-    let arity = match f {
-        "atan2" | "pow" | "powi" | "dot" | "cross" | "rot" => 2,
-        "step" => 5,
-        _ => 1,
-    };
+    let function = known_function(cx, f, fspan)?;
     // Rule: argument counts match the signature.
     //   error: wrong number of arguments: expected `atan2(y, x)`, found 1 argument
-    if args.len() != arity {
+    if args.len() != function.arity {
         cx.error(
             span,
             format!(
-                "wrong number of arguments: expected `{signature}`, found {}",
+                "wrong number of arguments: expected `{}`, found {}",
+                function.signature,
                 plural_args(args.len())
             ),
         );
@@ -95,19 +68,19 @@ pub(super) fn check_call(
     let a = |k: usize| args[k].typed;
     let vector = |cx: &mut Ctxt, k: usize| vector_arg(cx, ck, args[k].syn, a(k));
     let scalar = |cx: &mut Ctxt, k: usize| scalar_arg(cx, ck, args[k].syn, a(k));
-    let (node, ty) = match f {
-        "dot" if vector(cx, 0) & vector(cx, 1) => (TNode::Dot(a(0), a(1)), Ty::Scalar),
-        "cross" if vector(cx, 0) & vector(cx, 1) => (TNode::Cross(a(0), a(1)), Ty::Scalar),
-        "norm" if vector(cx, 0) => (TNode::Norm(a(0)), Ty::Scalar),
-        "perp" if vector(cx, 0) => (TNode::Perp(a(0)), Ty::Vector),
-        "rot" if scalar(cx, 0) & vector(cx, 1) => (TNode::Rot(a(0), a(1)), Ty::Vector),
-        "powi" if scalar(cx, 0) => (
-            TNode::Powi(a(0), powi_exponent(cx, ck, args[1].syn)?),
-            Ty::Scalar,
-        ),
-        "dot" | "cross" | "norm" | "perp" | "rot" | "powi" => return None,
-        _ if (0..args.len()).fold(true, |ok, k| scalar(cx, k) & ok) => {
-            (scalar_function(f, args)?, Ty::Scalar)
+    let (node, ty) = match function.kind {
+        K::Dot if vector(cx, 0) & vector(cx, 1) => (TNode::Dot(a(0), a(1)), Ty::Scalar),
+        K::Cross if vector(cx, 0) & vector(cx, 1) => (TNode::Cross(a(0), a(1)), Ty::Scalar),
+        K::Norm if vector(cx, 0) => (TNode::Norm(a(0)), Ty::Scalar),
+        K::Perp if vector(cx, 0) => (TNode::Perp(a(0)), Ty::Vector),
+        K::Rot if scalar(cx, 0) & vector(cx, 1) => (TNode::Rot(a(0), a(1)), Ty::Vector),
+        K::Powi if scalar(cx, 0) => {
+            let n = powi_exponent(cx, ck, args[1].syn)?;
+            (TNode::Powi(a(0), n), Ty::Scalar)
+        }
+        K::Dot | K::Cross | K::Norm | K::Perp | K::Rot | K::Powi => return None,
+        kind if (0..args.len()).fold(true, |ok, k| scalar(cx, k) & ok) => {
+            (scalar_function(kind, args)?, Ty::Scalar)
         }
         _ => return None,
     };
@@ -116,11 +89,9 @@ pub(super) fn check_call(
 
 /// Rule: functions are known.
 ///   error: unknown function `sine`
-///
-/// Returns the function's signature.
-fn known_function(cx: &mut Ctxt, f: &str, fspan: Span) -> Option<&'static str> {
-    if let Some((_, signature)) = FUNCTIONS.iter().find(|(n, _)| *n == f) {
-        return Some(signature);
+fn known_function(cx: &mut Ctxt, f: &str, fspan: Span) -> Option<&'static Function> {
+    if let Some(function) = kinema_expr::function(f) {
+        return Some(function);
     }
     let help = match library(f) {
         Some(spec) => format!(
@@ -137,28 +108,16 @@ fn known_function(cx: &mut Ctxt, f: &str, fspan: Span) -> Option<&'static str> {
 }
 
 /// The node of a function of scalars only.
-fn scalar_function(f: &str, args: &[Arg]) -> Option<TNode> {
+fn scalar_function(kind: FunctionKind, args: &[Arg]) -> Option<TNode> {
     let a = |k: usize| args[k].typed;
-    let f1 = match f {
-        "atan2" => return Some(TNode::Atan2(a(0), a(1))),
-        "pow" => return Some(TNode::Pow(a(0), a(1))),
-        "step" => return Some(TNode::Step([a(0), a(1), a(2), a(3), a(4)])),
-        "sin" => Func1::Sin,
-        "cos" => Func1::Cos,
-        "tan" => Func1::Tan,
-        "asin" => Func1::Asin,
-        "acos" => Func1::Acos,
-        "atan" => Func1::Atan,
-        "sinh" => Func1::Sinh,
-        "cosh" => Func1::Cosh,
-        "tanh" => Func1::Tanh,
-        "exp" => Func1::Exp,
-        "ln" => Func1::Ln,
-        "sqrt" => Func1::Sqrt,
-        "abs" => Func1::Abs,
+    Some(match kind {
+        FunctionKind::Unary(op) => TNode::F1(op, a(0)),
+        FunctionKind::Sqrt => TNode::Sqrt(a(0)),
+        FunctionKind::Atan2 => TNode::Atan2(a(0), a(1)),
+        FunctionKind::Pow => TNode::Pow(a(0), a(1)),
+        FunctionKind::Step => TNode::Step([a(0), a(1), a(2), a(3), a(4)]),
         _ => return None,
-    };
-    Some(TNode::F1(f1, a(0)))
+    })
 }
 
 /// Rule: the exponent of `powi` is an integer literal.

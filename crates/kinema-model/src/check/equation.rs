@@ -446,6 +446,7 @@ fn shift(n: TNode, off: u32) -> TNode {
         Mul(a, b) => Mul(a + off, b + off),
         Div(a, b) => Div(a + off, b + off),
         F1(f, a) => F1(f, a + off),
+        Sqrt(a) => Sqrt(a + off),
         Atan2(a, b) => Atan2(a + off, b + off),
         Pow(a, b) => Pow(a + off, b + off),
         Powi(a, k) => Powi(a + off, k),

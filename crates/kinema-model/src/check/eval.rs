@@ -1,6 +1,6 @@
 //! Values of constant expressions (param values, guesses, local coordinates).
 
-use super::model::{Func1, TExpr, TNode};
+use super::model::{TExpr, TNode};
 
 /// Numeric value of a node: scalar or vector.
 #[derive(Clone, Copy)]
@@ -58,23 +58,14 @@ fn eval(t: &TExpr, params: &[f64]) -> Val {
                 Some(Val::V(x, y)) => Val::V(x / s(&v, b), y / s(&v, b)),
                 _ => Val::S(s(&v, a) / s(&v, b)),
             },
-            TNode::F1(f, a) => Val::S(func1(f, s(&v, a))),
+            TNode::F1(f, a) => Val::S(f.apply(s(&v, a))),
+            TNode::Sqrt(a) => Val::S(s(&v, a).sqrt()),
             TNode::Atan2(a, b) => Val::S(s(&v, a).atan2(s(&v, b))),
             TNode::Pow(a, b) => Val::S(s(&v, a).powf(s(&v, b))),
             TNode::Powi(a, k) => Val::S(s(&v, a).powi(k)),
             TNode::Step([x, x0, h0, x1, h1]) => {
                 let (x, x0, h0, x1, h1) = (s(&v, x), s(&v, x0), s(&v, h0), s(&v, x1), s(&v, h1));
-                let u = (x - x0) / (x1 - x0);
-                let sm = if u.is_nan() {
-                    u
-                } else if u <= 0.0 {
-                    0.0
-                } else if u >= 1.0 {
-                    1.0
-                } else {
-                    u * u * (3.0 - 2.0 * u)
-                };
-                Val::S(h0 + (h1 - h0) * sm)
+                Val::S(h0 + (h1 - h0) * kinema_expr::smooth(0, (x - x0) / (x1 - x0)))
             }
             TNode::Dot(a, b) => {
                 let (p, q) = (w(&v, a), w(&v, b));
@@ -130,28 +121,11 @@ pub(super) fn fold(n: &TNode, folded: &[Option<f64>]) -> Option<f64> {
         TNode::Sub(a, b) => v(a).zip(v(b)).map(|(x, y)| x - y),
         TNode::Mul(a, b) => v(a).zip(v(b)).map(|(x, y)| x * y),
         TNode::Div(a, b) => v(a).zip(v(b)).map(|(x, y)| x / y),
-        TNode::F1(f, a) => v(a).map(|x| func1(f, x)),
+        TNode::F1(f, a) => v(a).map(|x| f.apply(x)),
+        TNode::Sqrt(a) => v(a).map(f64::sqrt),
         TNode::Atan2(a, b) => v(a).zip(v(b)).map(|(y, x)| y.atan2(x)),
         TNode::Pow(a, b) => v(a).zip(v(b)).map(|(x, y)| x.powf(y)),
         TNode::Powi(a, k) => v(a).map(|x| x.powi(k)),
         _ => None,
-    }
-}
-
-fn func1(f: Func1, x: f64) -> f64 {
-    match f {
-        Func1::Sin => x.sin(),
-        Func1::Cos => x.cos(),
-        Func1::Tan => x.tan(),
-        Func1::Asin => x.asin(),
-        Func1::Acos => x.acos(),
-        Func1::Atan => x.atan(),
-        Func1::Sinh => x.sinh(),
-        Func1::Cosh => x.cosh(),
-        Func1::Tanh => x.tanh(),
-        Func1::Exp => x.exp(),
-        Func1::Ln => x.ln(),
-        Func1::Sqrt => x.sqrt(),
-        Func1::Abs => x.abs(),
     }
 }

@@ -36,7 +36,7 @@ use crate::span::Span;
 use crate::syntax::{self, ExprKind};
 
 pub use library::LibKind;
-pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Func1, Param, Point, Ty};
+pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
 pub(crate) use model::{Form, LibArg, TExpr, TNode};
 
 pub(crate) use eval::eval_vector;

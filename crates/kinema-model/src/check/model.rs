@@ -1,5 +1,7 @@
 //! The validated model: what the checker produces and the derivation reads.
 
+use kinema_expr::UnaryOp;
+
 use crate::diagnostic::Diagnostics;
 use crate::span::Span;
 use crate::syntax::EquationKeyword;
@@ -35,37 +37,6 @@ pub enum Ty {
     Vector,
 }
 
-/// Scalar functions of one scalar.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Func1 {
-    /// sin
-    Sin,
-    /// cos
-    Cos,
-    /// tan
-    Tan,
-    /// asin
-    Asin,
-    /// acos
-    Acos,
-    /// atan
-    Atan,
-    /// sinh
-    Sinh,
-    /// cosh
-    Cosh,
-    /// tanh
-    Tanh,
-    /// exp
-    Exp,
-    /// ln
-    Ln,
-    /// sqrt
-    Sqrt,
-    /// abs
-    Abs,
-}
-
 /// A node of a typed, resolved expression. Children precede parents.
 #[derive(Clone, Debug)]
 pub(crate) enum TNode {
@@ -87,7 +58,10 @@ pub(crate) enum TNode {
     Sub(u32, u32),
     Mul(u32, u32),
     Div(u32, u32),
-    F1(Func1, u32),
+    /// A scalar function of one scalar (`sin(x)`, …).
+    F1(UnaryOp, u32),
+    /// `sqrt(x)`.
+    Sqrt(u32),
     Atan2(u32, u32),
     Pow(u32, u32),
     Powi(u32, i32),
