@@ -24,7 +24,8 @@ pub(crate) enum Undefined {
 
 /// The symbols of a model in an arena, and the lowered named points.
 pub(crate) struct Lowerer<'m> {
-    pub(crate) model: &'m CheckedModel,
+    /// The model (its named points); `None` when lowering constants.
+    pub(crate) model: Option<&'m CheckedModel>,
     pub(crate) params: Vec<ExprId>,
     /// `[x, y, phi]` per body.
     pub(crate) coords: Vec<[ExprId; 3]>,
@@ -58,7 +59,7 @@ impl<'m> Lowerer<'m> {
             .collect();
         let time = arena.time();
         let mut me = Lowerer {
-            model,
+            model: Some(model),
             params,
             coords,
             time,
@@ -70,6 +71,18 @@ impl<'m> Lowerer<'m> {
         }
         me.point_locals = locals;
         me
+    }
+
+    /// A lowerer for constant expressions in which every param has been
+    /// replaced by its value: no symbols but time, no bodies, no points.
+    pub(crate) fn constants(arena: &mut Arena) -> Lowerer<'static> {
+        Lowerer {
+            model: None,
+            params: Vec::new(),
+            coords: Vec::new(),
+            time: arena.time(),
+            point_locals: Vec::new(),
+        }
     }
 
     /// Global position of the body-fixed point with local coordinates `s`.
@@ -231,13 +244,16 @@ impl<'m> Lowerer<'m> {
                     Value::V(self.global(arena, body, l))
                 }
                 TNode::NamedPoint(p) => {
-                    let point = &self.model.points[p as usize];
-                    let l = self
-                        .point_locals
-                        .get(p as usize)
-                        .copied()
-                        .unwrap_or(Vec2::new(zero, zero));
-                    Value::V(self.global(arena, point.body, l))
+                    // A constant has no named point (the checker's rule).
+                    let point = self.model.and_then(|m| m.points.get(p as usize));
+                    let l = self.point_locals.get(p as usize).copied();
+                    match (point, l) {
+                        (Some(point), Some(l)) => Value::V(self.global(arena, point.body, l)),
+                        _ => {
+                            let nan = arena.num(f64::NAN);
+                            Value::V(Vec2::new(nan, nan))
+                        }
+                    }
                 }
                 TNode::Vec(a, b) => Value::V(Vec2::new(s(&vals, a), s(&vals, b))),
                 TNode::X(a) => Value::S(w(&vals, a).x),
