@@ -170,7 +170,10 @@ impl Func {
         })
     }
 
-    fn apply(self, x: f64) -> f64 {
+    /// The function's value at `x` (the engine's [`UnaryOp::apply`] for
+    /// those it has).
+    #[must_use]
+    pub fn apply(self, x: f64) -> f64 {
         match (self, self.op()) {
             (_, Some(op)) => op.apply(x),
             (Func::Log10, None) => x.log10(),

@@ -90,7 +90,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
                 if f == Func::Abs {
                     abs_args.push(get(a));
                 }
-                apply(f, get(a))
+                f.apply(get(a))
             }
             Node::Call2(Func2::Atan2, a, b) => {
                 let (y, x) = (get(a), get(b));
@@ -235,25 +235,6 @@ pub(crate) fn resolvable(expr: &Expr, times: &[f64]) -> bool {
             && !tiny_constant
             && tolerance(expr, t).is_some()
     })
-}
-
-fn apply(f: Func, x: f64) -> f64 {
-    match f {
-        Func::Sin => x.sin(),
-        Func::Cos => x.cos(),
-        Func::Tan => x.tan(),
-        Func::Asin => x.asin(),
-        Func::Acos => x.acos(),
-        Func::Atan => x.atan(),
-        Func::Sinh => x.sinh(),
-        Func::Cosh => x.cosh(),
-        Func::Tanh => x.tanh(),
-        Func::Exp => x.exp(),
-        Func::Log => x.ln(),
-        Func::Log10 => x.log10(),
-        Func::Sqrt => x.sqrt(),
-        Func::Abs => x.abs(),
-    }
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 
 use kinema_expr::Arena;
 
-use super::model::{TExpr, TNode};
+use super::model::{BodyRef, TExpr, TNode};
 use crate::lower::{Lowerer, Value};
 
 /// The value of a constant expression: `[x, y]` of a vector, `[v, v]` of a
@@ -20,6 +20,11 @@ fn eval(t: &TExpr, params: &[f64]) -> [f64; 2] {
             .iter()
             .map(|n| match *n {
                 TNode::Param(i) => TNode::Num(params.get(i as usize).copied().unwrap_or(f64::NAN)),
+                // Not constants: absent from a constant, but a caller may
+                // evaluate a prefix of an equation's nodes whose last node
+                // is one (points.rs); their values are never read.
+                TNode::Coord(..) => TNode::Num(f64::NAN),
+                TNode::Point(_, a) => TNode::Point(BodyRef::Ground, a),
                 ref n => n.clone(),
             })
             .collect(),
