@@ -6,6 +6,11 @@
 //! user's own text, rather than importing a model that the `.kin` checker
 //! would then refuse at text the user never wrote.
 //!
+//! Its t-free parts are also evaluated as the engine and the `.kin`
+//! checker's constant folder do (IEEE, left to right): a constant that is
+//! not finite there (`ln(5e-324^pi)`: the power flushes to 0), or a divisor
+//! that is 0 there, is refused too.
+//!
 //! The expression is built in the arena as [`Expr::to_kin`] prints it
 //! (`log10` as `ln(x) / ln(10)`, an integer power as `powi`), so the verdict
 //! is the one the imported model would get. A forward loop over the flat
@@ -36,11 +41,35 @@ pub(crate) fn first_undefined(e: &Expr) -> Option<Undefined> {
     let t = arena.time();
     // Per node: its arena expression and whether it mentions t.
     let mut ids: Vec<(ExprId, bool)> = Vec::with_capacity(e.nodes().len());
+    // Per node: its value in IEEE arithmetic when it does not mention t, as
+    // the engine and the `.kin` checker's constant folder compute it.
+    let mut consts: Vec<Option<f64>> = Vec::with_capacity(e.nodes().len());
     for (i, &node) in e.nodes().iter().enumerate() {
         // Children precede their parents (the parser's invariant); an index
         // out of range is read as an undefined operand and reported nowhere.
         let get = |k: u32| ids.get(k as usize).copied();
         let (id, has_t, operands) = build(&mut arena, t, node, get)?;
+        let constant = constant_value(node, |k| consts.get(k as usize).copied().flatten());
+        let finite_children = node_children(node).iter().flatten().all(|&k| {
+            consts
+                .get(k as usize)
+                .copied()
+                .flatten()
+                .is_none_or(f64::is_finite)
+        });
+        let zero_divisor = matches!(node, Node::Bin(BinOp::Div, _, b)
+            if consts.get(b as usize).copied().flatten() == Some(0.0));
+        if zero_divisor || (constant.is_some_and(|v| !v.is_finite()) && finite_children) {
+            return Some(Undefined {
+                offset: e.offset_of(i),
+                what: if zero_divisor {
+                    "division by zero: this divisor is zero"
+                } else {
+                    "this constant is not a finite number"
+                },
+            });
+        }
+        consts.push(constant);
         if arena.is_undefined(id) && operands.iter().flatten().all(|&o| !arena.is_undefined(o)) {
             let what = match node {
                 Node::Bin(BinOp::Div, _, b) if get(b).is_some_and(|(d, _)| arena.is_zero(d)) => {
@@ -58,6 +87,39 @@ pub(crate) fn first_undefined(e: &Expr) -> Option<Undefined> {
         ids.push((id, has_t));
     }
     None
+}
+
+/// The operands of a node.
+fn node_children(node: Node) -> [Option<u32>; 2] {
+    match node {
+        Node::Num(_) | Node::Pi | Node::T => [None, None],
+        Node::Neg(a) | Node::Call(_, a) => [Some(a), None],
+        Node::Bin(_, a, b) | Node::Call2(_, a, b) => [Some(a), Some(b)],
+    }
+}
+
+/// A node's value when it and its operands do not mention `t` (`value` of
+/// an operand is `None` when it does), in IEEE arithmetic left to right.
+fn constant_value(node: Node, value: impl Fn(u32) -> Option<f64>) -> Option<f64> {
+    Some(match node {
+        Node::Num(x) => x,
+        Node::Pi => std::f64::consts::PI,
+        Node::T => return None,
+        Node::Neg(a) => -value(a)?,
+        Node::Call(f, a) => f.apply(value(a)?),
+        Node::Bin(op, a, b) => {
+            let (a, b) = (value(a)?, value(b)?);
+            match op {
+                BinOp::Add => a + b,
+                BinOp::Sub => a - b,
+                BinOp::Mul => a * b,
+                BinOp::Div => a / b,
+                BinOp::Pow => a.powf(b),
+            }
+        }
+        Node::Call2(Func2::Atan2, a, b) => value(a)?.atan2(value(b)?),
+        Node::Call2(Func2::Power, a, b) => value(a)?.powf(value(b)?),
+    })
 }
 
 /// Builds one node in the arena: its expression, whether it mentions `t`, and

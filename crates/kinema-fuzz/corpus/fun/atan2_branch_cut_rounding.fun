@@ -1,0 +1,1 @@
+atan2(7,atan2(t-t*t/t,t*5*log(1e-1)))
