@@ -107,16 +107,7 @@ fn constant_value(node: Node, value: impl Fn(u32) -> Option<f64>) -> Option<f64>
         Node::T => return None,
         Node::Neg(a) => -value(a)?,
         Node::Call(f, a) => f.apply(value(a)?),
-        Node::Bin(op, a, b) => {
-            let (a, b) = (value(a)?, value(b)?);
-            match op {
-                BinOp::Add => a + b,
-                BinOp::Sub => a - b,
-                BinOp::Mul => a * b,
-                BinOp::Div => a / b,
-                BinOp::Pow => a.powf(b),
-            }
-        }
+        Node::Bin(op, a, b) => op.apply(value(a)?, value(b)?),
         Node::Call2(Func2::Atan2, a, b) => value(a)?.atan2(value(b)?),
         Node::Call2(Func2::Power, a, b) => value(a)?.powf(value(b)?),
     })

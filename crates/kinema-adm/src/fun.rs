@@ -225,6 +225,20 @@ pub enum BinOp {
     Pow,
 }
 
+impl BinOp {
+    /// `a op b` in IEEE arithmetic (`^` is `powf`), as the engine computed it.
+    #[must_use]
+    pub fn apply(self, a: f64, b: f64) -> f64 {
+        match self {
+            BinOp::Add => a + b,
+            BinOp::Sub => a - b,
+            BinOp::Mul => a * b,
+            BinOp::Div => a / b,
+            BinOp::Pow => a.powf(b),
+        }
+    }
+}
+
 /// A node of an [`Expr`]. Children are indices of earlier nodes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Node {
@@ -340,16 +354,7 @@ impl Expr {
                 Node::Pi => std::f64::consts::PI,
                 Node::T => t,
                 Node::Neg(a) => -get(a),
-                Node::Bin(op, a, b) => {
-                    let (a, b) = (get(a), get(b));
-                    match op {
-                        BinOp::Add => a + b,
-                        BinOp::Sub => a - b,
-                        BinOp::Mul => a * b,
-                        BinOp::Div => a / b,
-                        BinOp::Pow => a.powf(b),
-                    }
-                }
+                Node::Bin(op, a, b) => op.apply(get(a), get(b)),
                 Node::Call(f, a) => f.apply(get(a)),
                 Node::Call2(Func2::Atan2, a, b) => get(a).atan2(get(b)),
                 Node::Call2(Func2::Power, a, b) => get(a).powf(get(b)),

@@ -79,13 +79,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
             Node::Bin(op, a, b) => {
                 let (a, b) = (get(a), get(b));
                 tr.divisor_near_zero |= op == BinOp::Div && b.abs() < 1e-9;
-                match op {
-                    BinOp::Add => a + b,
-                    BinOp::Sub => a - b,
-                    BinOp::Mul => a * b,
-                    BinOp::Div => a / b,
-                    BinOp::Pow => a.powf(b),
-                }
+                op.apply(a, b)
             }
             Node::Call(f, a) => {
                 if f == Func::Abs {
