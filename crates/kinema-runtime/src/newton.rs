@@ -220,6 +220,7 @@ fn is_small_update(step: f64, tol: f64, q: &[f64]) -> bool {
 /// The singularity verdict is the equilibrated matrix's: when the LU refuses
 /// Φ_q as it is, it is equilibrated (see [`Scaling`]) and factored again
 /// before being declared singular.
+#[inline]
 pub(crate) fn factor<S: System, L: LinearSolver>(
     system: &S,
     lu: &mut L,

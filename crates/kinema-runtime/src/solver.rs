@@ -461,7 +461,6 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// From the current state at `t0` to `t`: one step if it is accepted,
     /// else internal sub-steps (see "Singular configurations").
     fn advance(&mut self, t0: f64, t: f64) -> Result<(), Error> {
-        let span = t - t0;
         self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
         // After a change of the system (a parameter set between steps) the
         // motion may jump: the converged step is taken as it is, unless it
@@ -476,7 +475,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // Newton from the Taylor prediction (following the branch).
         if self.attempt_from(t, self.options.predictor).is_ok()
             && !self.next.stats.near_singular
-            && self.acceptable(span)
+            && self.acceptable()
         {
             return self.commit(t);
         }
@@ -540,7 +539,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                         Outcome::Reject
                     }
                 }
-                Ok(()) if self.acceptable(h_try) => Outcome::Accept,
+                Ok(()) if self.acceptable() => Outcome::Accept,
                 Ok(()) => Outcome::Reject,
                 Err(Error::Singular { .. }) if !at_end => Outcome::Jump,
                 Err(Error::Singular { .. }) => {
@@ -637,10 +636,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let mut tb = t + (t - ta);
         let mut found = false;
         for _ in 0..30 {
-            if self.attempt(tb).is_ok()
-                && !self.next.stats.near_singular
-                && self.acceptable(tb - ta)
-            {
+            if self.attempt(tb).is_ok() && !self.next.stats.near_singular && self.acceptable() {
                 found = true;
                 break;
             }
@@ -657,7 +653,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 std::mem::swap(&mut self.state, &mut self.bracket_a);
                 let left = self.attempt(t - delta).is_ok()
                     && !self.next.stats.near_singular
-                    && self.acceptable(t - delta - self.state.t);
+                    && self.acceptable();
                 std::mem::swap(&mut self.state, &mut self.bracket_a);
                 if !left {
                     break;
@@ -667,7 +663,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 std::mem::swap(&mut self.state, &mut self.spare);
                 let right = self.attempt(t + delta).is_ok()
                     && !self.next.stats.near_singular
-                    && self.acceptable(2.0 * delta);
+                    && self.acceptable();
                 std::mem::swap(&mut self.state, &mut self.spare);
                 if !right {
                     break;
@@ -723,18 +719,10 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// [`attempt`](Self::attempt), Newton starting from the prediction or,
     /// with `predict` false, from the current q.
     fn attempt_from(&mut self, t: f64, predict: bool) -> Result<(), Error> {
-        let h = t - self.state.t;
-        let half_h2 = 0.5 * h * h;
-        for ((((p, x), &q), &qd), &qdd) in self
-            .pred
-            .iter_mut()
-            .zip(self.next.q.iter_mut())
-            .zip(&self.state.q)
-            .zip(&self.state.qd)
-            .zip(&self.state.qdd)
-        {
-            *p = q + h * qd + half_h2 * qdd;
-            *x = if predict { *p } else { q };
+        if predict {
+            predict_into(&self.state, t, &mut self.next.q);
+        } else {
+            self.next.q.copy_from_slice(&self.state.q);
         }
         let solved = self.solve_inner(t);
         if solved.is_err() {
@@ -830,34 +818,54 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
     }
 
-    /// Whether `self.next`, a regular solution a step of `h` from the
-    /// current state, stays on the branch: few Newton updates, position and
-    /// velocity near the Taylor prediction.
-    fn acceptable(&self, h: f64) -> bool {
+    /// Whether `self.next`, a regular solution a step h = t_next − t from
+    /// the current state, stays on the branch: few Newton updates, position
+    /// within [`CONSISTENCY`] of the predicted motion from the Taylor
+    /// prediction q + h q̇ + h²/2 q̈ (recomputed here, bit for bit as
+    /// [`predict_into`] gives it), velocity likewise from q̇ + h q̈. A
+    /// non-finite value rejects. Runs on every step: one pass over the
+    /// states.
+    fn acceptable(&self) -> bool {
         if self.next.stats.iterations > MAX_UPDATES_UNREFINED {
             return false;
         }
-        let (mut dq, mut sq, mut dv, mut sv) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
-        let s = &self.state;
-        for i in 0..self.pred.len() {
-            let p = self.pred[i];
-            dq = dq.max((self.next.q[i] - p).abs());
-            sq = sq.max((p - s.q[i]).abs());
-            let v = s.qd[i] + h * s.qdd[i];
-            dv = dv.max((self.next.qd[i] - v).abs());
-            sv = sv.max(s.qd[i].abs() + (h * s.qdd[i]).abs());
+        let (s, next) = (&self.state, &self.next);
+        let h = next.t - s.t;
+        let half_h2 = 0.5 * h * h;
+        let n = s.q.len();
+        let (q0, v0, a0) = (&s.q[..n], &s.qd[..n], &s.qdd[..n]);
+        let (q, v) = (&next.q[..n], &next.qd[..n]);
+        // The larger of m and x, one instruction (maxsd), blind to a NaN x;
+        // the inputs are finite (a committed state, a converged q, solved
+        // rates), so only the predictions can be NaN or infinite: their sum
+        // is checked.
+        let max = |m: f64, x: f64| if x > m { x } else { m };
+        // Maxima of |q − p|, |p − q0|, |q̇ − (q̇0 + h q̈0)|, |q̇0| + |h q̈0|.
+        let (mut dq, mut sq, mut dv, mut sv) = (0.0, 0.0, 0.0, 0.0);
+        // The predictions summed: non-finite if one of them is.
+        let mut sum = 0.0;
+        for i in 0..n {
+            let p = q0[i] + h * v0[i] + half_h2 * a0[i];
+            let w = v0[i] + h * a0[i];
+            dq = max(dq, (q[i] - p).abs());
+            sq = max(sq, (p - q0[i]).abs());
+            dv = max(dv, (v[i] - w).abs());
+            sv = max(sv, v0[i].abs() + (h * a0[i]).abs());
+            sum += p + w;
         }
-        let q_scale = 1.0 + inf_norm(&s.q);
-        // NaN-safe: a non-finite comparison rejects.
-        let q_ok = dq <= CONSISTENCY * sq + 1e-9 * q_scale;
+        let finite = (sum + sv).is_finite();
         let v_ok = dv <= CONSISTENCY * sv + 1e-9 * (1.0 + sv);
-        q_ok && v_ok
+        // The absolute floor of the position test, 10⁻⁹ (1 + ‖q0‖∞), only
+        // when the relative test alone fails.
+        let q_ok = dq <= CONSISTENCY * sq || dq <= CONSISTENCY * sq + 1e-9 * (1.0 + inf_norm(q0));
+        finite && q_ok && v_ok
     }
 
     /// At the output time `t` Φ_q is singular (the LU refused it): takes
     /// the Taylor prediction from the current state as q if Φ is nearly
     /// satisfied there (the caller then bridges the rates).
     fn limit(&mut self, t: f64) -> bool {
+        predict_into(&self.state, t, &mut self.pred);
         self.system
             .phi(&mut self.scratch, &self.pred, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
@@ -990,8 +998,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                     singular_at = Some(mid);
                     break 'bisection;
                 }
-                let ok = attempt.is_ok()
-                    && (self.next.stats.near_singular || self.acceptable(mid - self.state.t));
+                let ok = attempt.is_ok() && (self.next.stats.near_singular || self.acceptable());
                 if ok && self.next.det_sign != 0.0 {
                     break;
                 }
@@ -1167,6 +1174,18 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         )
         .map_err(|e| velocity_overflow(system, scratch, q, qd, t, e))?;
         Ok(())
+    }
+}
+
+/// The Taylor prediction q + h q̇ + h²/2 q̈ of `state` at `t` (h = t − its
+/// time) into `out`.
+fn predict_into(state: &State, t: f64, out: &mut [f64]) {
+    let h = t - state.t;
+    let half_h2 = 0.5 * h * h;
+    let n = out.len();
+    let (q, qd, qdd) = (&state.q[..n], &state.qd[..n], &state.qdd[..n]);
+    for i in 0..n {
+        out[i] = q[i] + h * qd[i] + half_h2 * qdd[i];
     }
 }
 

@@ -184,12 +184,10 @@ impl Plan {
     }
 
     /// `input_max` and `finite` by the runtime's own test over the run-time
-    /// inputs: `linalg::scale_and_finite` on them gathered into an array for
-    /// small systems, `linalg::scale_and_finite_at` over a table of their
+    /// inputs: `linalg::scale_and_finite_array` on them gathered by value
+    /// for small systems, `linalg::scale_and_finite_at` over a table of their
     /// positions for large ones.
     fn emit_scale(&self, rt: &syn::Path) -> TokenStream {
-        let scale_and_finite = quote!(#rt::linalg::scale_and_finite);
-        let nm = Literal::usize_unsuffixed(self.runtime_inputs.len());
         if self.runtime_inputs.is_empty() {
             quote!(let (input_max, finite) = (0.0f64, true);)
         } else if self.runtime_inputs.len() <= MAX_UNROLLED {
@@ -198,8 +196,8 @@ impl Plan {
                 .iter()
                 .map(|&k| Literal::usize_unsuffixed(k));
             quote! {
-                let inputs: [f64; #nm] = [#(a[#ks]),*];
-                let (input_max, finite) = #scale_and_finite(&inputs);
+                let (input_max, finite) =
+                    #rt::linalg::scale_and_finite_array([#(a[#ks]),*]);
             }
         } else {
             let t = table("INPUTS", &self.runtime_inputs);

@@ -26,7 +26,7 @@
 //! # Checks and fallback
 //!
 //! A factorization is accepted under the runtime's rule, which the generated
-//! code calls through `__private` (`linalg::scale_and_finite` on the
+//! code calls through `__private` (`linalg::scale_and_finite_array` on the
 //! run-time inputs, then `linalg::order_accepted`): every input value finite,
 //! every pivot |u_kk| > τ · maxᵢⱼ |aᵢⱼ| and every multiplier |l_ik| ≤ 1/θ,
 //! where a NaN pivot or multiplier (finite inputs whose products overflow)

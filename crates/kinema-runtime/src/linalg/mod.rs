@@ -56,7 +56,7 @@ pub use dense::{DenseLu, DynDenseLu};
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
-pub use schedule::{scale_and_finite, scale_and_finite_at};
+pub use schedule::{scale_and_finite, scale_and_finite_array, scale_and_finite_at};
 
 /// θ of the threshold test |u_kk| ≥ θ |a_ik| on a factorization with a
 /// recorded pivot order (see "Refactorization" above): its multipliers must

@@ -480,13 +480,26 @@ impl Schedule {
 /// This is the runtime's one finiteness and scale test: of a factorization's
 /// input (the scale of its singularity test), of Φ (its norm), of Newton's
 /// updates, of the solutions. Generated LUs call it too.
-#[inline]
+#[inline(always)]
 pub fn scale_and_finite(values: &[f64]) -> (f64, bool) {
     if values.len() <= 32 {
         scale_and_finite_bits(values)
     } else {
         scale_and_finite_lanes(values)
     }
+}
+
+/// [`scale_and_finite`] of values gathered by value, for generated code:
+/// with the length a constant the test unrolls into four lanes of integer
+/// maxima over the bits, and the array never exists in memory.
+#[inline(always)]
+pub fn scale_and_finite_array<const N: usize>(values: [f64; N]) -> (f64, bool) {
+    let mut lanes = [0u64; 4];
+    for (k, v) in values.into_iter().enumerate() {
+        lanes[k % 4] = lanes[k % 4].max(v.to_bits() & ABS);
+    }
+    let max_bits = lanes[0].max(lanes[1]).max(lanes[2].max(lanes[3]));
+    (f64::from_bits(max_bits), max_bits < INFINITY_BITS)
 }
 
 /// The sign bit cleared: for IEEE doubles, the integer order of the result
@@ -496,7 +509,7 @@ const ABS: u64 = !(1 << 63);
 /// cleared.
 const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
 
-#[inline]
+#[inline(always)]
 fn scale_and_finite_bits(values: &[f64]) -> (f64, bool) {
     let bits = |v: f64| v.to_bits() & ABS;
     let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
@@ -629,6 +642,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_array_form_agrees_with_the_slice_form() {
+        fn check<const N: usize>() {
+            let v: [f64; N] = std::array::from_fn(|i| ((i * 7919) % 13) as f64 - 6.5);
+            assert_eq!(scale_and_finite_array(v), scale_and_finite(&v), "{N}");
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in 0..N {
+                    let mut w = v;
+                    w[at] = bad;
+                    assert!(!scale_and_finite_array(w).1, "{N} at {at}");
+                }
+            }
+        }
+        check::<0>();
+        check::<1>();
+        check::<5>();
+        check::<8>();
+        check::<13>();
+        check::<32>();
     }
 
     #[test]
