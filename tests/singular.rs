@@ -429,3 +429,56 @@ fn a_run_ending_at_a_singular_configuration_says_so() {
         }
     }
 }
+
+/// The Newton variants a user may pick: the peers' loop (no predictor, full
+/// Newton, residual tolerance only), modified Newton with and without the
+/// predictor. Each must follow the branch like the defaults do (the quiet
+/// steps that skip the branch test depend on how Newton started).
+fn newton_modes() -> [(&'static str, Options); 3] {
+    [
+        ("same algorithm", Options::same_algorithm()),
+        (
+            "predictor, modified Newton",
+            Options::default().with_modified_newton(true),
+        ),
+        (
+            "modified Newton, no predictor",
+            Options::default()
+                .with_predictor(false)
+                .with_modified_newton(true),
+        ),
+    ]
+}
+
+#[test]
+fn every_newton_mode_keeps_the_branch_through_bifurcations() {
+    let change_point = [
+        (SingularKind::Bifurcation, 0.875),
+        (SingularKind::Bifurcation, 1.875),
+    ];
+    let t_star = six_bar_straight();
+    let six_bar = [
+        (SingularKind::Bifurcation, t_star),
+        (SingularKind::Bifurcation, t_star + 1.0),
+    ];
+    for (mode, options) in newton_modes() {
+        for steps in GRIDS {
+            let times = grid(steps, 2);
+            let what = format!("change point, {mode}, {steps} steps per turn");
+            let trajectory = generated::change_point::ChangePoint::default()
+                .solver(options)
+                .and_then(|mut s| s.run(&times))
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_matches(&what, &trajectory, change_point_exact);
+            assert_events(&what, &trajectory, &change_point);
+
+            let what = format!("six-bar, {mode}, {steps} steps per turn");
+            let trajectory = generated::six_bar::SixBar::default()
+                .solver(options)
+                .and_then(|mut s| s.run(&times))
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_matches(&what, &trajectory, six_bar_exact);
+            assert_events(&what, &trajectory, &six_bar);
+        }
+    }
+}

@@ -105,6 +105,18 @@ pub(crate) struct Converged {
     pub(crate) stats: StepStats,
     /// `ws.jac` holds Φ_q at the converged q.
     pub(crate) jacobian_current: bool,
+    /// How far Newton moved q: ‖Δq₁‖∞, and Σₖ≥₂ ‖Δqₖ‖∞.
+    pub(crate) travel: Travel,
+}
+
+/// How far Newton's updates moved q from the guess (a bound on the
+/// distance: q − guess = −Σ Δqₖ).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Travel {
+    /// ‖Δq₁‖∞ (0 when no update was taken).
+    pub(crate) first: f64,
+    /// Σₖ≥₂ ‖Δqₖ‖∞.
+    pub(crate) later: f64,
 }
 
 /// Solves Φ(q, t) = 0 by Newton–Raphson from the guess in `q`, as described
@@ -125,6 +137,7 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
     let mut have_lu = !full && *factorization == Factorization::Stale;
     let mut previous_residual = f64::INFINITY;
     let mut small_update = false;
+    let mut travel = Travel::default();
     loop {
         if full {
             // Φ_q's values are checked for finiteness by the factorization
@@ -144,6 +157,7 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
             return Ok(Converged {
                 stats,
                 jacobian_current: full,
+                travel,
             });
         }
         if stats.iterations >= options.max_iterations {
@@ -182,6 +196,11 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
         if !finite {
             // q is scratch on failure (the solver keeps its last state).
             check_coordinates(system, t, Quantity::Position, &ws.phi)?;
+        }
+        if stats.iterations == 0 {
+            travel.first = step;
+        } else {
+            travel.later += step;
         }
         stats.iterations += 1;
         small_update = is_small_update(step, options.update_tolerance, q);

@@ -5,8 +5,8 @@ use crate::error::{Error, Quantity};
 use crate::event::{SingularEvent, SingularKind};
 use crate::linalg::{Auto, LinalgError, LinearSolver, LinearSolverFor, scale_and_finite};
 use crate::newton::{
-    DIAGNOSES_PER_STEP, Factorization, Scaling, Workspace, check_coordinates, check_equations,
-    factor, inf_norm, solve_position,
+    DIAGNOSES_PER_STEP, Factorization, Scaling, Travel, Workspace, check_coordinates,
+    check_equations, factor, inf_norm, solve_position,
 };
 use crate::options::Options;
 use crate::state::State;
@@ -29,6 +29,14 @@ const CONSISTENCY: f64 = 0.3;
 
 /// More Newton updates than this make a step be refined.
 const MAX_UPDATES_UNREFINED: usize = 8;
+
+/// A step is quiet (see [`Solver::quiet`]) when Newton's corrections are at
+/// most this fraction of the step's motion (a third of [`CONSISTENCY`]).
+const QUIET: f64 = 0.1;
+
+/// A step is quiet only with a pivot ratio at least this (ten times the
+/// monitor's gate [`PIVOT_GATE`]).
+const WATCH_RATIO: f64 = 0.1;
 
 /// A pivot ratio below this is roundoff: the sign of det Φ_q means nothing.
 const ROUNDOFF_RATIO: f64 = 1e-8;
@@ -115,6 +123,10 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     bracket_b: State,
     /// Taylor prediction from the last state.
     pred: Box<[f64]>,
+    /// The last attempt's predicted motion ‖p − q0‖∞ (`None` when Newton
+    /// started from q0) and Newton's travel (see [`quiet`](Self::quiet)).
+    motion: Option<f64>,
+    travel: Travel,
     assembled: bool,
     /// The system was lent out mutably since the last step (its parameters
     /// may have changed): the previous state's Taylor prediction says
@@ -175,6 +187,8 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             bracket_a: State::zeros(n),
             bracket_b: State::zeros(n),
             pred: vec![0.0; n].into_boxed_slice(),
+            motion: None,
+            travel: Travel::default(),
             assembled: false,
             changed: false,
             factorization: Factorization::None,
@@ -367,7 +381,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // Newton from the Taylor prediction (following the branch).
         if self.attempt_from(t, self.options.predictor).is_ok()
             && !self.next.stats.near_singular
-            && self.acceptable()
+            && (self.quiet() || self.acceptable())
         {
             return self.commit(t);
         }
@@ -403,11 +417,12 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// [`attempt`](Self::attempt), Newton starting from the prediction or,
     /// with `predict` false, from the current q.
     fn attempt_from(&mut self, t: f64, predict: bool) -> Result<(), Error> {
-        if predict {
-            predict_into(&self.state, t, &mut self.next.q);
+        self.motion = if predict {
+            predict_into(&self.state, t, &mut self.next.q)
         } else {
             self.next.q.copy_from_slice(&self.state.q);
-        }
+            None
+        };
         let solved = self.solve_inner(t);
         if solved.is_err() {
             self.factorization = Factorization::None;
@@ -502,6 +517,29 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
     }
 
+    /// Whether `self.next` is a quiet step, which cannot have left the
+    /// branch unseen, so that the branch test ([`acceptable`](Self::acceptable))
+    /// is not needed: from a regular, unrefined state, with the monitor's
+    /// pivot ratio steady (at least [`WATCH_RATIO`] and at least half the
+    /// last state's: the condition is not growing) and Newton's corrections
+    /// small against the step — with the predictor, Newton moved q by at
+    /// most [`QUIET`] × the predicted motion (then ‖q − p‖∞ ≤ Σ ‖Δqₖ‖∞ passes
+    /// the position test by itself); without it, Newton's later updates sum
+    /// to at most [`QUIET`] × its first (it converged from its first iterate,
+    /// a first-order prediction of the motion). Reads a few numbers.
+    fn quiet(&self) -> bool {
+        let (base, stats) = (&self.state.stats, &self.next.stats);
+        let Travel { first, later } = self.travel;
+        let newton_quiet = match self.motion {
+            Some(motion) => first + later <= QUIET * motion,
+            None => later <= QUIET * first,
+        };
+        let ratio_steady =
+            stats.pivot_ratio >= WATCH_RATIO && stats.pivot_ratio >= 0.5 * base.pivot_ratio;
+        let base_regular = base.substeps == 0 && !base.near_singular;
+        newton_quiet && ratio_steady && base_regular
+    }
+
     /// Whether `self.next`, a regular solution a step h = t_next − t from
     /// the current state, stays on the branch: few Newton updates, position
     /// within [`CONSISTENCY`] of the predicted motion from the Taylor
@@ -549,10 +587,28 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// recording the singular configurations it reveals: a change of sign
     /// of det Φ_q (located by bisection), the start or end of a run of
     /// near-singular states.
+    #[inline]
     fn commit(&mut self, t: f64) -> Result<(), Error> {
         let sign = self.next.det_sign;
         let near = self.next.stats.near_singular;
         let flipped = self.branch_sign * sign < 0.0;
+        // The regular case, every step: nothing to record.
+        if !flipped && !near && self.zone.is_none() {
+            if sign != 0.0 {
+                self.branch_sign = sign;
+            }
+            std::mem::swap(&mut self.state, &mut self.next);
+            self.assembled = true;
+            return Ok(());
+        }
+        self.commit_events(t, sign, near, flipped)
+    }
+
+    /// [`commit`](Self::commit) when the state reveals or ends a singular
+    /// configuration (off the hot path).
+    #[cold]
+    #[inline(never)]
+    fn commit_events(&mut self, t: f64, sign: f64, near: bool, flipped: bool) -> Result<(), Error> {
         if flipped {
             let event = self.locate_passage(t);
             if let Some(zone) = &mut self.zone {
@@ -589,6 +645,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         Ok(())
     }
 
+    #[inline]
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
         let q = &mut self.next.q;
         let converged = solve_position(
@@ -607,6 +664,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         self.next.t = t;
         self.next.stats = converged.stats;
+        self.travel = converged.travel;
         self.factor_and_rates(t)
     }
 
@@ -618,6 +676,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     }
 
     /// Factors Φ_q from `ws.jac` and solves q̇ and q̈ of `self.next`.
+    #[inline]
     fn factor_and_rates(&mut self, t: f64) -> Result<(), Error> {
         let State { q, qd, qdd, .. } = &mut self.next;
         self.factorization = Factorization::None;
@@ -662,15 +721,21 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 }
 
 /// The Taylor prediction q + h q̇ + h²/2 q̈ of `state` at `t` (h = t − its
-/// time) into `out`.
-fn predict_into(state: &State, t: f64, out: &mut [f64]) {
+/// time) into `out`; returns the predicted motion ‖p − q‖∞ (NaN-blind:
+/// the caller's test rejects a non-finite prediction).
+fn predict_into(state: &State, t: f64, out: &mut [f64]) -> Option<f64> {
     let h = t - state.t;
     let half_h2 = 0.5 * h * h;
     let n = out.len();
     let (q, qd, qdd) = (&state.q[..n], &state.qd[..n], &state.qdd[..n]);
+    let mut motion = 0.0;
     for i in 0..n {
-        out[i] = q[i] + h * qd[i] + half_h2 * qdd[i];
+        let p = q[i] + h * qd[i] + half_h2 * qdd[i];
+        out[i] = p;
+        let d = (p - q[i]).abs();
+        motion = if d > motion { d } else { motion };
     }
+    Some(motion)
 }
 
 /// A velocity this large has a square within a factor 10⁶ of overflow: a
