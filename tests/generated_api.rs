@@ -54,3 +54,20 @@ fn wrong_slice_lengths_give_nan() {
     system.phi(&mut scratch, &[0.0; 9], 0.0, &mut phi);
     assert!(phi.iter().all(|x| x.is_finite()));
 }
+
+/// A model file named relative to the invoking source file (here tests/),
+/// not to the crate root: found, and tracked for rebuilds by an absolute
+/// path (a relative `include_bytes!` would resolve against this file's
+/// directory a second time).
+mod relative_to_the_source_file {
+    kinema::mechanism!(file = "singular/change_point.kin");
+}
+
+#[test]
+fn a_model_file_relative_to_the_invoking_source_file_compiles() -> Result<(), Error> {
+    use relative_to_the_source_file::ChangePoint;
+    let mut solver = ChangePoint::default().solver(Options::default())?;
+    let state = solver.step(0.0)?;
+    assert_eq!(state.q().len(), ChangePoint::default().len());
+    Ok(())
+}

@@ -155,7 +155,10 @@ fn expand_file(path: &str, span: Span, options: &Config) -> TokenStream {
 
 /// The model file: relative to the crate root (`CARGO_MANIFEST_DIR`), or,
 /// if no such file exists, relative to the directory of the source file that
-/// invokes the macro (as `include_str!` resolves paths).
+/// invokes the macro (as `include_str!` resolves paths). Absolute either
+/// way: the generated `include_bytes!` that tracks the file resolves a
+/// relative path against the invoking source file, while
+/// [`Span::local_file`] is relative to the compiler's working directory.
 fn resolve(path: &str, span: Span) -> PathBuf {
     let root =
         std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(|| PathBuf::from("."), PathBuf::from);
@@ -166,6 +169,7 @@ fn resolve(path: &str, span: Span) -> PathBuf {
     span.local_file()
         .and_then(|f| f.parent().map(|dir| dir.join(path)))
         .filter(|p| p.exists())
+        .map(|p| std::path::absolute(&p).unwrap_or(p))
         .unwrap_or(from_root)
 }
 
