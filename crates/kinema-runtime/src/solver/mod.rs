@@ -34,6 +34,13 @@ const MAX_UPDATES_UNREFINED: usize = 8;
 /// most this fraction of the step's motion (a third of [`CONSISTENCY`]).
 const QUIET: f64 = 0.1;
 
+/// Without the predictor, a step is quiet when Newton's later updates sum
+/// to at most this fraction of its first: Newton contracted from its first
+/// iterate, so the solution is the one within about ‖Δq₁‖ of q0, where the
+/// branch's own lies (the first update is a first-order prediction of the
+/// motion). The branch test's own fraction, [`CONSISTENCY`].
+const CONTRACTED: f64 = CONSISTENCY;
+
 /// A step is quiet only with a pivot ratio at least this (ten times the
 /// monitor's gate [`PIVOT_GATE`]).
 const WATCH_RATIO: f64 = 0.1;
@@ -525,14 +532,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// small against the step — with the predictor, Newton moved q by at
     /// most [`QUIET`] × the predicted motion (then ‖q − p‖∞ ≤ Σ ‖Δqₖ‖∞ passes
     /// the position test by itself); without it, Newton's later updates sum
-    /// to at most [`QUIET`] × its first (it converged from its first iterate,
-    /// a first-order prediction of the motion). Reads a few numbers.
+    /// to at most [`CONTRACTED`] × its first (it converged from its first iterate,
+    /// a first-order prediction of the motion; see [`CONTRACTED`]). Reads a
+    /// few numbers.
     fn quiet(&self) -> bool {
         let (base, stats) = (&self.state.stats, &self.next.stats);
         let Travel { first, later } = self.travel;
         let newton_quiet = match self.motion {
             Some(motion) => first + later <= QUIET * motion,
-            None => later <= QUIET * first,
+            None => later <= CONTRACTED * first,
         };
         let ratio_steady =
             stats.pivot_ratio >= WATCH_RATIO && stats.pivot_ratio >= 0.5 * base.pivot_ratio;
