@@ -134,6 +134,9 @@ pub struct Derivation {
     pub gamma: Vec<ExprId>,
     /// The DOF report.
     pub dof: DofReport,
+    /// Named points (`.x`, `.y`) then measures, with their derivatives
+    /// ([`crate::outputs`]).
+    pub outputs: Vec<crate::outputs::OutputColumn>,
 }
 
 impl Derivation {
@@ -314,6 +317,13 @@ impl Derivation {
             gamma.push(arena.sub(ab, ett));
         }
         arena.set_budget(None);
+        let along = crate::outputs::Along {
+            seeds,
+            columns: &columns,
+            time,
+            budget,
+        };
+        let outputs = crate::outputs::derive_outputs(model, &lo, &mut arena, &along)?;
 
         Ok(Derivation {
             name: model.name.clone(),
@@ -335,6 +345,7 @@ impl Derivation {
             nu,
             gamma,
             dof: model.dof(),
+            outputs,
             arena,
         })
     }

@@ -48,12 +48,13 @@
 //!
 //! ```text
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
-//! Item       := Doc* ( Param | Body | Point | Equation )
+//! Item       := Doc* ( Param | Body | Point | Equation | Output )
 //! Param      := "param" Ident "=" Expr ";"              constant: numbers, `pi`, earlier params
 //! Body       := "body" Ident "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" )? "}"
 //!             | "body" Ident ";"                          guess (0, 0, 0)
 //! Point      := "point" Body "." Ident "=" Expr ";"      local coordinates, constants of params
 //! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" ( Expr "==" Expr | LibraryCall ) ";"
+//! Output     := "output" Ident ":" Expr ";"                a measure: scalar or vector of q, params, t
 //! Expr       := Product ( ( "+" | "-" ) Product )*
 //! Product    := Unary ( ( "*" | "/" ) Unary )*
 //! Unary      := "-"* Postfix
@@ -83,6 +84,12 @@
 //!   that does not mention `t` is accepted with a warning).
 //! - Every equation depends on at least one coordinate.
 //! - The mechanism must have NDOF = 3·bodies − kinematic rows − driving rows = 0.
+//!
+//! - `output NAME: EXPR;` is a measure, a result of the analysis with its
+//!   first and second time derivatives (columns `NAME`, `NAME_dot`,
+//!   `NAME_ddot`; a vector gives `NAME.x`, `NAME.y` and their suffixed
+//!   forms). Named points are results too (`B.name.x`, `B.name.y`). See
+//!   [`outputs`].
 //!
 //! In the derivation, coordinates are `B.x`, `B.y`, `B.phi` for each body in
 //! declaration order (velocities `B.x_dot`, …); rows of Φ are the kinematic
@@ -128,15 +135,17 @@ pub mod derive;
 pub mod diagnostic;
 mod library;
 mod lower;
+pub mod outputs;
 mod points;
 mod render;
 pub mod source;
 pub mod span;
 pub mod syntax;
 
-pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind};
+pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind, Output};
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
+pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
 pub use span::Span;
 pub use syntax::EquationKeyword;

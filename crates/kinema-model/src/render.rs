@@ -111,6 +111,7 @@ impl Derivation {
         self.vector(&mut out, d, "(Phi_q qdot)_q qdot", &self.phi_q_qdot_q_qdot);
         self.vector(&mut out, d, "nu", &self.nu);
         self.vector(&mut out, d, "gamma", &self.gamma);
+        self.outputs_section(&mut out, d);
         if !deferred.entries.is_empty() {
             let _ = writeln!(
                 out,
@@ -144,6 +145,10 @@ impl Derivation {
         for m in [&self.phi_q, &self.phi_qt] {
             roots.extend(m.entries.iter().map(|en| en.expr));
         }
+        for o in &self.outputs {
+            roots.extend([o.value, o.velocity, o.acceleration]);
+            roots.extend(o.jacobian.iter().map(|&(_, e)| e));
+        }
         let sizes = self.arena.tree_sizes();
         let total = roots
             .iter()
@@ -162,6 +167,58 @@ impl Derivation {
             let name = self.rows.get(i).map_or("?", |r| r.name.as_str());
             let _ = write!(out, "  [{i}] {name}: ");
             d.write(self, out, format!("{title}[{i}]"), e);
+            out.push('\n');
+        }
+    }
+
+    /// Named points and measures: value, `_dot` and `_ddot`, the last as
+    /// Σ (∂y/∂q_k) q̈_k + c with the q̈ written `B.x_ddot` (docs once per
+    /// declaration).
+    fn outputs_section(&self, out: &mut String, d: &mut Deferred) {
+        if self.outputs.is_empty() {
+            return;
+        }
+        let _ = writeln!(out, "\noutputs (named points, then measures):");
+        let mut previous: Option<&str> = None;
+        for o in &self.outputs {
+            if previous != Some(o.declared.as_str()) && !o.docs.is_empty() {
+                let _ = writeln!(out, "  /// {}", o.docs.join(" "));
+            }
+            previous = Some(o.declared.as_str());
+            let _ = write!(out, "  {}: ", o.name);
+            d.write(self, out, o.name.clone(), o.value);
+            let _ = write!(out, "\n  {}_dot: ", o.name);
+            d.write(self, out, format!("{}_dot", o.name), o.velocity);
+            let _ = write!(out, "\n  {}_ddot: ", o.name);
+            let mut first = true;
+            for &(k, e) in &o.jacobian {
+                let q = self
+                    .coordinates
+                    .get(k as usize)
+                    .map_or("?", |c| c.name.as_str());
+                if !first {
+                    out.push_str(" + ");
+                }
+                first = false;
+                if self.arena.as_num(e) == Some(1.0) {
+                    let _ = write!(out, "{q}_ddot");
+                } else {
+                    out.push('(');
+                    d.write(self, out, format!("{}_ddot / {q}_ddot", o.name), e);
+                    let _ = write!(out, ")*{q}_ddot");
+                }
+            }
+            if first || !self.arena.is_zero(o.acceleration) {
+                if !first {
+                    out.push_str(" + ");
+                }
+                d.write(
+                    self,
+                    out,
+                    format!("{}_ddot - q̈ terms", o.name),
+                    o.acceleration,
+                );
+            }
             out.push('\n');
         }
     }

@@ -4,11 +4,12 @@
 //!
 //! ```text
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
-//! Item       := Doc* ( Param | Body | Point | Equation )
+//! Item       := Doc* ( Param | Body | Point | Equation | Output )
 //! Param      := "param" Ident ( "=" Expr )? ";"
 //! Body       := "body" Ident ( "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" ","? )? "}" | ";" )
 //! Point      := "point" Ident "." Ident "=" Expr ";"
 //! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" Expr ( "==" Expr )? ";"
+//! Output     := "output" Ident ":" Expr ";"
 //! Expr       := Product ( ( "+" | "-" ) Product )*
 //! Product    := Unary ( ( "*" | "/" ) Unary )*
 //! Unary      := "-"* Postfix
@@ -40,6 +41,7 @@ pub(crate) mod kw {
     syn::custom_keyword!(driver);
     syn::custom_keyword!(guess);
     syn::custom_keyword!(doc);
+    syn::custom_keyword!(output);
 }
 
 /// Deepest nesting of parentheses, calls and groups accepted in one
@@ -72,6 +74,8 @@ pub enum Item {
     Point(PointDecl),
     /// `joint|constraint|driver name: …;`
     Equation(EquationDecl),
+    /// `output name: expr;` (a measure, see [`crate::outputs`])
+    Output(crate::outputs::OutputDecl),
 }
 
 /// `param name = expr;`
@@ -431,7 +435,7 @@ fn found(input: ParseStream<'_>) -> Option<String> {
 
 /// "expected `what`, found `…`" at the next token, with a hint for the
 /// usual confusions (a Rust keyword as a name, `^` or `**` for a power).
-fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
+pub(crate) fn expected(input: ParseStream<'_>, what: &str) -> syn::Error {
     use proc_macro2::TokenTree;
     let hint = match input.cursor().token_tree() {
         Some((TokenTree::Ident(i), _)) if i == "_" => " (`_` cannot be a name)",
@@ -459,7 +463,7 @@ fn is_name(input: ParseStream<'_>) -> bool {
 /// A name: any identifier, Rust keywords included (`body box`, `param
 /// type`, `point B.ref`); `r#type` is the name `type`. Generated code spells
 /// a name that is a Rust keyword as a raw identifier. `_` is not a name.
-fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Ident> {
+pub(crate) fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Ident> {
     if is_name(input) {
         return Ok(Ident::parse_any(input)?.unraw());
     }
@@ -467,7 +471,7 @@ fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Ident> {
 }
 
 /// Parses a `T` (a token or a name), or says what was expected and found.
-fn expect<T: Parse>(input: ParseStream<'_>, what: &str) -> syn::Result<T> {
+pub(crate) fn expect<T: Parse>(input: ParseStream<'_>, what: &str) -> syn::Result<T> {
     if let Ok(t) = input.fork().parse::<T>() {
         input.parse::<T>()?;
         return Ok(t);
@@ -838,11 +842,13 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
             lhs,
             rhs,
         }))
+    } else if lookahead.peek(kw::output) {
+        crate::outputs::parse_output(input, docs).map(Item::Output)
     } else {
-        // error: expected an item (`param`, `body`, `point`, `joint`, `constraint` or `driver`), found `bdy`
+        // error: expected an item (`param`, `body`, `point`, `joint`, `constraint`, `driver` or `output`), found `bdy`
         Err(expected(
             input,
-            "an item (`param`, `body`, `point`, `joint`, `constraint` or `driver`)",
+            "an item (`param`, `body`, `point`, `joint`, `constraint`, `driver` or `output`)",
         ))
     }
 }

@@ -63,19 +63,28 @@ pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
         for t in exprs {
             lo.lower_reporting(&mut arena, t, &mut |i, why| {
                 let span = t.span(i).unwrap_or(eq.span);
-                cx.push(match why {
-                    crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
-                        span,
-                        "division by zero: this divisor is identically zero",
-                    )
-                    .with_help("the quotient is undefined whatever the coordinates and time"),
-                    crate::lower::Undefined::Value => Diagnostic::error(
-                        span,
-                        "this expression is undefined whatever the coordinates and time",
-                    )
-                    .with_help("a function is applied where it has no finite value (such as `ln` of an expression that is identically zero)"),
-                });
+                cx.push(undefined_diagnostic(span, why));
             });
         }
+    }
+}
+
+/// The error for a part of an expression that is undefined whatever the
+/// coordinates and time.
+pub(super) fn undefined_diagnostic(
+    span: crate::span::Span,
+    why: crate::lower::Undefined,
+) -> Diagnostic {
+    match why {
+        crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+            span,
+            "division by zero: this divisor is identically zero",
+        )
+        .with_help("the quotient is undefined whatever the coordinates and time"),
+        crate::lower::Undefined::Value => Diagnostic::error(
+            span,
+            "this expression is undefined whatever the coordinates and time",
+        )
+        .with_help("a function is applied where it has no finite value (such as `ln` of an expression that is identically zero)"),
     }
 }

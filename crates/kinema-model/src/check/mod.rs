@@ -12,6 +12,7 @@
 //! | `call` | function calls (`sin(x)`, `dot(a, b)`, …) |
 //! | `equation` | equations and library constraints |
 //! | `count` | counts (NDOF) and undefined parts |
+//! | `output` | measures (`output NAME: EXPR;`) and the columns they add |
 //!
 //! All independent errors are collected (in a `Ctxt`); an error inside an
 //! expression does not cascade into its parents, and a rejected
@@ -27,6 +28,7 @@ mod expr;
 mod library;
 mod model;
 mod names;
+mod output;
 
 use std::collections::HashMap;
 
@@ -38,6 +40,8 @@ use crate::syntax::{self, ExprKind};
 pub use library::LibKind;
 pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
 pub(crate) use model::{Form, LibArg, TExpr, TNode};
+pub use output::Output;
+pub(crate) use output::point_columns;
 
 pub(crate) use eval::eval_vector;
 
@@ -153,6 +157,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     names.point_decls = &out_points;
     let bodies = decls::check_guesses(&mut cx, &names, &declared.bodies, &values);
     let (equations, rows_known) = equation::check_equations(&mut cx, &names, mech, &values);
+    let outputs = output::check_outputs(&mut cx, &names, mech, &bodies, &out_points);
     let mut model = CheckedModel {
         name: mech.name.to_string(),
         span: Span::new(mech.name.span()),
@@ -161,6 +166,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         bodies,
         points: out_points,
         equations,
+        outputs,
         warnings: Diagnostics::new(),
     };
     // Counts over a model with missing or bad declarations would mislead.
@@ -169,6 +175,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     }
     if cx.error_count() == 0 {
         count::check_undefined_parts(&mut cx, &model);
+        output::check_undefined_outputs(&mut cx, &model);
     }
     let diagnostics = cx.finish();
     if diagnostics.has_errors() {

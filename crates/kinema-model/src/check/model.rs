@@ -269,6 +269,8 @@ pub struct CheckedModel {
     pub points: Vec<Point>,
     /// Equations in declaration order (joints, constraints and drivers mixed).
     pub equations: Vec<Equation>,
+    /// Measures (`output NAME: EXPR;`) in declaration order.
+    pub outputs: Vec<super::Output>,
     /// Warnings found while checking (e.g. a driver that does not depend on `t`).
     pub warnings: Diagnostics,
 }
