@@ -39,11 +39,14 @@ pub use kinema_runtime::{
     RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory,
     diagnose, point_kinematics,
 };
+pub use kinema_runtime::{Outputs, Table};
 
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
 pub use model::{Model, ModelSolver, TapeSystem};
+#[cfg(feature = "model")]
+mod model_outputs;
 #[cfg(feature = "parallel")]
 pub mod sweep;
 
@@ -52,8 +55,8 @@ pub mod sweep;
 pub mod __private {
     pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
-        Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, PivotReport,
-        Solver, SparseLu, System,
+        Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, Outputs,
+        PivotReport, Solver, SparseLu, System,
     };
 }
 

@@ -199,7 +199,7 @@ pub struct TapeSystem {
     coordinate_names: Vec<String>,
     equation_names: Vec<String>,
     param_names: Vec<String>,
-    params: Vec<f64>,
+    pub(crate) params: Vec<f64>,
     pattern: Vec<(u32, u32)>,
     guess: Tape,
     phi: Tape,
@@ -207,6 +207,8 @@ pub struct TapeSystem {
     both: Tape,
     nu: Tape,
     gamma: Tape,
+    /// Named points and measures with their derivatives.
+    pub(crate) outputs: crate::model_outputs::OutputTape,
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
     zeros: Vec<f64>,
@@ -228,7 +230,13 @@ impl TapeSystem {
             Tape::compile(a, &d.nu),
             Tape::compile(a, &d.gamma),
         ];
-        let registers = tapes.iter().map(Tape::registers).max().unwrap_or(0);
+        let outputs = crate::model_outputs::OutputTape::new(d);
+        let registers = tapes
+            .iter()
+            .map(Tape::registers)
+            .max()
+            .unwrap_or(0)
+            .max(outputs.registers());
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
         let n = d.nc();
         TapeSystem {
@@ -244,6 +252,7 @@ impl TapeSystem {
             both,
             nu,
             gamma,
+            outputs,
             registers,
         }
     }
@@ -286,7 +295,12 @@ impl TapeSystem {
     /// Runs `tape` and writes its outputs to `out`; on a size mismatch (a
     /// slice of the wrong length), writes NaN so the caller sees non-finite
     /// values instead of going on silently (the `System` trait's rule).
-    fn run(tape: &Tape, registers: &mut Vec<f64>, inputs: &TapeInputs<'_>, out: &mut [f64]) {
+    pub(crate) fn run(
+        tape: &Tape,
+        registers: &mut Vec<f64>,
+        inputs: &TapeInputs<'_>,
+        out: &mut [f64],
+    ) {
         if tape
             .eval(inputs, Self::registers(registers, tape), out)
             .is_err()
@@ -297,7 +311,7 @@ impl TapeSystem {
 
     /// The register file, grown if it came from another system (a scratch
     /// kept while the solver's system was replaced); no allocation otherwise.
-    fn registers<'a>(registers: &'a mut Vec<f64>, tape: &Tape) -> &'a mut [f64] {
+    pub(crate) fn registers<'a>(registers: &'a mut Vec<f64>, tape: &Tape) -> &'a mut [f64] {
         if registers.len() < tape.registers() {
             registers.resize(tape.registers(), 0.0);
         }

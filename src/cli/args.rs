@@ -145,6 +145,12 @@ pub struct RunArgs {
     /// then goes to standard error).
     #[arg(long, value_name = "FILE", default_value = "results.csv")]
     pub out: PathBuf,
+    /// Which quantities the CSV holds, comma-separated: `bodies`, `points`,
+    /// `outputs`, `all`, a body, a point (`crank.pin`), an output, or one
+    /// column (`slider.x`). Each gives its value, `_dot` and `_ddot`
+    /// columns. Default: all.
+    #[arg(long, value_name = "LIST")]
+    pub columns: Option<String>,
     /// Write an SVG figure: the mechanism at several instants, the paths of
     /// its joint points, and position, velocity and acceleration against time.
     #[arg(long, value_name = "FILE.svg")]

@@ -7,6 +7,7 @@
 //! | [`adm`] | simEngine2D specifics: the analysis, ignored forces, ADM names in messages |
 //! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
 //! | [`run`] | `kinema run`: the time loop and its summary |
+//! | [`columns`] | `run --columns`: which quantities the CSV holds |
 //! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
 //! | [`number`] | fast `{:e}` formatting of the CSV's numbers |
 //! | [`progress`] | the progress bar on standard error |
@@ -25,6 +26,7 @@ pub mod adm;
 pub mod animate;
 pub mod args;
 pub mod check;
+pub mod columns;
 pub mod load;
 pub mod number;
 pub mod output;

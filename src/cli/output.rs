@@ -354,8 +354,9 @@ impl Sink {
     }
 }
 
-/// Streams states as CSV rows: columns `t`, the coordinate names, the
-/// names suffixed `_dot`, then `_ddot`; numbers in `{:e}`, shortest
+/// Streams states as CSV rows: columns `t`, the selected coordinate names,
+/// suffixed `_dot`, then `_ddot`; then the selected results (named points,
+/// measures) in the same three blocks; numbers in `{:e}`, shortest
 /// round-trip (the text of the runtime's `CsvWriter`, written faster: see
 /// [`super::number`]).
 pub struct CsvSink {
@@ -365,6 +366,7 @@ pub struct CsvSink {
     destination: Destination,
     rows: usize,
     columns: usize,
+    selection: super::columns::Selection,
 }
 
 impl std::fmt::Debug for CsvSink {
@@ -384,19 +386,17 @@ impl CsvSink {
     /// # Errors
     /// [`Failure::Input`] if the file cannot be created or is an input or
     /// another output.
-    pub fn create<N: AsRef<str>>(
+    pub fn create(
         outputs: &mut Outputs,
         destination: Destination,
-        names: &[N],
+        header_names: &[String],
+        selection: super::columns::Selection,
     ) -> Result<CsvSink, Failure> {
         let out = Sink::open(outputs, "--out", &destination)?;
         let mut header = String::from("t");
-        for suffix in ["", "_dot", "_ddot"] {
-            for name in names {
-                header.push(',');
-                header.push_str(name.as_ref());
-                header.push_str(suffix);
-            }
+        for name in header_names {
+            header.push(',');
+            header.push_str(name);
         }
         header.push('\n');
         let mut sink = CsvSink {
@@ -405,24 +405,49 @@ impl CsvSink {
             buffer: ryu::Buffer::new(),
             destination,
             rows: 0,
-            columns: 1 + 3 * names.len(),
+            columns: 1 + header_names.len(),
+            selection,
         };
         let result = sink.out.write_all(header.as_bytes());
         result.map_err(|e| write_failure(&sink.destination, &e))?;
         Ok(sink)
     }
 
-    /// Writes one row.
+    /// Whether the selection holds result columns (points, outputs): the
+    /// caller evaluates them only then.
+    pub fn wants_outputs(&self) -> bool {
+        !self.selection.outputs.is_empty()
+    }
+
+    /// Writes one row: the state's selected coordinates, then the selected
+    /// results from `y`, `yd`, `ydd` (all results, in declaration order;
+    /// ignored when none is selected).
     ///
     /// # Errors
     /// [`Failure::Analysis`] on a write error; [`Failure::Closed`] when
     /// standard output's reader has gone (`--out - | head`).
-    pub fn write(&mut self, state: &State) -> Result<(), Failure> {
+    pub fn write(&mut self, state: &State, results: [&[f64]; 3]) -> Result<(), Failure> {
         self.line.clear();
         push_e(&mut self.line, &mut self.buffer, state.t());
-        for &v in state.q().iter().chain(state.qd()).chain(state.qdd()) {
-            self.line.push(b',');
-            push_e(&mut self.line, &mut self.buffer, v);
+        for values in [state.q(), state.qd(), state.qdd()] {
+            for &k in &self.selection.coordinates {
+                self.line.push(b',');
+                push_e(
+                    &mut self.line,
+                    &mut self.buffer,
+                    values.get(k).copied().unwrap_or(f64::NAN),
+                );
+            }
+        }
+        for values in results {
+            for &k in &self.selection.outputs {
+                self.line.push(b',');
+                push_e(
+                    &mut self.line,
+                    &mut self.buffer,
+                    values.get(k).copied().unwrap_or(f64::NAN),
+                );
+            }
         }
         self.line.push(b'\n');
         self.out

@@ -10,6 +10,7 @@ use kinema_adm::Analysis;
 
 use super::args::{Backend, RunArgs};
 use super::check::run_error;
+use super::columns::Selection;
 use super::load::{Format, Loaded, load};
 use super::output::{CsvSink, Destination, Outputs, duration, time};
 use super::plot::{self, Samples};
@@ -310,7 +311,15 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     if let Some(acf) = &args.acf {
         outputs.input("the analysis file", acf);
     }
-    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &names)?;
+    let derivation = loaded.model.derivation();
+    let selection = match &args.columns {
+        Some(spec) => Selection::parse(spec, derivation)?,
+        None => Selection::all(derivation),
+    };
+    let header = selection.header(derivation);
+    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
+    let m = derivation.outputs.len();
+    let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
     let plot_target = args
         .plot
         .as_deref()
@@ -326,6 +335,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let options = Options::default().with_stop_at_singular(args.stop_at_singular);
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options)
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
+    let mut result_scratch = kinema::System::scratch(solver.system());
     let keep = plot_target.is_some() || page_target.is_some();
     let mut samples = keep.then(|| Samples::new(names.len()));
     // The last output state's time if thinning left it out of `samples`.
@@ -400,7 +410,22 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         }
         if is_output {
             let w = Instant::now();
-            if let Err(failure) = sink.write(state) {
+            if sink.wants_outputs() {
+                let [y, yd, ydd] = &mut results;
+                kinema::Outputs::outputs(
+                    solver.system(),
+                    &mut result_scratch,
+                    state.t(),
+                    state.q(),
+                    state.qd(),
+                    state.qdd(),
+                    y,
+                    yd,
+                    ydd,
+                );
+            }
+            let [y, yd, ydd] = &results;
+            if let Err(failure) = sink.write(state, [y, yd, ydd]) {
                 // A write error, or standard output closed: the run stops.
                 progress.finish();
                 return Err(failure);

@@ -51,6 +51,7 @@ pub mod kinematics;
 pub mod linalg;
 mod newton;
 pub mod options;
+pub mod outputs;
 pub mod solver;
 pub mod state;
 pub mod system;
@@ -65,6 +66,7 @@ pub use linalg::{
     Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, LinearSolverFor, PivotReport, SparseLu,
 };
 pub use options::Options;
+pub use outputs::{Outputs, Table};
 pub use solver::Solver;
 pub use state::{State, StepStats};
 pub use system::System;

@@ -1,0 +1,96 @@
+//! The tape back end's named results: [`Outputs`] for [`TapeSystem`].
+
+use kinema_expr::{ExprId, Tape, TapeInputs};
+use kinema_model::Derivation;
+use kinema_runtime::Outputs;
+
+use crate::model::TapeSystem;
+
+/// One tape evaluating, for every result column, y, ẏ, c (ÿ without its q̈
+/// terms) and the nonzeros of y_q; ÿ = c + y_q q̈ is summed after.
+#[derive(Clone, Debug)]
+pub(crate) struct OutputTape {
+    names: Vec<String>,
+    tape: Tape,
+    /// For each column, its y_q entries as (coordinate index, tape output).
+    jacobian: Vec<Vec<(usize, usize)>>,
+}
+
+impl OutputTape {
+    pub(crate) fn new(d: &Derivation) -> OutputTape {
+        let m = d.outputs.len();
+        let mut exprs: Vec<ExprId> = Vec::with_capacity(3 * m);
+        exprs.extend(d.outputs.iter().map(|o| o.value));
+        exprs.extend(d.outputs.iter().map(|o| o.velocity));
+        exprs.extend(d.outputs.iter().map(|o| o.acceleration));
+        let mut jacobian = Vec::with_capacity(m);
+        for o in &d.outputs {
+            let mut row = Vec::with_capacity(o.jacobian.len());
+            for &(k, e) in &o.jacobian {
+                row.push((k as usize, exprs.len()));
+                exprs.push(e);
+            }
+            jacobian.push(row);
+        }
+        OutputTape {
+            names: d.outputs.iter().map(|o| o.name.clone()).collect(),
+            tape: Tape::compile(&d.arena, &exprs),
+            jacobian,
+        }
+    }
+
+    pub(crate) fn registers(&self) -> usize {
+        self.tape.registers()
+    }
+}
+
+impl Outputs for TapeSystem {
+    fn output_len(&self) -> usize {
+        self.outputs.names.len()
+    }
+
+    fn output_name(&self, i: usize) -> &str {
+        self.outputs.names.get(i).map_or("", String::as_str)
+    }
+
+    fn outputs(
+        &self,
+        registers: &mut Vec<f64>,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        y: &mut [f64],
+        yd: &mut [f64],
+        ydd: &mut [f64],
+    ) {
+        let o = &self.outputs;
+        let m = o.names.len();
+        let n = kinema_runtime::System::len(self);
+        let sizes_ok = [y.len(), yd.len(), ydd.len()].iter().all(|&l| l == m)
+            && [q.len(), qd.len(), qdd.len()].iter().all(|&l| l == n);
+        let inputs = TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        };
+        let registers = TapeSystem::registers(registers, &o.tape);
+        let values = match o.tape.eval_in_registers(&inputs, registers) {
+            Ok(v) if sizes_ok && v.len() >= 3 * m => v,
+            _ => {
+                for out in [y, yd, ydd] {
+                    out.fill(f64::NAN);
+                }
+                return;
+            }
+        };
+        y.copy_from_slice(&values[..m]);
+        yd.copy_from_slice(&values[m..2 * m]);
+        for (i, (out, row)) in ydd.iter_mut().zip(&o.jacobian).enumerate() {
+            *out = row.iter().fold(values[2 * m + i], |acc, &(k, j)| {
+                acc + values.get(j).copied().unwrap_or(f64::NAN) * qdd[k]
+            });
+        }
+    }
+}
