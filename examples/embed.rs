@@ -1,7 +1,7 @@
 //! The generated solver embedded in an application loop: a fixed-timestep
 //! "controller" steps the slider-crank frame by frame, changes the crank
-//! speed while running, and reads the slider's state — with no allocation
-//! per step.
+//! speed while running, and reads the slider's state and the crank pin's
+//! velocity by name — with no allocation per step.
 //!
 //! `cargo run --example embed`
 
@@ -14,6 +14,8 @@ struct Frame {
     t: f64,
     slider_x: f64,
     slider_v: f64,
+    /// speed of the crank pin A (a named point of the model) [m/s]
+    pin_speed: f64,
     newton: usize,
 }
 
@@ -33,23 +35,29 @@ fn main() -> Result<(), kinema::Error> {
         if frame == 60 {
             solver.system_mut().omega = 3.0 * std::f64::consts::PI;
         }
-        let state = solver.step(t)?;
+        solver.step(t)?;
+        let Some(state) = solver.state() else { break };
+        // Named points and outputs with their derivatives, on the stack.
+        let [_, velocity, _] = solver.system().results(state);
+        let pin_speed =
+            velocity[SliderCrank::OUT_CRANK_PIN_X].hypot(velocity[SliderCrank::OUT_CRANK_PIN_Y]);
         frames.push(Frame {
             t: state.t(),
-            slider_x: state.q()[6],
-            slider_v: state.qd()[6],
+            slider_x: state.q()[SliderCrank::SLIDER_X],
+            slider_v: state.qd()[SliderCrank::SLIDER_X],
+            pin_speed,
             newton: state.stats().iterations,
         });
     }
 
     println!(
-        "{:>8}  {:>10}  {:>10}  {:>6}",
-        "t [s]", "x [m]", "ẋ [m/s]", "newton"
+        "{:>8}  {:>10}  {:>10}  {:>10}  {:>6}",
+        "t [s]", "x [m]", "ẋ [m/s]", "|v_A| [m/s]", "newton"
     );
     for f in frames.iter().step_by(10) {
         println!(
-            "{:>8.4}  {:>10.6}  {:>10.5}  {:>6}",
-            f.t, f.slider_x, f.slider_v, f.newton
+            "{:>8.4}  {:>10.6}  {:>10.5}  {:>10.5}  {:>6}",
+            f.t, f.slider_x, f.slider_v, f.pin_speed, f.newton
         );
     }
     let max_newton = frames.iter().map(|f| f.newton).max().unwrap_or(0);

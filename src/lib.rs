@@ -56,7 +56,7 @@ pub mod __private {
     pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
         Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, Outputs,
-        PivotReport, Solver, SparseLu, System,
+        PivotReport, Solver, SparseLu, State, System,
     };
 }
 

@@ -94,3 +94,24 @@ impl Outputs for TapeSystem {
         }
     }
 }
+
+impl crate::Model {
+    /// The index of the coordinate `name` (`"slider.x"`) in q, q̇ and q̈.
+    #[must_use]
+    pub fn coordinate_index(&self, name: &str) -> Option<usize> {
+        self.derivation()
+            .coordinates
+            .iter()
+            .position(|c| c.name == name)
+    }
+
+    /// The index of the result column `name` (`"crank.pin.x"`, `"reach"`)
+    /// in what [`Outputs::outputs`] writes.
+    #[must_use]
+    pub fn output_index(&self, name: &str) -> Option<usize> {
+        self.derivation()
+            .outputs
+            .iter()
+            .position(|o| o.name == name)
+    }
+}

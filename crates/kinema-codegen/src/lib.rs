@@ -36,6 +36,7 @@ mod cache;
 mod emit;
 mod lu;
 mod macro_input;
+mod outputs;
 
 pub mod build;
 
@@ -107,10 +108,12 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
         quote!(#cache_name)
     };
     let system = system_impl(d, (&name, &scratch), &params, &cache, &options.runtime);
+    let outputs = outputs::items(d, &name, &params, &options.runtime);
     quote! {
         #item
         #inherent
         #system
+        #outputs
         #cache_items
         #lu_items
     }
