@@ -5,7 +5,7 @@
 //! one row of values per variant (blank lines and lines starting with `#`
 //! are skipped). The output has the columns `row` (the variant's 1-based
 //! number in the table), the swept parameters, then the columns of
-//! `kinema run` (`t`, coordinates, `_dot`, `_ddot`), the variants one after
+//! `kinema run` (`t`, coordinates, `_dot`, `_ddot`, then the named points and outputs likewise), the variants one after
 //! the other in table order. A variant whose analysis fails keeps the rows
 //! computed before the failure, a warning names it, and the exit status is
 //! then 1. `--shard I/N` runs the I-th of N contiguous parts of the table:
@@ -170,14 +170,14 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     outputs.input("the parameter table", &args.params);
     let destination = Destination::of(&args.out);
     let mut out = Sink::open(&mut outputs, "--out", &destination)?;
-    let coordinates: Vec<&str> = loaded
-        .model
-        .derivation()
+    let derivation = loaded.model.derivation();
+    let coordinates: Vec<&str> = derivation
         .coordinates
         .iter()
         .map(|c| c.name.as_str())
         .collect();
-    let header = header(&table.names, &coordinates);
+    let results: Vec<&str> = derivation.outputs.iter().map(|o| o.name.as_str()).collect();
+    let header = header(&table.names, &[&coordinates, &results]);
     out.write_all(header.as_bytes())
         .map_err(|e| write_failure(&destination, &e))?;
 
@@ -262,15 +262,32 @@ fn sweep_chunk(
             push_e(&mut prefix, &mut buffer, v);
         }
         let mut text = Vec::new();
+        // The named points and outputs, evaluated per state as `run` does.
+        let m = kinema::Outputs::output_len(solver.system());
+        let mut scratch = kinema::System::scratch(solver.system());
+        let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
         for &t in times {
-            let state = match solver.step(t) {
-                Ok(state) => state,
-                Err(e) => return Ok((text, Some(e))),
-            };
+            if let Err(e) = solver.step(t) {
+                return Ok((text, Some(e)));
+            }
+            let Some(state) = solver.state() else { break };
+            let [y, yd, ydd] = &mut results;
+            kinema::Outputs::outputs(
+                solver.system(),
+                &mut scratch,
+                state.t(),
+                state.q(),
+                state.qd(),
+                state.qdd(),
+                y,
+                yd,
+                ydd,
+            );
             text.extend_from_slice(&prefix);
             text.push(b',');
             push_e(&mut text, &mut buffer, state.t());
-            for &v in state.q().iter().chain(state.qd()).chain(state.qdd()) {
+            let values = state.q().iter().chain(state.qd()).chain(state.qdd());
+            for &v in values.chain(results.iter().flatten()) {
                 text.push(b',');
                 push_e(&mut text, &mut buffer, v);
             }
@@ -280,19 +297,21 @@ fn sweep_chunk(
     })
 }
 
-/// `row,<params>,t,<coordinates>,<_dot>,<_ddot>`.
-fn header(params: &[String], coordinates: &[&str]) -> String {
+/// `row,<params>,t,<coordinates>,<_dot>,<_ddot>,<results>,<_dot>,<_ddot>`.
+fn header(params: &[String], blocks: &[&[&str]]) -> String {
     let mut header = String::from("row");
     for p in params {
         header.push(',');
         header.push_str(p);
     }
     header.push_str(",t");
-    for suffix in ["", "_dot", "_ddot"] {
-        for c in coordinates {
-            header.push(',');
-            header.push_str(c);
-            header.push_str(suffix);
+    for names in blocks {
+        for suffix in ["", "_dot", "_ddot"] {
+            for c in *names {
+                header.push(',');
+                header.push_str(c);
+                header.push_str(suffix);
+            }
         }
     }
     header.push('\n');
