@@ -64,7 +64,7 @@ pub struct Scene {
     /// Points fixed in ground that equations use (global coordinates).
     pub ground: Vec<[f64; 2]>,
     /// Joint points of moving bodies, deduplicated (a revolute joint's two
-    /// points count once), then simEngine2D `vis.points`.
+    /// points count once), then named points, then simEngine2D `vis.points`.
     pub traced: Vec<Traced>,
     /// What the drivers prescribe, in row order.
     pub driven: Vec<Driven>,
@@ -117,6 +117,29 @@ impl Scene {
                         traced_one = true;
                     }
                 }
+            }
+        }
+        // Named points (`point B.name`) are results: their paths are drawn
+        // too. (An ADM model's are its `vis.points`, labelled below as the
+        // engine did.)
+        let named = if loaded.adm.is_some() {
+            &[][..]
+        } else {
+            &c.points[..]
+        };
+        for p in named {
+            let BodyRef::Body(i) = p.body else { continue };
+            let i = i as usize;
+            let known = traced
+                .iter()
+                .any(|t| t.body == i && t.local == p.local_value);
+            if !known && p.local_value.iter().all(|v| v.is_finite()) {
+                let body = c.bodies.get(i).map_or("body", |b| b.name.as_str());
+                traced.push(Traced {
+                    body: i,
+                    local: p.local_value,
+                    label: format!("{body}.{}", p.name),
+                });
             }
         }
         let mut limits = None;

@@ -401,6 +401,7 @@ pub fn to_kin(model: &Model) -> String {
             format_number(y),
             format_number(phi)
         );
+        emit_vis_points(&mut out, body, ident);
     }
     for (c, idents) in model.constraints.iter().zip(&names.constraints) {
         out.push('\n');
@@ -408,6 +409,23 @@ pub fn to_kin(model: &Model) -> String {
     }
     out.push_str("}\n");
     out
+}
+
+/// A body's `vis.points` (the engine traced them with `plotPoint`) as
+/// named points `p1`, `p2`, … in declaration order, so that their paths,
+/// velocities and accelerations are results of `kinema run`. A point that
+/// is not finite (a JSON number that overflowed) is left out, with a
+/// comment.
+fn emit_vis_points(out: &mut String, body: &crate::adm::Body, ident: &str) {
+    let Some(vis) = &body.vis else { return };
+    for (k, &p) in vis.points.iter().enumerate() {
+        if p.iter().all(|v| v.is_finite()) {
+            let _ = writeln!(out, "    /// vis point {}", k + 1);
+            let _ = writeln!(out, "    point {ident}.p{} = {};", k + 1, pair(p));
+        } else {
+            let _ = writeln!(out, "    // vis point {} left out: it is not finite", k + 1);
+        }
+    }
 }
 
 fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: &[String]) {

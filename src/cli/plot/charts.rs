@@ -193,7 +193,7 @@ pub(super) fn draw_points(
 }
 
 /// Curves of one panel: colour and (t, value) points.
-type Lines = Vec<(RGBColor, Vec<(f64, f64)>)>;
+pub(super) type Lines = Vec<(RGBColor, Vec<(f64, f64)>)>;
 
 /// A typical magnitude of position, velocity and acceleration of a group
 /// of curves (`lines[order]`): the largest value, and at least the

@@ -1,7 +1,7 @@
 //! The SVG figure of `kinema run --plot`: the mechanism at several instants
 //! with the paths of its joint points (equal aspect), the driven
 //! coordinates against time, and position, velocity and acceleration of the
-//! joint points against time.
+//! joint points against time; the model's outputs (measures) against time.
 //!
 //! Layout (1400 × 1560 px): a title block; the mechanism view on the left
 //! with its legend beside it and the driven coordinates on the right; below,
@@ -13,7 +13,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::Path;
 
-use kinema::{PointKinematics, State, System, point_kinematics};
+use kinema::{PointKinematics, State, point_kinematics};
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::coord::types::RangedCoordf64;
@@ -22,6 +22,7 @@ use plotters::prelude::*;
 mod charts;
 mod legend;
 mod mechanism;
+mod outputs;
 
 use super::Failure;
 use super::load::Loaded;
@@ -125,7 +126,7 @@ impl Samples {
         self.q.get(self.range(k))
     }
 
-    fn range(&self, k: usize) -> std::ops::Range<usize> {
+    pub(super) fn range(&self, k: usize) -> std::ops::Range<usize> {
         k * self.n..(k + 1) * self.n
     }
 
@@ -177,7 +178,7 @@ impl Target {
     ///
     /// # Errors
     /// [`Failure::Analysis`] if drawing or writing fails.
-    pub fn write<S: System>(
+    pub fn write<S: kinema::Outputs>(
         mut self,
         loaded: &Loaded,
         system: &S,
@@ -186,8 +187,15 @@ impl Target {
     ) -> Result<(), Failure> {
         let scene = Scene::of(loaded, system);
         let path = self.file.path().display().to_string();
-        let (svg, warnings) = render(&scene, samples, title, &subtitle(loaded, samples))
-            .map_err(|e| Failure::analysis(format_args!("cannot draw `{path}`: {e}")))?;
+        let measures = outputs::Measures::of(system, loaded.model.derivation(), samples);
+        let (svg, warnings) = render(
+            &scene,
+            samples,
+            &measures,
+            title,
+            &subtitle(loaded, samples),
+        )
+        .map_err(|e| Failure::analysis(format_args!("cannot draw `{path}`: {e}")))?;
         for w in warnings {
             super::print_stderr(&format!("warning: `{path}`: {w}"));
         }
@@ -237,9 +245,10 @@ struct Series {
 ///
 /// # Errors
 /// Drawing errors (the SVG backend writes to a string: none expected).
-pub fn render(
+fn render(
     scene: &Scene,
     samples: &Samples,
+    measures: &outputs::Measures,
     title: &str,
     subtitle: &str,
 ) -> Result<(String, Vec<String>), Box<dyn Error>> {
@@ -275,7 +284,12 @@ pub fn render(
         720
     };
     let driven_h = if wide { 300 } else { 0 };
-    let height = HEAD + mech_h + driven_h + POINTS;
+    let measures_h = if measures.is_empty() {
+        0
+    } else {
+        outputs::HEIGHT
+    };
+    let height = HEAD + mech_h + driven_h + POINTS + measures_h;
 
     let mut svg = String::new();
     {
@@ -313,7 +327,11 @@ pub fn render(
             mechanism.draw(&view, &legend, &mut warnings)?;
             draw_driven(&driven_area, scene, samples, false, &mut warnings)?;
         }
-        draw_points(&lower, scene, samples, &series, &mut warnings)?;
+        let (points_area, measures_area) = lower.split_vertically(POINTS);
+        draw_points(&points_area, scene, samples, &series, &mut warnings)?;
+        if !measures.is_empty() {
+            outputs::draw_measures(&measures_area, measures, &mut warnings)?;
+        }
         root.present()?;
     }
     Ok((svg, warnings))
