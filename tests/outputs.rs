@@ -273,3 +273,27 @@ fn wrong_lengths_give_nan() {
     );
     assert!(y.iter().chain(&yd).chain(&ydd).all(|v| v.is_nan()));
 }
+
+/// The table's CSV has `kinema run`'s columns: coordinates, then results.
+#[test]
+fn table_csv_has_the_run_columns() {
+    let (trajectory, system) = tape("models/slider_crank.kin", &[0.0, 0.1]);
+    let table = trajectory.table(&system);
+    let mut text = Vec::new();
+    table.write_csv(&mut text).unwrap_or_else(|e| panic!("{e}"));
+    let text = String::from_utf8(text).unwrap_or_default();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    assert_eq!(header.len(), 1 + 27 + 15);
+    assert_eq!(header[28], "crank.o.x");
+    assert_eq!(header[42], "reach_ddot");
+    let row: Vec<f64> = lines
+        .nth(1)
+        .unwrap_or_default()
+        .split(',')
+        .map(|v| v.parse().unwrap_or(f64::NAN))
+        .collect();
+    assert_eq!(row[0], 0.1);
+    let reach = table.column("reach").unwrap_or_default()[1];
+    assert_eq!(row[32].to_bits(), reach.to_bits());
+}

@@ -86,6 +86,21 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
         "the result column",
         &mut taken,
     );
+    // A result's constant also carries its declaration's doc comment
+    // (units, as for params).
+    let results: Vec<(Ident, usize, String)> = results
+        .into_iter()
+        .map(
+            |(c, k, doc)| match d.outputs.get(k).filter(|o| !o.docs.is_empty()) {
+                Some(o) => (
+                    c,
+                    k,
+                    format!("{}: {}", doc.trim_end_matches('.'), o.docs.join(" ").trim()),
+                ),
+                None => (c, k, doc),
+            },
+        )
+        .collect();
     let consts = coordinates.iter().chain(&results).map(|(c, k, doc)| {
         let k = Literal::usize_unsuffixed(*k);
         quote! { #[doc = #doc] pub const #c: usize = #k; }

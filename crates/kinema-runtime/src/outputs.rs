@@ -155,3 +155,29 @@ impl Trajectory {
         Table::new(system, self)
     }
 }
+
+impl Table {
+    /// Writes the table as CSV (the command line's columns, `kinema run`'s
+    /// number format `{:e}`): a header, then one row per state.
+    ///
+    /// # Errors
+    /// Write errors of `out`.
+    pub fn write_csv<W: std::io::Write>(&self, mut out: W) -> std::io::Result<()> {
+        writeln!(out, "{}", self.names.join(","))?;
+        for r in 0..self.rows {
+            for j in 0..self.names.len() {
+                let v = self
+                    .data
+                    .get(j * self.rows + r)
+                    .copied()
+                    .unwrap_or(f64::NAN);
+                if j > 0 {
+                    out.write_all(b",")?;
+                }
+                write!(out, "{v:e}")?;
+            }
+            out.write_all(b"\n")?;
+        }
+        out.flush()
+    }
+}
