@@ -36,6 +36,11 @@ impl Selection {
     /// # Errors
     /// A usage error naming the first item that is none of these.
     pub fn parse(spec: &str, d: &Derivation) -> Result<Selection, Failure> {
+        if spec.split(',').all(|item| item.trim().is_empty()) {
+            return Err(Failure::usage(
+                "--columns is empty: expected a comma-separated list such as `bodies,outputs`",
+            ));
+        }
         let mut coords = vec![false; d.nc()];
         let mut outs = vec![false; d.outputs.len()];
         for item in spec.split(',').map(str::trim) {
@@ -145,6 +150,8 @@ mod tests {
         );
         assert!(Selection::parse("points,bar", &d).is_ok_and(|s| s.coordinates.len() == 3));
         assert!(Selection::parse("foot", &d).is_err());
+        assert!(Selection::parse(" , ", &d).is_err());
+        assert!(Selection::parse("t", &d).is_ok_and(|s| s.header(&d).is_empty()));
         Ok(())
     }
 }
