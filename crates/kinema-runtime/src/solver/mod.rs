@@ -30,15 +30,12 @@ const CONSISTENCY: f64 = 0.3;
 /// More Newton updates than this make a step be refined.
 const MAX_UPDATES_UNREFINED: usize = 8;
 
-/// A step is quiet (see [`Solver::quiet`]) when Newton's corrections are at
-/// most this fraction of the step's motion (a third of [`CONSISTENCY`]).
-const QUIET: f64 = 0.1;
-
-/// Without the predictor, a step is quiet when Newton's later updates sum
+/// A step is quiet (see [`Solver::quiet`]) when Newton's later updates sum
 /// to at most this fraction of its first: Newton contracted from its first
-/// iterate, so the solution is the one within about ‖Δq₁‖ of q0, where the
-/// branch's own lies (the first update is a first-order prediction of the
-/// motion). The branch test's own fraction, [`CONSISTENCY`].
+/// iterate, so the solution it found is the one solution within a few
+/// ‖Δq₁‖ of its start, where the branch's own lies (the start is the branch's
+/// Taylor prediction, or q0 with a first update that predicts the motion to
+/// first order). The branch test's own fraction, [`CONSISTENCY`].
 const CONTRACTED: f64 = CONSISTENCY;
 
 /// A step is quiet only with a pivot ratio at least this (ten times the
@@ -130,9 +127,8 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     bracket_b: State,
     /// Taylor prediction from the last state.
     pred: Box<[f64]>,
-    /// The last attempt's predicted motion ‖p − q0‖∞ (`None` when Newton
-    /// started from q0) and Newton's travel (see [`quiet`](Self::quiet)).
-    motion: Option<f64>,
+    /// How far Newton moved q in the last attempt (see
+    /// [`quiet`](Self::quiet)).
     travel: Travel,
     assembled: bool,
     /// The system was lent out mutably since the last step (its parameters
@@ -194,7 +190,6 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             bracket_a: State::zeros(n),
             bracket_b: State::zeros(n),
             pred: vec![0.0; n].into_boxed_slice(),
-            motion: None,
             travel: Travel::default(),
             assembled: false,
             changed: false,
@@ -424,12 +419,11 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// [`attempt`](Self::attempt), Newton starting from the prediction or,
     /// with `predict` false, from the current q.
     fn attempt_from(&mut self, t: f64, predict: bool) -> Result<(), Error> {
-        self.motion = if predict {
-            predict_into(&self.state, t, &mut self.next.q)
+        if predict {
+            predict_into(&self.state, t, &mut self.next.q);
         } else {
             self.next.q.copy_from_slice(&self.state.q);
-            None
-        };
+        }
         let solved = self.solve_inner(t);
         if solved.is_err() {
             self.factorization = Factorization::None;
@@ -528,20 +522,14 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// branch unseen, so that the branch test ([`acceptable`](Self::acceptable))
     /// is not needed: from a regular, unrefined state, with the monitor's
     /// pivot ratio steady (at least [`WATCH_RATIO`] and at least half the
-    /// last state's: the condition is not growing) and Newton's corrections
-    /// small against the step — with the predictor, Newton moved q by at
-    /// most [`QUIET`] × the predicted motion (then ‖q − p‖∞ ≤ Σ ‖Δqₖ‖∞ passes
-    /// the position test by itself); without it, Newton's later updates sum
-    /// to at most [`CONTRACTED`] × its first (it converged from its first iterate,
-    /// a first-order prediction of the motion; see [`CONTRACTED`]). Reads a
-    /// few numbers.
+    /// last state's: the condition is not growing) and Newton contracted from
+    /// its start (its later updates sum to at most [`CONTRACTED`] × its
+    /// first; a correction large against the step is not quiet). Reads a few
+    /// numbers: the per-step price of the monitor.
     fn quiet(&self) -> bool {
         let (base, stats) = (&self.state.stats, &self.next.stats);
         let Travel { first, later } = self.travel;
-        let newton_quiet = match self.motion {
-            Some(motion) => first + later <= QUIET * motion,
-            None => later <= CONTRACTED * first,
-        };
+        let newton_quiet = later <= CONTRACTED * first;
         let ratio_steady =
             stats.pivot_ratio >= WATCH_RATIO && stats.pivot_ratio >= 0.5 * base.pivot_ratio;
         let base_regular = base.substeps == 0 && !base.near_singular;
@@ -729,21 +717,16 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 }
 
 /// The Taylor prediction q + h q̇ + h²/2 q̈ of `state` at `t` (h = t − its
-/// time) into `out`; returns the predicted motion ‖p − q‖∞ (NaN-blind:
-/// the caller's test rejects a non-finite prediction).
-fn predict_into(state: &State, t: f64, out: &mut [f64]) -> Option<f64> {
+/// time) into `out`.
+#[inline]
+fn predict_into(state: &State, t: f64, out: &mut [f64]) {
     let h = t - state.t;
     let half_h2 = 0.5 * h * h;
     let n = out.len();
     let (q, qd, qdd) = (&state.q[..n], &state.qd[..n], &state.qdd[..n]);
-    let mut motion = 0.0;
     for i in 0..n {
-        let p = q[i] + h * qd[i] + half_h2 * qdd[i];
-        out[i] = p;
-        let d = (p - q[i]).abs();
-        motion = if d > motion { d } else { motion };
+        out[i] = q[i] + h * qd[i] + half_h2 * qdd[i];
     }
-    Some(motion)
 }
 
 /// A velocity this large has a square within a factor 10⁶ of overflow: a

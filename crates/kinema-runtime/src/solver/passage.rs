@@ -338,7 +338,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// the Taylor prediction from the current state as q if Φ is nearly
     /// satisfied there (the caller then bridges the rates).
     fn limit(&mut self, t: f64) -> bool {
-        let _ = predict_into(&self.state, t, &mut self.pred);
+        predict_into(&self.state, t, &mut self.pred);
         self.system
             .phi(&mut self.scratch, &self.pred, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
