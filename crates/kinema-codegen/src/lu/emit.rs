@@ -438,6 +438,7 @@ impl Plan {
             ..
         } = memo;
         let solve = self.emit_solve(&stored);
+        let solve_transpose = self.emit_solve_transpose(&stored);
         let doc = self.type_doc(system, fallback);
         quote! {
             #[doc = #doc]
@@ -495,6 +496,21 @@ impl Plan {
                     };
                     let f = &self.f;
                     #solve
+                    Ok(())
+                }
+
+                fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
+                    match self.active {
+                        Self::STATIC => {}
+                        Self::FALLBACK => return #rt::LinearSolver::solve_transpose_in_place(&mut self.fallback, rhs),
+                        _ => return Err(#rt::LinalgError::NotFactored),
+                    }
+                    let found = rhs.len();
+                    let Ok(b) = <&mut [f64; #n_lit]>::try_from(rhs) else {
+                        return Err(#rt::LinalgError::Dimension { what: "right-hand side", expected: #n_lit, found });
+                    };
+                    let f = &self.f;
+                    #solve_transpose
                     Ok(())
                 }
 
@@ -704,6 +720,62 @@ impl Plan {
             let c = Literal::usize_unsuffixed(self.col_order[k]);
             let yk = y(k);
             out.extend(quote!(b[#c] = #yk;));
+        }
+        out
+    }
+
+    /// Aᵀ x = b on `b` with the same factors, P A Q = L U so Aᵀ = Q Uᵀ Lᵀ P:
+    /// w = Qᵀ b, Uᵀ s = w (forward), Lᵀ u = s (backward), x = Pᵀ u. Used by
+    /// inverse dynamics only, so it is plain array code without the
+    /// inlining of [`Plan::emit_solve`].
+    fn emit_solve_transpose(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
+        let n = self.n;
+        let val = |v: Val| -> TokenStream {
+            match v {
+                Val::Const(c) => lit(c),
+                Val::Var(x) => {
+                    let slot = stored
+                        .get(&x)
+                        .copied()
+                        .expect("every run-time value the solves read is stored (Plan::stored)");
+                    let slot = Literal::usize_unsuffixed(slot);
+                    quote!(f[#slot])
+                }
+            }
+        };
+        let mut u_cols: Vec<Vec<(Val, usize)>> = vec![Vec::new(); n];
+        for &(k, j, u) in &self.upper {
+            u_cols[j].push((u, k));
+        }
+        let mut l_cols: Vec<Vec<(Val, usize)>> = vec![Vec::new(); n];
+        for &(i, k, l) in &self.lower {
+            l_cols[k].push((l, i));
+        }
+        let n_lit = Literal::usize_unsuffixed(n);
+        let mut out = quote!(let mut y = [0.0f64; #n_lit];);
+        for (k, &c) in self.col_order.iter().enumerate() {
+            let (k, c) = (Literal::usize_unsuffixed(k), Literal::usize_unsuffixed(c));
+            out.extend(quote!(y[#k] = b[#c];));
+        }
+        for (j, col) in u_cols.iter().enumerate() {
+            let jl = Literal::usize_unsuffixed(j);
+            for &(u, k) in col {
+                let (k, u) = (Literal::usize_unsuffixed(k), val(u));
+                out.extend(quote!(y[#jl] -= #u * y[#k];));
+            }
+            let inv = val(self.inv[j]);
+            out.extend(quote!(y[#jl] *= #inv;));
+        }
+        for (k, col) in l_cols.iter().enumerate().rev() {
+            let kl = Literal::usize_unsuffixed(k);
+            for &(l, i) in col {
+                let (i, l) = (Literal::usize_unsuffixed(i), val(l));
+                out.extend(quote!(y[#kl] -= #l * y[#i];));
+            }
+        }
+        for (k, &r) in self.row_order.iter().enumerate() {
+            let (k, r) = (Literal::usize_unsuffixed(k), Literal::usize_unsuffixed(r));
+            out.extend(quote!(b[#r] = y[#k];));
         }
         out
     }

@@ -77,6 +77,13 @@ impl LinearSolver for Auto {
         }
     }
 
+    fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        match self {
+            Self::Dense(lu) => lu.solve_transpose_in_place(rhs),
+            Self::Sparse(lu) => lu.solve_transpose_in_place(rhs),
+        }
+    }
+
     fn pivot_report(&self) -> Option<PivotReport> {
         match self {
             Self::Dense(lu) => lu.pivot_report(),

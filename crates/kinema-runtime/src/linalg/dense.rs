@@ -92,6 +92,18 @@ impl<const N: usize> LinearSolver for DenseLu<N> {
         Ok(())
     }
 
+    fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", N, rhs.len())?;
+        match self.replay.active {
+            Active::None => return Err(LinalgError::NotFactored),
+            Active::Kernel => {
+                solve_transpose(self.a.as_flattened(), N, &self.piv, &self.inv_diag, rhs)
+            }
+            Active::Schedule => self.replay.schedule.solve_transpose(rhs),
+        }
+        Ok(())
+    }
+
     fn pivot_report(&self) -> Option<PivotReport> {
         self.replay.report(&self.piv, &self.inv_diag, self.scale)
     }
@@ -154,6 +166,16 @@ impl LinearSolver for DynDenseLu {
             Active::None => return Err(LinalgError::NotFactored),
             Active::Kernel => solve(&self.a, self.n, &self.piv, &self.inv_diag, rhs),
             Active::Schedule => self.replay.schedule.solve(rhs),
+        }
+        Ok(())
+    }
+
+    fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", self.n, rhs.len())?;
+        match self.replay.active {
+            Active::None => return Err(LinalgError::NotFactored),
+            Active::Kernel => solve_transpose(&self.a, self.n, &self.piv, &self.inv_diag, rhs),
+            Active::Schedule => self.replay.schedule.solve_transpose(rhs),
         }
         Ok(())
     }
@@ -358,6 +380,34 @@ fn solve(a: &[f64], n: usize, piv: &[usize], inv_diag: &[f64], x: &mut [f64]) {
         let row = &a[i * n + i + 1..(i + 1) * n];
         let s: f64 = row.iter().zip(&x[i + 1..]).map(|(u, y)| u * y).sum();
         x[i] = (x[i] - s) * inv_diag[i];
+    }
+}
+
+/// Solves Aᵀ x = b for PA = LU, in place, given
+/// the output of [`factor_in_place`]: Uᵀ z = b, Lᵀ w = z, x = Pᵀ w.
+#[inline(always)]
+fn solve_transpose(a: &[f64], n: usize, piv: &[usize], inv_diag: &[f64], x: &mut [f64]) {
+    // Forward: Uᵀ z = b, Uᵀ lower triangular (column i of U above the diagonal).
+    for i in 0..n {
+        let s: f64 = x[..i]
+            .iter()
+            .enumerate()
+            .map(|(k, z)| a[k * n + i] * z)
+            .sum();
+        x[i] = (x[i] - s) * inv_diag[i];
+    }
+    // Backward: Lᵀ w = z, Lᵀ unit upper triangular (column i of L below).
+    for i in (0..n).rev() {
+        let s: f64 = x[i + 1..n]
+            .iter()
+            .enumerate()
+            .map(|(d, w)| a[(i + 1 + d) * n + i] * w)
+            .sum();
+        x[i] -= s;
+    }
+    // x = Pᵀ w: the interchanges undone in reverse order.
+    for (k, &p) in piv.iter().enumerate().take(n).rev() {
+        x.swap(k, p);
     }
 }
 

@@ -210,6 +210,12 @@ pub trait LinearSolver: Sized {
     /// factorization. Does not allocate.
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError>;
 
+    /// Overwrites `rhs` = b with x = A⁻ᵀ b (solves Aᵀ x = b) with the same
+    /// factorization [`solve_in_place`](Self::solve_in_place) uses: no
+    /// second factorization (inverse dynamics, Φ_qᵀ λ = Q − M q̈). Does not
+    /// allocate.
+    fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError>;
+
     /// The pivots of the last successful factorization (see
     /// [`PivotReport`]), or `None` if the solver does not track them or
     /// nothing is factored. O(n) at most; does not allocate.

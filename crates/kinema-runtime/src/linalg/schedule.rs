@@ -465,6 +465,35 @@ impl Schedule {
             b[c as usize] = yk;
         }
     }
+    /// Overwrites b with A⁻ᵀ b using the last successful replay (the same
+    /// factors read the other way). The caller has checked the length.
+    ///
+    /// P A Q = L U gives Aᵀ = Q Uᵀ Lᵀ P: w = Qᵀ b, Uᵀ v = w (forward, U's
+    /// rows read first row first), Lᵀ u = v (backward, L's columns last
+    /// first), x = Pᵀ u.
+    pub(crate) fn solve_transpose(&mut self, b: &mut [f64]) {
+        let y = &mut self.work[..];
+        for (yk, &c) in y.iter_mut().zip(&self.col_order) {
+            *yk = b[c as usize];
+        }
+        // U = D (I + N), N_kj = u_kj / u_kk stored; Uᵀ v = w is
+        // (I + Nᵀ) s = w then v = D⁻¹ s. Row k's entries reach s_j, j > k,
+        // and s_k is final once the rows above k are done.
+        for ((&k, &j), &u) in self.u_row.iter().zip(&self.u_col).zip(&self.u_val).rev() {
+            y[j as usize] -= u * y[k as usize];
+        }
+        for (yk, &inv) in y.iter_mut().zip(&self.inv_diag) {
+            *yk *= inv;
+        }
+        // Lᵀ u = v: column k's entries l_ik (i > k) give u_k −= l_ik u_i;
+        // columns from the last, so u_i is final when reached.
+        for ((&i, &k), &l) in self.l_row.iter().zip(&self.l_col).zip(&self.l_val).rev() {
+            y[k as usize] -= l * y[i as usize];
+        }
+        for (&yk, &r) in y.iter().zip(&self.row_order) {
+            b[r as usize] = yk;
+        }
+    }
 }
 
 /// max |v| over `values`, and whether all are finite, in one branch-free

@@ -27,7 +27,7 @@ use faer::sparse::linalg::LuError;
 use faer::sparse::linalg::colamd;
 use faer::sparse::linalg::lu::simplicial::{
     SimplicialLu, factorize_simplicial_numeric_lu, factorize_simplicial_numeric_lu_scratch,
-    solve_in_place_scratch,
+    solve_in_place_scratch, solve_transpose_in_place_scratch,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
@@ -137,6 +137,7 @@ impl LinearSolver for SparseLu {
         let req = StackReq::any_of(&[
             factorize_simplicial_numeric_lu_scratch::<usize, f64>(n, n),
             solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq),
+            solve_transpose_in_place_scratch::<usize, f64>(n, 1, Par::Seq),
         ]);
         let scratch =
             MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
@@ -204,6 +205,21 @@ impl LinearSolver for SparseLu {
             }
             Active::Faer => {
                 self.solve_with_faer(rhs);
+                Ok(())
+            }
+        }
+    }
+
+    fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
+        check_len("right-hand side", self.n, rhs.len())?;
+        match self.active {
+            Active::None => Err(LinalgError::NotFactored),
+            Active::Schedule => {
+                self.schedule.solve_transpose(rhs);
+                Ok(())
+            }
+            Active::Faer => {
+                self.solve_transpose_with_faer(rhs);
                 Ok(())
             }
         }
@@ -289,6 +305,20 @@ impl SparseLu {
             det_sign: sign,
         };
         Ok(())
+    }
+
+    fn solve_transpose_with_faer(&mut self, rhs: &mut [f64]) {
+        let n = self.n;
+        let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, n);
+        let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
+        self.lu.solve_transpose_in_place_with_conj(
+            row_perm,
+            col_perm,
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.scratch),
+        );
     }
 
     fn solve_with_faer(&mut self, rhs: &mut [f64]) {
