@@ -137,6 +137,9 @@ pub struct Derivation {
     /// Named points (`.x`, `.y`) then measures, with their derivatives
     /// ([`crate::outputs`]).
     pub outputs: Vec<crate::outputs::OutputColumn>,
+    /// Mass matrix, applied forces, their derivatives and the reactions'
+    /// arms; `None` for a kinematic model.
+    pub dynamics: Option<crate::dynamics::DynamicsDerivation>,
 }
 
 impl Derivation {
@@ -324,6 +327,10 @@ impl Derivation {
             budget,
         };
         let outputs = crate::outputs::derive_outputs(model, &lo, &mut arena, &along)?;
+        let dynamics = model
+            .dynamics
+            .as_ref()
+            .map(|d| crate::dynamics::derive(&lo, &mut arena, model, d, &rows, &phi_q, seeds));
 
         Ok(Derivation {
             name: model.name.clone(),
@@ -346,6 +353,7 @@ impl Derivation {
             gamma,
             dof: model.dof(),
             outputs,
+            dynamics,
             arena,
         })
     }

@@ -29,6 +29,8 @@ pub(crate) struct Lowerer<'m> {
     pub(crate) params: Vec<ExprId>,
     /// `[x, y, phi]` per body.
     pub(crate) coords: Vec<[ExprId; 3]>,
+    /// `[x_dot, y_dot, phi_dot]` per body (the derivation's velocity symbols).
+    pub(crate) velocities: Vec<[ExprId; 3]>,
     pub(crate) time: ExprId,
     /// Local coordinates of each named point.
     pub(crate) point_locals: Vec<Vec2>,
@@ -57,11 +59,27 @@ impl<'m> Lowerer<'m> {
                 ]
             })
             .collect();
+        // Time before the velocities: the order in which derive.rs created
+        // symbols before the lowerer made velocities.
         let time = arena.time();
+        let velocities = model
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(k, b)| {
+                let base = 3 * k;
+                [
+                    arena.velocity(&format!("{}.x_dot", b.name), idx(base)),
+                    arena.velocity(&format!("{}.y_dot", b.name), idx(base + 1)),
+                    arena.velocity(&format!("{}.phi_dot", b.name), idx(base + 2)),
+                ]
+            })
+            .collect();
         let mut me = Lowerer {
             model: Some(model),
             params,
             coords,
+            velocities,
             time,
             point_locals: Vec::new(),
         };
@@ -80,6 +98,7 @@ impl<'m> Lowerer<'m> {
             model: None,
             params: Vec::new(),
             coords: Vec::new(),
+            velocities: Vec::new(),
             time: arena.time(),
             point_locals: Vec::new(),
         }
@@ -239,6 +258,11 @@ impl<'m> Lowerer<'m> {
                         Comp::Phi => xyz[2],
                     })
                 }
+                TNode::Vel(k, c) => Value::S(
+                    self.velocities
+                        .get(k as usize)
+                        .map_or(zero, |v| v[c as usize]),
+                ),
                 TNode::Point(body, local) => {
                     let l = w(&vals, local);
                     Value::V(self.global(arena, body, l))
@@ -320,7 +344,12 @@ impl<'m> Lowerer<'m> {
 /// The operands of a typed node.
 fn children(n: &TNode, out: &mut Vec<u32>) {
     match *n {
-        TNode::Num(_) | TNode::Pi | TNode::Time | TNode::Param(_) | TNode::Coord(..) => {}
+        TNode::Num(_)
+        | TNode::Pi
+        | TNode::Time
+        | TNode::Param(_)
+        | TNode::Coord(..)
+        | TNode::Vel(..) => {}
         TNode::NamedPoint(_) => {}
         TNode::Point(_, a)
         | TNode::X(a)

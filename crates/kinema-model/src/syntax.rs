@@ -42,7 +42,14 @@ pub(crate) mod kw {
     syn::custom_keyword!(guess);
     syn::custom_keyword!(doc);
     syn::custom_keyword!(output);
+    syn::custom_keyword!(mass);
+    syn::custom_keyword!(inertia);
+    syn::custom_keyword!(gravity);
+    syn::custom_keyword!(force);
 }
+
+mod dynamics;
+pub use dynamics::{ForceDecl, GravityDecl};
 
 /// Deepest nesting of parentheses, calls and groups accepted in one
 /// expression. Deeper input is rejected with an error instead of risking the
@@ -76,6 +83,10 @@ pub enum Item {
     Equation(EquationDecl),
     /// `output name: expr;` (a measure, see [`crate::outputs`])
     Output(crate::outputs::OutputDecl),
+    /// `gravity = (gx, gy);`
+    Gravity(GravityDecl),
+    /// `force name: element(…);`
+    Force(ForceDecl),
 }
 
 /// `param name = expr;`
@@ -100,6 +111,11 @@ pub struct BodyDecl {
     pub name: Ident,
     /// The initial guess `(x, y, phi)`, if written.
     pub guess: Option<[Expr; 3]>,
+    /// Its mass (`mass: m`), if written: dynamics.
+    pub mass: Option<Expr>,
+    /// Its polar moment of inertia about its frame's origin (`inertia: J`),
+    /// if written: dynamics.
+    pub inertia: Option<Expr>,
 }
 
 /// `point body.name = (sx, sy);`
@@ -740,42 +756,13 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         input.parse::<kw::body>()?;
         let name = name(input, "the body's name after `body`")?;
         let lookahead = input.lookahead1();
-        let guess = if lookahead.peek(Token![;]) {
+        let fields = if lookahead.peek(Token![;]) {
             input.parse::<Token![;]>()?;
-            None
+            dynamics::BodyFields::default()
         } else if lookahead.peek(syn::token::Brace) {
             let content;
             braced!(content in input);
-            let mut guess = None;
-            if !content.is_empty() {
-                expect::<kw::guess>(&content, "`guess` or `}`")?;
-                expect::<Token![:]>(&content, "`:` after `guess`")?;
-                if !content.peek(syn::token::Paren) {
-                    return Err(expected(&content, "`(x, y, phi)` after `guess:`"));
-                }
-                let inner;
-                parenthesized!(inner in content);
-                let x: Expr = inner.parse()?;
-                expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
-                let y: Expr = inner.parse()?;
-                expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
-                let phi: Expr = inner.parse()?;
-                if inner.peek(Token![,]) {
-                    inner.parse::<Token![,]>()?;
-                }
-                if !inner.is_empty() {
-                    // error: expected `)`: a guess is `(x, y, phi)`, found `,`
-                    return Err(expected(&inner, "`)`: a guess is `(x, y, phi)`"));
-                }
-                if content.peek(Token![,]) {
-                    content.parse::<Token![,]>()?;
-                }
-                if !content.is_empty() {
-                    return Err(expected(&content, "`}`: a body has only a `guess`"));
-                }
-                guess = Some([x, y, phi]);
-            }
-            guess
+            dynamics::parse_body_fields(&content)?
         } else {
             // error: expected `;` or `{ guess: (x, y, phi) }` after the body's name, found `(`
             return Err(expected(
@@ -783,7 +770,13 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
                 "`;` or `{ guess: (x, y, phi) }` after the body's name",
             ));
         };
-        Ok(Item::Body(BodyDecl { docs, name, guess }))
+        Ok(Item::Body(BodyDecl {
+            docs,
+            name,
+            guess: fields.guess,
+            mass: fields.mass,
+            inertia: fields.inertia,
+        }))
     } else if lookahead.peek(kw::point) {
         input.parse::<kw::point>()?;
         // point body.name = (sx, sy);
@@ -844,6 +837,10 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         }))
     } else if lookahead.peek(kw::output) {
         crate::outputs::parse_output(input, docs).map(Item::Output)
+    } else if lookahead.peek(kw::gravity) {
+        dynamics::parse_gravity(input).map(Item::Gravity)
+    } else if lookahead.peek(kw::force) {
+        dynamics::parse_force(input, docs).map(Item::Force)
     } else {
         // error: expected an item (`param`, `body`, `point`, `joint`, `constraint`, `driver` or `output`), found `bdy`
         Err(expected(

@@ -268,9 +268,11 @@ fn check_lib_arg(
     let node = expr.node(a);
     let none = Deps::default();
     match kind {
-        ArgKind::Body => check_body_arg(cx, names, expr, a, spec).map(|b| (LibArg::Body(b), none)),
+        ArgKind::Body => {
+            check_body_arg(cx, names, expr, a, spec.signature).map(|b| (LibArg::Body(b), none))
+        }
         ArgKind::Point => {
-            let (b, local) = check_point_arg(cx, names, expr, a, spec, values.len())?;
+            let (b, local) = check_point_arg(cx, names, expr, a, spec.signature, values.len())?;
             let v = eval_vector(&local, values);
             finite_vector(cx, v, node.span, &local, values);
             Some((LibArg::Point(b, local), none))
@@ -298,12 +300,12 @@ fn check_lib_arg(
 
 /// A body argument: a body's name or `ground`.
 ///   error: expected a body name (or `ground`) in `rel_angle(Bi, Bj, f)`
-fn check_body_arg(
+pub(super) fn check_body_arg(
     cx: &mut Ctxt,
     names: &Names<'_>,
     expr: &syntax::Expr,
     a: u32,
-    spec: &LibSpec,
+    signature: &str,
 ) -> Option<BodyRef> {
     let node = expr.node(a);
     if let ExprKind::Ident(id) = &node.kind {
@@ -311,7 +313,7 @@ fn check_body_arg(
     }
     cx.error(
         node.span,
-        format!("expected a body name (or `ground`) in `{}`", spec.signature),
+        format!("expected a body name (or `ground`) in `{signature}`"),
     );
     None
 }
@@ -348,12 +350,12 @@ fn check_distinct_bodies(
 
 /// A point argument: `B(sx, sy)`, `B.name` or `ground(x, y)`.
 ///   error: expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `revolute(Pi, Pj)`
-fn check_point_arg(
+pub(super) fn check_point_arg(
     cx: &mut Ctxt,
     names: &Names<'_>,
     expr: &syntax::Expr,
     a: u32,
-    spec: &LibSpec,
+    signature: &str,
     all_params: usize,
 ) -> Option<(BodyRef, TExpr)> {
     let node = expr.node(a);
@@ -382,8 +384,7 @@ fn check_point_arg(
             cx.error(
                 node.span,
                 format!(
-                    "expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{}`",
-                    spec.signature
+                    "expected a point (`B(sx, sy)`, `B.name` or `ground(x, y)`) in `{signature}`"
                 ),
             );
             None
@@ -435,7 +436,7 @@ fn vector_of(x: TExpr, y: TExpr) -> TExpr {
 fn shift(n: TNode, off: u32) -> TNode {
     use TNode::*;
     match n {
-        Num(_) | Pi | Time | Param(_) | Coord(..) | NamedPoint(_) => n,
+        Num(_) | Pi | Time | Param(_) | Coord(..) | Vel(..) | NamedPoint(_) => n,
         Point(b, a) => Point(b, a + off),
         Vec(a, b) => Vec(a + off, b + off),
         X(a) => X(a + off),

@@ -23,7 +23,7 @@ fn eval(t: &TExpr, params: &[f64]) -> [f64; 2] {
                 // Not constants: absent from a constant, but a caller may
                 // evaluate a prefix of an equation's nodes whose last node
                 // is one (points.rs); their values are never read.
-                TNode::Coord(..) => TNode::Num(f64::NAN),
+                TNode::Coord(..) | TNode::Vel(..) => TNode::Num(f64::NAN),
                 TNode::Point(_, a) => TNode::Point(BodyRef::Ground, a),
                 ref n => n.clone(),
             })

@@ -198,6 +198,9 @@ impl ExprCheck<'_, '_> {
             return None; // poisoned
         };
         let f = field.to_string();
+        if let Some(node) = super::dynamics::check_velocity(cx, self.names, body, &f, span) {
+            return node;
+        }
         let comp = match f.as_str() {
             "x" => Some(Comp::X),
             "y" => Some(Comp::Y),

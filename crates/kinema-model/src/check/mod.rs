@@ -22,6 +22,7 @@
 mod call;
 mod count;
 mod decls;
+mod dynamics;
 mod equation;
 mod eval;
 mod expr;
@@ -37,11 +38,17 @@ use crate::diagnostic::{Diagnostic, Diagnostics};
 use crate::span::Span;
 use crate::syntax::{self, ExprKind};
 
+pub use dynamics::{Dynamics, Force, ForceKind, Inertia};
 pub use library::LibKind;
 pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
 pub(crate) use model::{Form, LibArg, TExpr, TNode};
 pub use output::Output;
 pub(crate) use output::point_columns;
+
+/// `i` as a body index (declarations are counted in u32).
+pub(crate) fn idx_u32(i: usize) -> u32 {
+    idx(i)
+}
 
 pub(crate) use eval::eval_vector;
 
@@ -97,6 +104,8 @@ struct Names<'a> {
     accepted: Vec<String>,
     points: HashMap<(BodyRef, String), u32>,
     point_decls: &'a [Point],
+    /// Whether velocities (`B.x_dot`) may appear: in forces only.
+    velocities: bool,
 }
 
 impl Names<'_> {
@@ -113,6 +122,7 @@ impl Names<'_> {
             accepted,
             points: HashMap::new(),
             point_decls: &[],
+            velocities: false,
         }
     }
 
@@ -158,6 +168,8 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     let bodies = decls::check_guesses(&mut cx, &names, &declared.bodies, &values);
     let (equations, rows_known) = equation::check_equations(&mut cx, &names, mech, &values);
     let outputs = output::check_outputs(&mut cx, &names, mech, &bodies, &out_points);
+    names.velocities = true;
+    let dynamics = dynamics::check_dynamics(&mut cx, &names, mech, &values);
     let mut model = CheckedModel {
         name: mech.name.to_string(),
         span: Span::new(mech.name.span()),
@@ -168,6 +180,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         equations,
         outputs,
         warnings: Diagnostics::new(),
+        dynamics,
     };
     // Counts over a model with missing or bad declarations would mislead.
     if rows_known && cx.error_count() == 0 {

@@ -45,6 +45,8 @@ pub(crate) enum TNode {
     Time,
     Param(u32),
     Coord(u32, Comp),
+    /// The velocity of a coordinate (`B.x_dot`): in forces only.
+    Vel(u32, Comp),
     /// Global position of the body-fixed point whose local coordinates are
     /// the vector node.
     Point(BodyRef, u32),
@@ -273,6 +275,9 @@ pub struct CheckedModel {
     pub outputs: Vec<super::Output>,
     /// Warnings found while checking (e.g. a driver that does not depend on `t`).
     pub warnings: Diagnostics,
+    /// Inertia, gravity and forces; `None` for a kinematic model (no
+    /// `mass`, `inertia`, `gravity` or `force` anywhere).
+    pub dynamics: Option<super::dynamics::Dynamics>,
 }
 
 impl CheckedModel {
