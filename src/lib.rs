@@ -34,13 +34,15 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Error, LinalgError, LinearSolver,
-    LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank,
-    RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory,
-    diagnose, point_kinematics,
+    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, InverseDynamics,
+    LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport,
+    PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu, State,
+    StepStats, System, Trajectory, diagnose, point_kinematics,
 };
 pub use kinema_runtime::{Outputs, Table};
 
+#[cfg(feature = "model")]
+pub mod dynamics;
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
@@ -55,8 +57,8 @@ pub mod sweep;
 pub mod __private {
     pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
-        Auto, DenseLu, Error, LinalgError, LinearSolver, LinearSolverFor, Options, Outputs,
-        PivotReport, Solver, SparseLu, State, System,
+        Auto, DenseLu, Dynamics, Error, LinalgError, LinearSolver, LinearSolverFor, Options,
+        Outputs, PivotReport, ReactionSpec, Solver, SparseLu, State, System,
     };
 }
 

@@ -209,6 +209,8 @@ pub struct TapeSystem {
     gamma: Tape,
     /// Named points and measures with their derivatives.
     pub(crate) outputs: crate::model_outputs::OutputTape,
+    /// Inverse dynamics (see [`crate::dynamics`]).
+    dynamics: crate::dynamics::TapeDynamics,
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
     zeros: Vec<f64>,
@@ -231,12 +233,14 @@ impl TapeSystem {
             Tape::compile(a, &d.gamma),
         ];
         let outputs = crate::model_outputs::OutputTape::new(d);
+        let dynamics = crate::dynamics::TapeDynamics::new(d);
         let registers = tapes
             .iter()
             .map(Tape::registers)
             .max()
             .unwrap_or(0)
-            .max(outputs.registers());
+            .max(outputs.registers())
+            .max(dynamics.registers());
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
         let n = d.nc();
         TapeSystem {
@@ -253,6 +257,7 @@ impl TapeSystem {
             nu,
             gamma,
             outputs,
+            dynamics,
             registers,
         }
     }
@@ -316,6 +321,13 @@ impl TapeSystem {
             registers.resize(tape.registers(), 0.0);
         }
         registers
+    }
+}
+
+impl TapeSystem {
+    /// The inverse-dynamics part (crate-internal).
+    pub(crate) fn dynamics_part(&self) -> &crate::dynamics::TapeDynamics {
+        &self.dynamics
     }
 }
 

@@ -221,6 +221,10 @@ pub enum Quantity {
     Velocity,
     /// q̈.
     Acceleration,
+    /// An entry of M or Q_A (inverse dynamics).
+    AppliedForce,
+    /// A Lagrange multiplier λ (inverse dynamics).
+    Multiplier,
 }
 
 impl fmt::Display for Quantity {
@@ -234,6 +238,8 @@ impl fmt::Display for Quantity {
             Self::Position => "position",
             Self::Velocity => "velocity",
             Self::Acceleration => "acceleration",
+            Self::AppliedForce => "applied force or mass",
+            Self::Multiplier => "Lagrange multiplier",
         })
     }
 }

@@ -43,6 +43,7 @@
 
 pub mod csv;
 pub mod diagnose;
+pub mod dynamics;
 pub mod error;
 pub mod event;
 #[cfg(feature = "handwritten")]
@@ -59,6 +60,7 @@ pub mod trajectory;
 
 pub use csv::CsvWriter;
 pub use diagnose::{Rank, RankError};
+pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
 pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
 pub use kinematics::{PointKinematics, point_kinematics};

@@ -82,6 +82,27 @@ impl Scaling {
         Ok(())
     }
 
+    /// Overwrites `rhs` = b with Φ_q⁻ᵀ b from the last factorization:
+    /// (R Φ_q C)ᵀ y = C b, x = R y.
+    #[inline]
+    pub(crate) fn solve_transpose<L: LinearSolver>(
+        &self,
+        lu: &mut L,
+        rhs: &mut [f64],
+    ) -> Result<(), LinalgError> {
+        if !self.active {
+            return lu.solve_transpose_in_place(rhs);
+        }
+        for (x, &c) in rhs.iter_mut().zip(self.eq.col.iter()) {
+            *x *= c;
+        }
+        lu.solve_transpose_in_place(rhs)?;
+        for (x, &r) in rhs.iter_mut().zip(self.eq.row.iter()) {
+            *x *= r;
+        }
+        Ok(())
+    }
+
     /// Switches to the equilibrated form, with factors computed from `jac`
     /// (the caller factors again).
     pub(crate) fn switch_on(&mut self, pattern: &[(u32, u32)], jac: &[f64]) {

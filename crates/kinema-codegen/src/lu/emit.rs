@@ -730,16 +730,33 @@ impl Plan {
     /// inlining of [`Plan::emit_solve`].
     fn emit_solve_transpose(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
         let n = self.n;
-        let val = |v: Val| -> TokenStream {
+        let val = |v: Val| -> Result<TokenStream, f64> {
             match v {
-                Val::Const(c) => lit(c),
+                Val::Const(c) => Err(c),
                 Val::Var(x) => {
                     let slot = stored
                         .get(&x)
                         .copied()
                         .expect("every run-time value the solves read is stored (Plan::stored)");
                     let slot = Literal::usize_unsuffixed(slot);
-                    quote!(f[#slot])
+                    Ok(quote!(f[#slot]))
+                }
+            }
+        };
+        // y[a] −= c · y[b], with the constants ±1 and 0 folded.
+        let update = |a: &Literal, c: Val, b: &Literal| -> TokenStream {
+            match val(c) {
+                Ok(v) => quote!(y[#a] -= #v * y[#b];),
+                Err(0.0) => quote!(),
+                Err(1.0) => quote!(y[#a] -= y[#b];),
+                Err(-1.0) => quote!(y[#a] += y[#b];),
+                Err(k) if k < 0.0 => {
+                    let k = lit(-k);
+                    quote!(y[#a] += #k * y[#b];)
+                }
+                Err(k) => {
+                    let k = lit(k);
+                    quote!(y[#a] -= #k * y[#b];)
                 }
             }
         };
@@ -760,17 +777,22 @@ impl Plan {
         for (j, col) in u_cols.iter().enumerate() {
             let jl = Literal::usize_unsuffixed(j);
             for &(u, k) in col {
-                let (k, u) = (Literal::usize_unsuffixed(k), val(u));
-                out.extend(quote!(y[#jl] -= #u * y[#k];));
+                out.extend(update(&jl, u, &Literal::usize_unsuffixed(k)));
             }
-            let inv = val(self.inv[j]);
-            out.extend(quote!(y[#jl] *= #inv;));
+            out.extend(match val(self.inv[j]) {
+                Ok(v) => quote!(y[#jl] *= #v;),
+                Err(1.0) => quote!(),
+                Err(-1.0) => quote!(y[#jl] = -y[#jl];),
+                Err(c) => {
+                    let c = lit(c);
+                    quote!(y[#jl] *= #c;)
+                }
+            });
         }
         for (k, col) in l_cols.iter().enumerate().rev() {
             let kl = Literal::usize_unsuffixed(k);
             for &(l, i) in col {
-                let (i, l) = (Literal::usize_unsuffixed(i), val(l));
-                out.extend(quote!(y[#kl] -= #l * y[#i];));
+                out.extend(update(&kl, l, &Literal::usize_unsuffixed(i)));
             }
         }
         for (k, &r) in self.row_order.iter().enumerate() {

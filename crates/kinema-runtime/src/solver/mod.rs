@@ -127,6 +127,12 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     bracket_b: State,
     /// Taylor prediction from the last state.
     pred: Box<[f64]>,
+    /// The q and t at which the LU and `ws.jac` hold Φ_q (t is NaN when
+    /// they hold something else), and whether that factorization was
+    /// equilibrated: inverse dynamics reuses it for the state kept.
+    factored_q: Box<[f64]>,
+    factored_t: f64,
+    factored_scaled: bool,
     /// How far Newton moved q in the last attempt (see
     /// [`quiet`](Self::quiet)).
     travel: Travel,
@@ -190,6 +196,9 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             bracket_a: State::zeros(n),
             bracket_b: State::zeros(n),
             pred: vec![0.0; n].into_boxed_slice(),
+            factored_q: vec![0.0; n].into_boxed_slice(),
+            factored_t: f64::NAN,
+            factored_scaled: false,
             travel: Travel::default(),
             assembled: false,
             changed: false,
@@ -217,6 +226,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// The system, mutably: change its parameters between steps.
     #[must_use]
     pub fn system_mut(&mut self) -> &mut S {
+        self.factored_t = f64::NAN;
         self.changed = true;
         &mut self.system
     }
@@ -253,6 +263,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Forgets the current state: the next [`step`](Self::step) assembles
     /// from the initial guess again.
     pub fn reset(&mut self) {
+        self.factored_t = f64::NAN;
         self.assembled = false;
         self.factorization = Factorization::None;
         self.branch_sign = 0.0;
@@ -454,6 +465,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             modified_newton: false,
             ..self.options
         };
+        self.factored_t = f64::NAN;
         let _ = solve_position(
             &self.system,
             &mut self.scratch,
@@ -643,6 +655,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     #[inline]
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
+        self.factored_t = f64::NAN;
         let q = &mut self.next.q;
         let converged = solve_position(
             &self.system,
@@ -666,6 +679,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved.
     fn rates(&mut self, t: f64) -> Result<(), Error> {
+        self.factored_t = f64::NAN;
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         self.factor_and_rates(t)
@@ -674,6 +688,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Factors Φ_q from `ws.jac` and solves q̇ and q̈ of `self.next`.
     #[inline]
     fn factor_and_rates(&mut self, t: f64) -> Result<(), Error> {
+        self.factored_t = f64::NAN;
         let State { q, qd, qdd, .. } = &mut self.next;
         self.factorization = Factorization::None;
         factor(
@@ -712,6 +727,11 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             },
         )
         .map_err(|e| velocity_overflow(system, scratch, q, qd, t, e))?;
+        // The LU and `ws.jac` now hold Φ_q at this q (inverse dynamics
+        // reuses them when this state is the one kept).
+        self.factored_q.copy_from_slice(q);
+        self.factored_t = t;
+        self.factored_scaled = self.ws.scaling.active;
         Ok(())
     }
 }
@@ -726,6 +746,53 @@ fn predict_into(state: &State, t: f64, out: &mut [f64]) {
     let (q, qd, qdd) = (&state.q[..n], &state.qd[..n], &state.qdd[..n]);
     for i in 0..n {
         out[i] = q[i] + h * qd[i] + half_h2 * qdd[i];
+    }
+}
+
+impl<S: System, L: LinearSolver> Solver<S, L> {
+    /// The system, its scratch and the current state (if any), borrowed
+    /// together.
+    pub(crate) fn parts(&mut self) -> (&S, &mut S::Scratch, Option<&State>) {
+        let state = self.assembled.then_some(&self.state);
+        (&self.system, &mut self.scratch, state)
+    }
+
+    /// Overwrites `rhs` = b with λ = Φ_q⁻ᵀ b at the current state
+    /// (Φ_qᵀ λ = b), and returns the system and Φ_q's values there
+    /// (pattern order). The factorization of the step is reused; only when
+    /// it is not that of the state kept (an interpolated near-singular row,
+    /// a changed parameter) is Φ_q evaluated and factored again.
+    pub(crate) fn solve_transposed_at_state(
+        &mut self,
+        rhs: &mut [f64],
+    ) -> Result<(&S, &[f64]), Error> {
+        if !self.assembled {
+            return Err(Error::Setup(LinalgError::NotFactored));
+        }
+        let current = self.factored_t == self.state.t
+            && self.factored_scaled == self.ws.scaling.active
+            && self.factored_q[..] == self.state.q[..];
+        if !current {
+            let t = self.state.t;
+            self.system
+                .jacobian(&mut self.scratch, &self.state.q, t, &mut self.ws.jac);
+            self.factorization = Factorization::None;
+            factor(
+                &self.system,
+                &mut self.lu,
+                t,
+                &self.ws.jac,
+                &mut self.ws.scaling,
+                self.options.singular_tolerance,
+                &mut self.ws.diagnoses_left,
+            )?;
+            self.factorization = Factorization::Stale;
+            self.factored_q.copy_from_slice(&self.state.q);
+            self.factored_t = t;
+            self.factored_scaled = self.ws.scaling.active;
+        }
+        self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
+        Ok((&self.system, &self.ws.jac))
     }
 }
 

@@ -1,0 +1,194 @@
+//! Inverse dynamics of a fully driven system (NDOF = 0): after position,
+//! velocity and acceleration analysis at a time, the Lagrange multipliers
+//! of M q̈ + Φ_qᵀ λ = Q_A(q, q̇, t),
+//!
+//! ```text
+//! Φ_qᵀ λ = Q_A − M q̈
+//! ```
+//!
+//! solved with the transposed factorization of Φ_q the step already made
+//! ([`LinearSolver::solve_transpose_in_place`]); then each element's
+//! reaction on each of its bodies, [F; (B s'P)ᵀF + T] = −Φ_q,bᵀ λ_c, as the
+//! force F (global) and the torque T about the element's point P on that
+//! body, and each driving row's effort −λ. The conventions are those of
+//! simEngine2D's `calcReaction` (DYNAMICS.md).
+//!
+//! [`LinearSolver::solve_transpose_in_place`]: crate::linalg::LinearSolver::solve_transpose_in_place
+
+use crate::error::{Error, Quantity};
+use crate::linalg::{LinearSolver, scale_and_finite};
+use crate::solver::Solver;
+use crate::system::System;
+
+/// One reaction a [`Dynamics`] system reports: one body of one element of Φ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReactionSpec {
+    /// The element's rows of Φ: `rows.0..rows.1`.
+    pub rows: (u32, u32),
+    /// The body (its coordinates are 3·body, 3·body + 1, 3·body + 2).
+    pub body: u32,
+}
+
+/// A [`System`] with inertia and applied forces.
+pub trait Dynamics: System {
+    /// The reactions reported, in output order.
+    fn reactions(&self) -> &[ReactionSpec];
+
+    /// Length of [`dynamics`](Self::dynamics)'s output: 2 n + 2 ×
+    /// reactions.
+    fn dynamics_len(&self) -> usize {
+        2 * self.len() + 2 * self.reactions().len()
+    }
+
+    /// Writes diag M (n entries), Q_A(q, q̇, t) (n entries), then for each
+    /// reaction the arm A(φ) s'P from its body's origin to the element's
+    /// point (2 entries). A slice of the wrong length gives NaN outputs.
+    fn dynamics(&self, scratch: &mut Self::Scratch, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
+
+    /// The first driving row: rows from it on are drivers, whose efforts
+    /// [`InverseDynamics::efforts`] reports.
+    fn driving_start(&self) -> usize;
+}
+
+/// The results of inverse dynamics at one state, and the buffers that make
+/// the computation allocation-free.
+#[derive(Debug, Clone)]
+pub struct InverseDynamics {
+    lambda: Vec<f64>,
+    reactions: Vec<[f64; 3]>,
+    efforts: Vec<f64>,
+    values: Vec<f64>,
+    /// Per reaction, the Jacobian entries in its rows and its body's
+    /// columns: (pattern index, row, which coordinate of the body).
+    entries: Vec<Vec<(usize, usize, usize)>>,
+    driving_start: usize,
+}
+
+impl InverseDynamics {
+    /// Buffers for `system` (allocates; once).
+    #[must_use]
+    pub fn new<S: Dynamics>(system: &S) -> Self {
+        let n = system.len();
+        let pattern = system.jacobian_pattern();
+        let entries = system
+            .reactions()
+            .iter()
+            .map(|r| {
+                pattern
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (row, col))| {
+                        (r.rows.0..r.rows.1).contains(row) && col / 3 == r.body
+                    })
+                    .map(|(k, &(row, col))| (k, row as usize, (col % 3) as usize))
+                    .collect()
+            })
+            .collect();
+        let driving_start = system.driving_start().min(n);
+        InverseDynamics {
+            lambda: vec![0.0; n],
+            reactions: vec![[0.0; 3]; system.reactions().len()],
+            efforts: vec![0.0; n - driving_start],
+            values: vec![0.0; system.dynamics_len()],
+            entries,
+            driving_start,
+        }
+    }
+
+    /// λ, one per row of Φ.
+    #[must_use]
+    pub fn lambda(&self) -> &[f64] {
+        &self.lambda
+    }
+
+    /// Per reaction (in [`Dynamics::reactions`] order): Fx, Fy (global) and
+    /// the torque T about the element's point, applied by the element on
+    /// the body.
+    #[must_use]
+    pub fn reactions(&self) -> &[[f64; 3]] {
+        &self.reactions
+    }
+
+    /// The effort of each driving row (−λ): the force or torque the driver
+    /// supplies along its coordinate.
+    #[must_use]
+    pub fn efforts(&self) -> &[f64] {
+        &self.efforts
+    }
+
+    /// diag M, Q_A and the arms, as last evaluated (see
+    /// [`Dynamics::dynamics`]).
+    #[must_use]
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+}
+
+impl<S: Dynamics, L: LinearSolver> Solver<S, L> {
+    /// Inverse dynamics at the current state (after [`step`](Self::step)):
+    /// fills `out` with λ, the reactions and the driving efforts. One
+    /// evaluation of M and Q_A and one transposed solve with the step's
+    /// factorization; no allocation.
+    ///
+    /// # Errors
+    /// No state yet; a non-finite M, Q_A or λ (named); a singular Φ_q when
+    /// the state needed a new factorization.
+    pub fn inverse_dynamics(&mut self, out: &mut InverseDynamics) -> Result<(), Error> {
+        let n = self.dim();
+        let (system, scratch, state) = self.parts();
+        let Some(state) = state else {
+            return Err(Error::Setup(crate::linalg::LinalgError::NotFactored));
+        };
+        let t = state.t();
+        // The system's outputs go into `values`; the right-hand side is
+        // built in `lambda` and solved in place.
+        system.dynamics(scratch, state.q(), state.qd(), t, &mut out.values);
+        let (m, rest) = out.values.split_at(n.min(out.values.len()));
+        let qa = &rest[..n.min(rest.len())];
+        if !scale_and_finite(&out.values).1 || m.len() != n || qa.len() != n {
+            let k = out.values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+            let name = match k {
+                k if k < n => format!("M at {}", system.coordinate_name(k)),
+                k if k < 2 * n => format!("Q_A at {}", system.coordinate_name(k - n)),
+                k => format!("the arm of reaction {}", (k - 2 * n) / 2),
+            };
+            return Err(Error::NonFinite {
+                t,
+                quantity: Quantity::AppliedForce,
+                name,
+            });
+        }
+        let qdd = state.qdd();
+        for (((l, &mi), &qi), &a) in out.lambda.iter_mut().zip(m).zip(qa).zip(qdd) {
+            *l = qi - mi * a;
+        }
+        let (system, jac) = self.solve_transposed_at_state(&mut out.lambda)?;
+        if let Some(i) = out.lambda.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                t,
+                quantity: Quantity::Multiplier,
+                name: system.equation_name(i).to_owned(),
+            });
+        }
+        let arms = &out.values[2 * n..];
+        for ((r, entries), arm) in out
+            .reactions
+            .iter_mut()
+            .zip(&out.entries)
+            .zip(arms.chunks_exact(2))
+        {
+            // [F; T_origin] = −Φ_q,bᵀ λ_c.
+            let mut g = [0.0; 3];
+            for &(k, row, c) in entries {
+                g[c] -= jac[k] * out.lambda[row];
+            }
+            // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).
+            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
+            *r = [g[0], g[1], torque];
+        }
+        for (e, &l) in out.efforts.iter_mut().zip(&out.lambda[out.driving_start..]) {
+            *e = -l;
+        }
+        Ok(())
+    }
+}
