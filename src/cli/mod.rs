@@ -27,6 +27,7 @@ pub mod animate;
 pub mod args;
 pub mod check;
 pub mod columns;
+pub mod dynamics;
 pub mod load;
 pub mod number;
 pub mod output;

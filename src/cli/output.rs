@@ -380,8 +380,9 @@ impl std::fmt::Debug for CsvSink {
 
 impl CsvSink {
     /// Creates the destination (through `outputs`, as option `--out`) and
-    /// writes the header. Called before the analysis, so that a bad path
-    /// fails at once.
+    /// writes the header (`header_names`: the selected columns, then any
+    /// extra ones [`CsvSink::write_with`] fills, such as inverse dynamics).
+    /// Called before the analysis, so that a bad path fails at once.
     ///
     /// # Errors
     /// [`Failure::Input`] if the file cannot be created or is an input or
@@ -421,15 +422,40 @@ impl CsvSink {
 
     /// Writes one row: the state's selected coordinates, then the selected
     /// results from `y`, `yd`, `ydd` (all results, in declaration order;
-    /// ignored when none is selected).
+    /// ignored when none is selected), then the values of the extra columns.
     ///
     /// # Errors
     /// [`Failure::Analysis`] on a write error; [`Failure::Closed`] when
     /// standard output's reader has gone (`--out - | head`).
-    pub fn write(&mut self, state: &State, results: [&[f64]; 3]) -> Result<(), Failure> {
+    pub fn write_with(
+        &mut self,
+        state: &State,
+        results: [&[f64]; 3],
+        extra: &[f64],
+    ) -> Result<(), Failure> {
+        self.write_values(
+            state.t(),
+            [state.q(), state.qd(), state.qdd()],
+            results,
+            extra,
+        )
+    }
+
+    /// One row from its parts: t, the selected coordinates of q, q̇, q̈, the
+    /// selected results, the extra columns.
+    ///
+    /// # Errors
+    /// As [`CsvSink::write_with`].
+    pub fn write_values(
+        &mut self,
+        t: f64,
+        states: [&[f64]; 3],
+        results: [&[f64]; 3],
+        extra: &[f64],
+    ) -> Result<(), Failure> {
         self.line.clear();
-        push_e(&mut self.line, &mut self.buffer, state.t());
-        for values in [state.q(), state.qd(), state.qdd()] {
+        push_e(&mut self.line, &mut self.buffer, t);
+        for values in states {
             for &k in &self.selection.coordinates {
                 self.line.push(b',');
                 push_e(
@@ -448,6 +474,10 @@ impl CsvSink {
                     values.get(k).copied().unwrap_or(f64::NAN),
                 );
             }
+        }
+        for &v in extra {
+            self.line.push(b',');
+            push_e(&mut self.line, &mut self.buffer, v);
         }
         self.line.push(b'\n');
         self.out

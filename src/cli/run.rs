@@ -316,7 +316,11 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         Some(spec) => Selection::parse(spec, derivation)?,
         None => Selection::all(derivation),
     };
-    let header = selection.header(derivation);
+    let mut dynamics = super::dynamics::DynamicsColumns::new(&system, loaded.adm.is_some());
+    let mut header = selection.header(derivation);
+    if let Some(d) = &dynamics {
+        header.extend(d.names().iter().cloned());
+    }
     let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
     let m = derivation.outputs.len();
     let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
@@ -409,6 +413,23 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             flagged.push(state.t());
         }
         if is_output {
+            let extra = match &mut dynamics {
+                Some(d) => match d.compute(&mut solver) {
+                    Ok(v) => v,
+                    Err(e) => {
+                        progress.finish();
+                        let _ = sink.finish();
+                        return Err(Failure::Analysis(format!(
+                            "error: inverse dynamics: {}",
+                            run_error(&loaded, &e)
+                        )));
+                    }
+                },
+                None => &[],
+            };
+            let Some(state) = solver.state() else {
+                continue;
+            };
             let w = Instant::now();
             if sink.wants_outputs() {
                 let [y, yd, ydd] = &mut results;
@@ -425,7 +446,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 );
             }
             let [y, yd, ydd] = &results;
-            if let Err(failure) = sink.write(state, [y, yd, ydd]) {
+            if let Err(failure) = sink.write_with(state, [y, yd, ydd], extra) {
                 // A write error, or standard output closed: the run stops.
                 progress.finish();
                 return Err(failure);
