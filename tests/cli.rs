@@ -610,14 +610,21 @@ fn adm_slider_crank_matches_the_closed_form() -> TestResult {
 }
 
 #[test]
-fn adm_four_bar_matches_the_peer_reference_and_notes_ignored_forces() -> TestResult {
+fn adm_four_bar_matches_the_peer_reference_and_uses_its_forces() -> TestResult {
     let dir = TempDir::new("adm-four-bar");
     let adm = format!("{ADM_DATA}/four_bar.adm");
     let (o, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/one_second.acf"))?;
     let err = stderr(&o);
+    // Masses and jbar everywhere: the RSDA2 is imported and the run writes
+    // inverse dynamics after the kinematic columns (tests/cli_dynamics.rs).
     assert!(
-        err.contains("note: ignored by kinematic analysis: force \"spring A\" (id 1, RSDA2)"),
+        !err.contains("ignored by kinematic analysis: force"),
         "{err}"
+    );
+    assert!(
+        csv.header.iter().any(|h| h.starts_with("driver.")),
+        "{:?}",
+        csv.header
     );
     let reference = Csv::read(&format!("{ROOT}/benches/peers/reference/traj_four_bar.csv"))?;
     assert_eq!(csv.rows.len(), reference.rows.len());
@@ -637,19 +644,30 @@ fn adm_four_bar_matches_the_peer_reference_and_notes_ignored_forces() -> TestRes
 }
 
 #[test]
-fn adm_absolute_pendulum_matches_the_closed_form_and_ignores_its_forces() -> TestResult {
+fn adm_absolute_pendulum_matches_the_closed_form_and_refuses_its_m_file_force() -> TestResult {
     let dir = TempDir::new("adm-pendulum");
     let adm = format!("{ADM_DATA}/absolute_pendulum.adm");
+    // Its PointForceFile cannot be run: refused, naming the m-file.
+    let o = kinema(&["run", &adm, "--acf", "tests/cli/adm/two_seconds.acf"]);
+    assert_status(&o, 2);
+    assert!(stderr(&o).contains("myForce.m"), "{}", stderr(&o));
+    // Without it the model runs, its other forces used.
+    let text = std::fs::read_to_string(&adm)?;
+    let line = text
+        .lines()
+        .find(|l| l.contains("PointForceFile"))
+        .ok_or("the PointForceFile line")?;
+    // The last force: its line and the comma before it go.
+    let without = text.replace(&format!(",\n{line}"), "");
+    assert_ne!(without, text);
+    let adm = dir.path("absolute_pendulum.adm");
+    std::fs::write(&adm, without)?;
     let (o, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/two_seconds.acf"))?;
     let err = stderr(&o);
-    for force in ["push", "motor", "damper", "lookup"] {
-        assert!(
-            err.contains(&format!(
-                "note: ignored by kinematic analysis: force \"{force}\""
-            )),
-            "{err}"
-        );
-    }
+    assert!(
+        !err.contains("ignored by kinematic analysis: force"),
+        "{err}"
+    );
     // The rod's end (−1, 0) is pinned at the origin: its frame is at
     // (cos φ, sin φ), φ = −π/2 + 0.5 sin 2πt − t²/10 + 1.5e-5 t³.
     let col = |name: &str| csv.column(name);

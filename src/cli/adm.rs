@@ -32,6 +32,7 @@ impl AdmInput {
     /// Dynamics analysis or of NDOF ≠ 0, with the counts.
     pub fn read(path: &Path, analysis: &Analysis) -> Result<AdmInput, Failure> {
         let model = read_model(path)?;
+        super::dynamics::refuse_point_force_files(&model, path)?;
         kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
         let names = Names::of(&model);
         let rows = names

@@ -65,24 +65,29 @@ impl DynamicsColumns {
         }
         Ok(&self.values)
     }
+}
 
-    /// The reactions' and efforts' column indices among [`names`](Self::names)
-    /// (for plots): reaction force components, then efforts.
-    pub fn plotted(&self) -> (Vec<usize>, Vec<usize>) {
-        let forces = self
-            .names
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| n.starts_with("reaction.") && !n.ends_with(".T"))
-            .map(|(i, _)| i)
-            .collect();
-        let efforts = self
-            .names
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| n.starts_with("driver."))
-            .map(|(i, _)| i)
-            .collect();
-        (forces, efforts)
-    }
+/// Rule: a simEngine2D `PointForceFile` cannot be run (its force is a
+/// MATLAB function of the engine's user).
+///   error: force "force" (id 1, PointForceFile) of `project2.adm` computes its force with the MATLAB function `pistonForce` (pistonForce.m), which kinema cannot run
+///
+/// # Errors
+/// [`super::Failure::Input`] naming the first such element and its m-file.
+pub fn refuse_point_force_files(
+    model: &kinema_adm::Model,
+    path: &std::path::Path,
+) -> Result<(), super::Failure> {
+    let Some((name, id, mfile)) = kinema_adm::dynamics::point_force_files(model)
+        .into_iter()
+        .next()
+    else {
+        return Ok(());
+    };
+    Err(super::Failure::usage(format_args!(
+        "force \"{name}\" (id {id}, PointForceFile) of `{}` computes its force with the MATLAB \
+         function `{mfile}` ({mfile}.m), which kinema cannot run\n  = help: write the force as a \
+         `force` item of the model's .kin text (`kinema import {}` prints the rest)",
+        path.display(),
+        path.display()
+    )))
 }

@@ -129,12 +129,28 @@ pub fn check_kinematic(model: &Model, analysis: &Analysis) -> Result<Counts, Ref
 }
 
 /// What a kinematic run ignores, one line each: force elements (by name, id
-/// and type), unknown top-level keys, and a note on mass, inertia, initial
+/// and type) of a model without inertia, the `PointForceFile` elements of a
+/// model with inertia, unknown top-level keys, and a note on mass, inertia, initial
 /// velocities and gravity when the file gives them.
 #[must_use]
 pub fn ignored_by_kinematics(model: &Model) -> Vec<String> {
     let mut out = Vec::new();
-    for f in &model.forces {
+    // A model with dynamics imports its forces but a PointForceFile (which
+    // a run refuses).
+    if crate::dynamics::has_dynamics(model) {
+        for (name, id, mfile) in crate::dynamics::point_force_files(model) {
+            out.push(format!(
+                "force \"{name}\" (id {id}, PointForceFile): its force is the MATLAB function \
+                 `{mfile}` ({mfile}.m), which kinema cannot run"
+            ));
+        }
+    }
+    let forces = if crate::dynamics::has_dynamics(model) {
+        &[][..]
+    } else {
+        &model.forces[..]
+    };
+    for f in forces {
         out.push(format!(
             "force \"{}\" (id {}, {}): forces play no role in kinematics",
             f.name,

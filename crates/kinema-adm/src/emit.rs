@@ -211,7 +211,7 @@ impl Names {
 /// `name` as an identifier: see [`Names`]. `prefix` and `id` make the
 /// fallback for a name with no usable character, and the prefix for a
 /// leading digit.
-fn identifier(name: &str, prefix: &str, id: usize) -> String {
+pub(crate) fn identifier(name: &str, prefix: &str, id: usize) -> String {
     let mut s = String::new();
     for c in name.chars() {
         let c = if c.is_ascii_alphanumeric() { c } else { '_' };
@@ -371,14 +371,24 @@ pub fn to_kin(model: &Model) -> String {
         comment_text(&model.name),
         comment_text(&file)
     );
-    let _ = writeln!(
-        out,
-        "// Each body's q0 is its guess. Kinematics does not use mass, jbar, qd0 or gravity {}.",
-        pair(model.gravity)
-    );
+    if crate::dynamics::has_dynamics(model) {
+        let _ = writeln!(
+            out,
+            "// Each body's q0 is its guess; mass and jbar are its inertia; qd0 is not used."
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "// Each body's q0 is its guess. Kinematics does not use mass, jbar, qd0 or gravity {}.",
+            pair(model.gravity)
+        );
+    }
     let ignored = ignored_by_kinematics(model);
     if ignored.is_empty() {
-        let _ = writeln!(out, "// No force elements.");
+        // A model with dynamics writes its forces as `force` items.
+        if model.forces.is_empty() {
+            let _ = writeln!(out, "// No force elements.");
+        }
     } else {
         let _ = writeln!(out, "// Ignored:");
         for line in &ignored {
@@ -396,10 +406,11 @@ pub fn to_kin(model: &Model) -> String {
         let [x, y, phi] = body.q0;
         let _ = writeln!(
             out,
-            "    body {ident} {{ guess: ({}, {}, {}) }}",
+            "    body {ident} {{ guess: ({}, {}, {}){} }}",
             format_number(x),
             format_number(y),
-            format_number(phi)
+            format_number(phi),
+            crate::dynamics::body_fields(model, body)
         );
         emit_vis_points(&mut out, body, ident);
     }
@@ -407,6 +418,7 @@ pub fn to_kin(model: &Model) -> String {
         out.push('\n');
         emit_constraint(&mut out, c, idents, &names.bodies);
     }
+    crate::dynamics::emit(&mut out, model, &names.bodies);
     out.push_str("}\n");
     out
 }

@@ -49,6 +49,7 @@ pub mod acf;
 pub mod adm;
 pub mod check;
 mod defined;
+pub mod dynamics;
 pub mod emit;
 pub mod error;
 pub mod fun;

@@ -192,11 +192,17 @@ fn details_of_the_real_files() {
     let rod = Model::read(&dir.join("rodDYN.adm")).unwrap();
     assert!(to_kin(&rod).contains("driver driver_: abs_angle(pend, t + pi / 6);"));
 
-    // Ignored force elements of a dynamics model.
+    // A dynamics model's forces are imported, but for its PointForceFile.
     let p2 = Model::read(&dir.join("project2.adm")).unwrap();
     let ignored = kinema_adm::ignored_by_kinematics(&p2);
-    assert_eq!(ignored.len(), 2, "{ignored:?}");
+    assert_eq!(ignored.len(), 1, "{ignored:?}");
     assert!(ignored[0].contains("\"force\" (id 1, PointForceFile)"));
+    assert!(ignored[0].contains("pistonForce.m"));
+    assert!(
+        to_kin(&p2).contains("force torque: torque("),
+        "{}",
+        to_kin(&p2)
+    );
     let refusal = kinema_adm::check_kinematic(&p2, &Analysis::default()).unwrap_err();
     assert_eq!(refusal.counts.ndof(), 1);
 }

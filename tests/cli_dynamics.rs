@@ -1,0 +1,196 @@
+//! `kinema run` of models with inertia: the columns of DYNAMICS.md, the
+//! driven simEngine2D files (λ, reactions, efforts, and the power balance
+//! effort × driven velocity = d(KE + PE)/dt at every row), and the refusal
+//! of a `PointForceFile`.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+use kinema_adm::{ConstraintKind, Model};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+/// `../shared/simengine2d` beside the repository, or beside the worktree's
+/// parent (`wt/NAME`).
+fn shared() -> Option<PathBuf> {
+    ["../shared/simengine2d", "../../shared/simengine2d"]
+        .iter()
+        .map(|p| Path::new(ROOT).join(p))
+        .find(|p| p.is_dir())
+}
+
+/// Checks the power balance of one run of `model` (read with
+/// kinema_adm): Σ effort × ν over the drivers = q̇ᵀ M q̈ − Σ m gᵀ ṙ, the
+/// rate of KE + PE, at every row, to 1e-9 of the terms' scale. Returns
+/// the largest rate seen.
+fn power_balance(model: &Model, csv: &Csv, file: &str) -> Result<f64, Box<dyn std::error::Error>> {
+    let names = kinema_adm::Names::of(model);
+    let mut drivers: Vec<(usize, usize)> = Vec::new(); // (effort column, φ̇ column)
+    for (c, idents) in model.constraints.iter().zip(&names.constraints) {
+        let Some(ident) = idents.first() else {
+            continue;
+        };
+        let Ok(col) = csv.column(&format!("driver.{ident}")) else {
+            continue;
+        };
+        match &c.kind {
+            ConstraintKind::AbsoluteAngle { body1, .. } => {
+                let body = &names.bodies[*body1];
+                drivers.push((col, csv.column(&format!("{body}.phi_dot"))?));
+            }
+            other => return Err(format!("{file}: a driver of kind {other:?} in the test").into()),
+        }
+    }
+    assert!(
+        !drivers.is_empty(),
+        "{file}: no driver columns in {:?}",
+        csv.header
+    );
+    let g = model.gravity;
+    let mut largest: f64 = 0.0;
+    for row in &csv.rows {
+        let (mut rate, mut scale) = (0.0, 0.0);
+        for (b, (body, ident)) in model.bodies.iter().zip(&names.bodies).enumerate() {
+            let (m, j) = (body.mass.unwrap_or(0.0), body.jbar.unwrap_or(0.0));
+            for (comp, inertia) in [("x", m), ("y", m), ("phi", j)] {
+                let v = row[csv.column(&format!("{ident}.{comp}_dot"))?];
+                let a = row[csv.column(&format!("{ident}.{comp}_ddot"))?];
+                rate += inertia * v * a;
+                scale += (inertia * v * a).abs();
+            }
+            let vx = row[csv.column(&format!("{ident}.x_dot"))?];
+            let vy = row[csv.column(&format!("{ident}.y_dot"))?];
+            let p = -m * (g[0] * vx + g[1] * vy);
+            rate += p;
+            scale += p.abs();
+            let _ = b;
+        }
+        let supplied: f64 = drivers.iter().map(|&(e, w)| row[e] * row[w]).sum();
+        let t = row[0];
+        assert!(
+            (supplied - rate).abs() <= 1e-9 * scale.max(supplied.abs()).max(1e-300),
+            "{file} at t = {t}: effort × driven velocity = {supplied}, d(KE + PE)/dt = {rate}"
+        );
+        largest = largest.max(rate.abs());
+    }
+    Ok(largest)
+}
+
+#[test]
+fn driven_simengine2d_files_balance_power() -> TestResult {
+    let Some(dir) = shared() else {
+        println!("notice: ../shared/simengine2d is absent; skipping");
+        return Ok(());
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "adm"))
+        .collect();
+    files.sort();
+    let tmp = TempDir::new("dynamics");
+    let kinematics = kinema_adm::Analysis::read(&dir.join("kinematics.acf"))?;
+    let mut ran = Vec::new();
+    for adm in &files {
+        let model = Model::read(adm)?;
+        // Driven: NDOF = 0 (a Kinematics analysis of it runs).
+        if kinema_adm::check_kinematic(&model, &kinematics).is_err()
+            || !kinema_adm::dynamics::point_force_files(&model).is_empty()
+        {
+            continue;
+        }
+        let stem = adm.file_stem().and_then(|s| s.to_str()).ok_or("name")?;
+        let out = tmp.path(&format!("{stem}.csv"));
+        let adm_s = adm.display().to_string();
+        let acf = dir.join("kinematics.acf").display().to_string();
+        let o = kinema(&[
+            "run", &adm_s, "--acf", &acf, "--steps", "200", "--out", &out,
+        ]);
+        assert_status(&o, 0);
+        let csv = Csv::read(&out)?;
+        for prefix in ["lambda.", "reaction.", "driver."] {
+            assert!(
+                csv.header.iter().any(|h| h.starts_with(prefix)),
+                "{stem}: no {prefix} column in {:?}",
+                csv.header
+            );
+        }
+        assert!(
+            csv.header
+                .iter()
+                .any(|h| h.contains(".body1.") || h.contains(".body2.")),
+            "{stem}: reactions are named body1/body2: {:?}",
+            csv.header
+        );
+        let largest = power_balance(&model, &csv, stem)?;
+        assert!(largest > 0.0, "{stem}: the drivers do no work");
+        ran.push(stem.to_string());
+    }
+    println!("power balance held on {}", ran.join(", "));
+    assert!(ran.len() >= 5, "{ran:?}");
+    Ok(())
+}
+
+#[test]
+fn point_force_file_is_refused_naming_its_m_file() -> TestResult {
+    let Some(dir) = shared() else {
+        println!("notice: ../shared/simengine2d is absent; skipping");
+        return Ok(());
+    };
+    let adm = dir.join("project2.adm").display().to_string();
+    let acf = dir.join("kinematics.acf").display().to_string();
+    let o = kinema(&["run", &adm, "--acf", &acf]);
+    assert_status(&o, 2);
+    let err = stderr(&o);
+    assert!(
+        err.contains("PointForceFile") && err.contains("pistonForce.m"),
+        "{err}"
+    );
+    Ok(())
+}
+
+const PENDULUM: &str = "mechanism Pendulum {
+    gravity = (0, -9.81);
+    body bar { mass: 2, inertia: 0.5, guess: (0.5, 0.5, 0.8) }
+    joint pin: revolute(bar(-0.7, 0), ground(0, 0));
+    driver swing: bar.phi == 0.3 + t;
+}";
+
+#[test]
+fn kin_model_with_inertia_writes_the_dynamics_columns() -> TestResult {
+    let tmp = TempDir::new("dynamics_kin");
+    let model = tmp.path("pendulum.kin");
+    std::fs::write(&model, PENDULUM)?;
+    let out = tmp.path("p.csv");
+    let o = kinema(&["run", &model, "--t-end", "1", "--steps", "4", "--out", &out]);
+    assert_status(&o, 0);
+    let csv = Csv::read(&out)?;
+    let tail: Vec<&str> = csv.header[10..].iter().map(String::as_str).collect();
+    assert_eq!(
+        tail,
+        [
+            "lambda.pin.x",
+            "lambda.pin.y",
+            "lambda.swing",
+            "reaction.pin.bar.Fx",
+            "reaction.pin.bar.Fy",
+            "reaction.pin.bar.T",
+            "reaction.swing.bar.Fx",
+            "reaction.swing.bar.Fy",
+            "reaction.swing.bar.T",
+            "driver.swing",
+        ]
+    );
+    // A kinematic model writes the kinematic columns only.
+    let out2 = tmp.path("k.csv");
+    let kin = Path::new(ROOT)
+        .join("models/slider_crank.kin")
+        .display()
+        .to_string();
+    let o = kinema(&["run", &kin, "--steps", "2", "--out", &out2]);
+    assert_status(&o, 0);
+    assert_eq!(Csv::read(&out2)?.header.len(), 28);
+    Ok(())
+}
