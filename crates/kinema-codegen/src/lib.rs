@@ -33,6 +33,7 @@
 //! ([`generate_source`]).
 
 mod cache;
+mod dynamics;
 mod emit;
 mod lu;
 mod macro_input;
@@ -109,11 +110,13 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     };
     let system = system_impl(d, (&name, &scratch), &params, &cache, &options.runtime);
     let outputs = outputs::items(d, &name, &params, &options.runtime);
+    let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
     quote! {
         #item
         #inherent
         #system
         #outputs
+        #dynamics
         #cache_items
         #lu_items
     }
