@@ -42,5 +42,37 @@ fn main() {
             }
         }
     }
+    // Inverse dynamics (benches/dynamics.rs): the slider-crank with inertia,
+    // and the chain with inertia and gravity (N = 1000 with the
+    // `large-dynamics` feature).
+    let dynamics =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/dynamics/slider_crank.kin");
+    if let Err(e) = kinema_codegen::build::generate(&dynamics, "slider_crank_dynamics.rs") {
+        eprintln!("{e}");
+        std::process::exit(1);
+    }
+    let mut dynamic_chains = vec![10];
+    if std::env::var_os("CARGO_FEATURE_LARGE_DYNAMICS").is_some() {
+        dynamic_chains.push(1000);
+    }
+    for n in dynamic_chains {
+        let text = kinema_model::chain::chain_kin_dynamics(n);
+        let name = format!("chain{n}_dynamics");
+        let source = kinema_codegen::build::derive_source(&text, &format!("{name}.kin"))
+            .map(|d| kinema_codegen::generate_source(&d, &kinema_codegen::Config::default()));
+        let path = Path::new(&out_dir).join(format!("{name}.rs"));
+        match source.map(|s| std::fs::write(&path, s)) {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                eprintln!("{}: {e}", path.display());
+                std::process::exit(1);
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+        }
+    }
+    println!("cargo::rerun-if-changed=../../tests/dynamics/slider_crank.kin");
     println!("cargo::rerun-if-changed=build.rs");
 }

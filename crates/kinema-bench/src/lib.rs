@@ -43,6 +43,26 @@ pub mod generated {
     }
 }
 
+/// Solvers with inertia generated at build time, for the inverse-dynamics
+/// benchmark (benches/dynamics.rs).
+#[allow(missing_docs, clippy::all)]
+pub mod generated_dynamics {
+    /// The slider-crank with inertia, gravity and a gas force
+    /// (tests/dynamics/slider_crank.kin).
+    pub mod slider_crank {
+        include!(concat!(env!("OUT_DIR"), "/slider_crank_dynamics.rs"));
+    }
+    /// The serial chain N = 10 with inertia and gravity.
+    pub mod chain10 {
+        include!(concat!(env!("OUT_DIR"), "/chain10_dynamics.rs"));
+    }
+    /// The serial chain N = 1000 with inertia and gravity.
+    #[cfg(feature = "large-dynamics")]
+    pub mod chain1000 {
+        include!(concat!(env!("OUT_DIR"), "/chain1000_dynamics.rs"));
+    }
+}
+
 pub use kinema_runtime::handwritten;
 
 /// The time grid of the benchmarks: t_k = k/1000, k = 0..=1000.

@@ -51,3 +51,23 @@ pub fn chain_kin(n: usize) -> String {
     s.push_str("}\n");
     s
 }
+
+/// [`chain_kin`] with inertia (unit mass, J = 1/12 about the link's
+/// middle) and gravity: the benchmark of inverse dynamics.
+#[must_use]
+pub fn chain_kin_dynamics(n: usize) -> String {
+    let text = chain_kin(n);
+    let mut out = String::with_capacity(text.len() + 40 * n);
+    for line in text.lines() {
+        if line.starts_with("    body ") {
+            if let Some(head) = line.strip_suffix(" }") {
+                let _ = writeln!(out, "{head}, mass: 1, inertia: 1 / 12 }}");
+                continue;
+            }
+        } else if line == "}" {
+            let _ = writeln!(out, "    gravity = (0, -9.81);");
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    out
+}
