@@ -44,6 +44,8 @@ pub use kinema_runtime::{Outputs, Table};
 #[cfg(feature = "model")]
 pub mod dynamics;
 #[cfg(feature = "model")]
+pub mod equilibrium;
+#[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
 pub use model::{Model, ModelSolver, TapeSystem};

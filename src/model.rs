@@ -182,9 +182,19 @@ impl Model {
     /// size ([`Auto`]).
     ///
     /// # Errors
-    /// If the runtime rejects the Jacobian pattern (it cannot for a derived
-    /// model).
+    /// A model with free degrees of freedom (NDOF > 0, allowed with inertia:
+    /// see [`crate::equilibrium`]); otherwise none for a derived model.
     pub fn solver(&self, options: Options) -> Result<ModelSolver, Error> {
+        // Kinematic analysis needs as many equations as coordinates; a model
+        // with inertia and free degrees of freedom has an equilibrium only.
+        let d = &self.derivation;
+        if d.rows.len() != d.nc() {
+            return Err(Error::Setup(kinema_runtime::LinalgError::Dimension {
+                what: "equations of the model (kinematic analysis needs NDOF = 0)",
+                expected: d.nc(),
+                found: d.rows.len(),
+            }));
+        }
         Solver::with_options(self.system(), options)
     }
 }

@@ -194,3 +194,42 @@ fn kin_model_with_inertia_writes_the_dynamics_columns() -> TestResult {
     assert_eq!(Csv::read(&out2)?.header.len(), 28);
     Ok(())
 }
+
+/// pendEQL's equilibrium through the CLI: one row, the stable root of
+/// V'(φ) = m g cos φ + k (φ − θ0) (m = 10, k = 25, θ0 = 1: the file's),
+/// stability in the summary; a plain run is refused naming --equilibrium.
+#[test]
+fn pend_eql_equilibrium_from_the_real_file() -> TestResult {
+    let Some(dir) = shared() else {
+        println!("notice: ../shared/simengine2d is absent; skipping");
+        return Ok(());
+    };
+    let adm = dir.join("pendEQL.adm").display().to_string();
+    let tmp = TempDir::new("equilibrium");
+    let out = tmp.path("eq.csv");
+    let o = kinema(&["run", &adm, "--equilibrium", "--out", &out]);
+    assert_status(&o, 0);
+    assert!(stdout(&o).contains("stability: stable"), "{}", stdout(&o));
+    let csv = Csv::read(&out)?;
+    assert_eq!(csv.rows.len(), 1);
+    let phi = csv.rows[0][csv.column("pend.phi")?];
+    let dv = |p: f64| 98.1 * p.cos() + 25.0 * (p - 1.0);
+    let (mut a, mut b) = (3.0, 4.5);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if dv(a) * dv(m) <= 0.0 {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    assert!((phi - a).abs() < 1e-9, "φ = {phi}, stable root {a}");
+    assert!(
+        csv.header
+            .iter()
+            .any(|h| h == "reaction.absY_pend.body1.Fy")
+    );
+    let o = kinema(&["run", &adm, "--out", &tmp.path("no.csv")]);
+    assert_status(&o, 2);
+    Ok(())
+}

@@ -25,15 +25,18 @@ pub struct AdmInput {
 
 impl AdmInput {
     /// Reads the ADM file at `path` and checks that it runs as kinematics
-    /// under `analysis`.
+    /// under `analysis` (no check without one: the equilibrium of a model
+    /// with free degrees of freedom).
     ///
     /// # Errors
     /// [`Failure::Input`]: the reader's located errors, or the refusal of a
     /// Dynamics analysis or of NDOF ≠ 0, with the counts.
-    pub fn read(path: &Path, analysis: &Analysis) -> Result<AdmInput, Failure> {
+    pub fn read_checked(path: &Path, analysis: Option<&Analysis>) -> Result<AdmInput, Failure> {
         let model = read_model(path)?;
         super::dynamics::refuse_point_force_files(&model, path)?;
-        kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
+        if let Some(analysis) = analysis {
+            kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
+        }
         let names = Names::of(&model);
         let rows = names
             .rows(&model)

@@ -168,6 +168,11 @@ pub struct RunArgs {
     /// before it are kept and the exit status is 1.
     #[arg(long)]
     pub stop_at_singular: bool,
+    /// Instead of a motion, the stable static equilibrium of a model with
+    /// inertia at t = 0, reached from the guess by descending the potential:
+    /// one CSV row (same columns), its stability in the summary.
+    #[arg(long)]
+    pub equilibrium: bool,
 }
 
 /// Evaluation back ends available at run time.

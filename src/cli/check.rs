@@ -6,7 +6,7 @@ use std::path::Path;
 
 use kinema::{Error, Options, Rank, System, TapeSystem, diagnose};
 
-use super::load::{Loaded, load};
+use super::load::Loaded;
 use super::{Failure, print_stdout};
 
 /// Runs `kinema check`.
@@ -16,9 +16,22 @@ use super::{Failure, print_stdout};
 /// [`Failure::Analysis`] when assembly fails (no convergence, singular Φ_q:
 /// the report, with the dependent and redundant equations, is printed first).
 pub fn check(path: &Path) -> Result<(), Failure> {
-    let loaded = load(path, None)?;
+    let loaded = super::load::load_with(path, None, false)?;
     loaded.print_warnings();
     let mut report = header(&loaded);
+    if loaded.checked.dof().ndof() != 0 {
+        // A model with inertia and free degrees of freedom (the checker
+        // allows no other): no motion to assemble.
+        let _ = write!(
+            report,
+            "ok: `{}` is valid; with NDOF = {} it has no kinematic motion: `kinema run {} \
+             --equilibrium` finds its stable static equilibrium",
+            loaded.name(),
+            loaded.checked.dof().ndof(),
+            loaded.file
+        );
+        return print_stdout(&report);
+    }
     let mut solver = loaded
         .model
         .solver(Options::default())

@@ -14,27 +14,11 @@ impl DynamicsColumns {
     /// The columns for `system`, or `None` for a kinematic model. `adm`:
     /// name a reaction's body `body1`/`body2` as in the simEngine2D
     /// element, not by the body's name.
-    pub fn new(system: &TapeSystem, adm: bool) -> Option<DynamicsColumns> {
+    pub fn new(system: &TapeSystem, rows: usize, adm: bool) -> Option<DynamicsColumns> {
         if !system.has_dynamics() {
             return None;
         }
-        let n = system.len();
-        let mut names: Vec<String> = (0..n)
-            .map(|i| format!("lambda.{}", system.equation_name(i)))
-            .collect();
-        for r in system.reaction_names() {
-            let body = if adm {
-                format!("body{}", r.slot + 1)
-            } else {
-                r.body.clone()
-            };
-            for c in ["Fx", "Fy", "T"] {
-                names.push(format!("reaction.{}.{body}.{c}", r.element));
-            }
-        }
-        for i in kinema::Dynamics::driving_start(system)..n {
-            names.push(format!("driver.{}", system.equation_name(i)));
-        }
+        let names = column_names(system, rows, adm);
         let values = vec![0.0; names.len()];
         Some(DynamicsColumns {
             id: InverseDynamics::new(system),
@@ -65,6 +49,28 @@ impl DynamicsColumns {
         }
         Ok(&self.values)
     }
+}
+
+/// The dynamics columns of a model with `rows` rows of Φ: `lambda.<row>`,
+/// `reaction.<element>.<body>.Fx/Fy/T`, `driver.<row>`.
+pub fn column_names(system: &TapeSystem, rows: usize, adm: bool) -> Vec<String> {
+    let mut names: Vec<String> = (0..rows)
+        .map(|i| format!("lambda.{}", system.equation_name(i)))
+        .collect();
+    for r in system.reaction_names() {
+        let body = if adm {
+            format!("body{}", r.slot + 1)
+        } else {
+            r.body.clone()
+        };
+        for c in ["Fx", "Fy", "T"] {
+            names.push(format!("reaction.{}.{body}.{c}", r.element));
+        }
+    }
+    for i in kinema::Dynamics::driving_start(system).min(rows)..rows {
+        names.push(format!("driver.{}", system.equation_name(i)));
+    }
+    names
 }
 
 /// Rule: a simEngine2D `PointForceFile` cannot be run (its force is a

@@ -84,6 +84,19 @@ impl Loaded {
 /// # Errors
 /// [`Failure::Input`] with the rendered diagnostics.
 pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure> {
+    load_with(path, analysis, true)
+}
+
+/// [`load`]; `kinematic` false skips the kinematic check of an `.adm`
+/// model (NDOF = 0, a Kinematics analysis): `run --equilibrium`.
+///
+/// # Errors
+/// As [`load`].
+pub fn load_with(
+    path: &Path,
+    analysis: Option<&Analysis>,
+    kinematic: bool,
+) -> Result<Loaded, Failure> {
     let start = Instant::now();
     let file = path.display().to_string();
     let (source, adm) = match Format::of(path)? {
@@ -100,7 +113,8 @@ pub fn load(path: &Path, analysis: Option<&Analysis>) -> Result<Loaded, Failure>
         }
         Format::Adm => {
             let default = Analysis::default();
-            let adm = AdmInput::read(path, analysis.unwrap_or(&default))?;
+            let adm =
+                AdmInput::read_checked(path, kinematic.then(|| analysis.unwrap_or(&default)))?;
             (kinema_adm::to_kin(&adm.model), Some(adm))
         }
     };

@@ -28,6 +28,7 @@ pub mod args;
 pub mod check;
 pub mod columns;
 pub mod dynamics;
+pub mod equilibrium;
 pub mod load;
 pub mod number;
 pub mod output;

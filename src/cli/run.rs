@@ -262,6 +262,9 @@ fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
 /// when the analysis fails (the rows computed before the failure are kept)
 /// or its results cannot be written.
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    if args.equilibrium {
+        return super::equilibrium::run(args);
+    }
     let start = Instant::now();
     let Backend::Tape = args.backend;
     let steps = check_grid_args(args.t_end, args.steps)?;
@@ -296,6 +299,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     let loaded = load(&args.model, analysis.as_ref())?;
     loaded.print_warnings();
+    super::equilibrium::refuse_free_dof(&loaded)?;
 
     // Outputs are created before the analysis: a bad path fails at once.
     let system = loaded.model.system();
@@ -316,7 +320,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         Some(spec) => Selection::parse(spec, derivation)?,
         None => Selection::all(derivation),
     };
-    let mut dynamics = super::dynamics::DynamicsColumns::new(&system, loaded.adm.is_some());
+    let mut dynamics = super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some());
     let mut header = selection.header(derivation);
     if let Some(d) = &dynamics {
         header.extend(d.names().iter().cloned());

@@ -81,6 +81,17 @@ impl Default for Config {
 #[must_use]
 pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let d = derivation;
+    if d.rows.len() != d.nc() {
+        // A model with inertia may have free degrees of freedom; generated
+        // solvers are kinematic (NDOF = 0).
+        let message = format!(
+            "mechanism `{}` has NDOF = {}: generated solvers need NDOF = 0 (the equilibrium of a \
+             model with free degrees of freedom is `kinema run --equilibrium`)",
+            d.name,
+            d.dof.ndof()
+        );
+        return quote!(::core::compile_error!(#message););
+    }
     let name = rust_ident(&type_name(&d.name));
     let params: Vec<Ident> = d.params.iter().map(|p| rust_ident(&p.name)).collect();
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();

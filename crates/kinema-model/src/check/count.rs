@@ -12,7 +12,9 @@ use super::model::{CheckedModel, Form, LibArg, TExpr};
 pub(super) fn check_dof(cx: &mut Ctxt, model: &CheckedModel) {
     let dof = model.dof();
     let n = dof.ndof();
-    if n == 0 {
+    // A model with inertia may have free degrees of freedom: its static
+    // equilibrium (`kinema run --equilibrium`) needs no driver.
+    if n == 0 || (n > 0 && model.dynamics.is_some()) {
         return;
     }
     let help = if n > 0 {

@@ -1,0 +1,179 @@
+//! `kinema run MODEL --equilibrium`: the stable static equilibrium of a
+//! model with inertia at t = 0 (see `kinema::equilibrium`), written as one
+//! CSV row with the columns of a dynamics run (q̇ = q̈ = 0), its stability
+//! in the summary.
+
+use std::fmt::Write as _;
+
+use kinema::equilibrium::Stability;
+use kinema::{Dynamics, System};
+
+use super::args::RunArgs;
+use super::load::{Loaded, load_with};
+use super::columns::Selection;
+use super::output::{CsvSink, Destination, Outputs};
+use super::{Failure, print_stderr, print_stdout};
+
+/// Rule: kinematic analysis (and inverse dynamics) needs NDOF = 0; a model
+/// with inertia and free degrees of freedom has an equilibrium only.
+///
+/// # Errors
+/// [`Failure::Input`] naming the NDOF and `--equilibrium`.
+pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
+    let dof = loaded.checked.dof();
+    if dof.ndof() == 0 {
+        return Ok(());
+    }
+    Err(Failure::usage(format_args!(
+        "mechanism `{}` has NDOF = {} ({dof}): a motion needs NDOF = 0 (forward dynamics is not \
+         supported yet)\n  = help: `kinema run {} --equilibrium` finds its stable static \
+         equilibrium",
+        loaded.checked.name,
+        dof.ndof(),
+        loaded.file
+    )))
+}
+
+/// Runs `kinema run --equilibrium`.
+///
+/// # Errors
+/// Usage errors (options that describe a motion, a model without
+/// dynamics), model errors, and [`Failure::Analysis`] when no equilibrium
+/// is found.
+pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    for (given, option) in [
+        (args.t_end.is_some(), "--t-end"),
+        (args.steps.is_some(), "--steps"),
+        (args.plot.is_some(), "--plot"),
+        (args.animate.is_some(), "--animate"),
+        (args.stop_at_singular, "--stop-at-singular"),
+    ] {
+        if given {
+            return Err(Failure::usage(format_args!(
+                "{option} describes a motion; --equilibrium computes one configuration at t = 0"
+            )));
+        }
+    }
+    let loaded = load_with(&args.model, None, false)?;
+    loaded.print_warnings();
+    let d = loaded.model.derivation();
+    if d.dynamics.is_none() {
+        return Err(Failure::usage(format_args!(
+            "`{}` has no inertia, gravity or forces: --equilibrium needs a model with dynamics \
+             (`mass`, `inertia`, `gravity`, `force`)",
+            loaded.file
+        )));
+    }
+    let system = loaded.model.system();
+    let rows = d.rows.len();
+    let selection = match &args.columns {
+        Some(spec) => Selection::parse(spec, d)?,
+        None => Selection::all(d),
+    };
+    let mut header = selection.header(d);
+    header.extend(super::dynamics::column_names(
+        &system,
+        rows,
+        loaded.adm.is_some(),
+    ));
+    let mut outputs = Outputs::new();
+    outputs.input("the model", &args.model);
+    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
+
+    let eq = loaded
+        .model
+        .equilibrium(0.0)
+        .map_err(|e| Failure::analysis(format_args!("error: no equilibrium: {e}")))?;
+    // Reactions and efforts as a dynamics run computes them.
+    let n = d.nc();
+    let mut values = vec![0.0; system.dynamics_len()];
+    let zeros = vec![0.0; n];
+    system.dynamics(&mut system.scratch(), &eq.q, &zeros, eq.t, &mut values);
+    let mut jac = vec![0.0; d.phi_q.entries.len()];
+    system.jacobian(&mut system.scratch(), &eq.q, eq.t, &mut jac);
+    let mut out: Vec<f64> = eq.lambda.clone();
+    let arms = values.get(2 * n..).unwrap_or(&[]);
+    for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
+        let mut g = [0.0; 3];
+        for (e, v) in d.phi_q.entries.iter().zip(&jac) {
+            let (row, col) = (e.row as usize, e.col as usize);
+            if (spec.rows.0 as usize..spec.rows.1 as usize).contains(&row)
+                && col / 3 == spec.body as usize
+            {
+                g[col % 3] -= v * eq.lambda[row];
+            }
+        }
+        let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
+        out.extend([g[0], g[1], torque]);
+    }
+    let start = system.driving_start().min(rows);
+    out.extend(eq.lambda[start..].iter().map(|l| -l));
+    // Named points and measures at rest.
+    let m = d.outputs.len();
+    let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    {
+        let [y, yd, ydd] = &mut results;
+        kinema::Outputs::outputs(
+            &system,
+            &mut system.scratch(),
+            eq.t,
+            &eq.q,
+            &zeros,
+            &zeros,
+            y,
+            yd,
+            ydd,
+        );
+    }
+    let [y, yd, ydd] = &results;
+    sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [y, yd, ydd], &out)?;
+    let destination = sink.destination().clone();
+    sink.finish()?;
+
+    let mut summary = format!(
+        "{} ({}): equilibrium at t = 0 after {} descent step{}\n",
+        loaded.checked.name,
+        loaded.file,
+        eq.iterations,
+        if eq.iterations == 1 { "" } else { "s" }
+    );
+    let _ = writeln!(
+        summary,
+        "  stability: {} (reduced Hessian eigenvalues {})",
+        eq.stability,
+        if eq.eigenvalues.is_empty() {
+            "none: NDOF = 0".to_owned()
+        } else {
+            eq.eigenvalues
+                .iter()
+                .map(|v| format!("{v:.6e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
+    let _ = writeln!(
+        summary,
+        "  ‖Φ‖∞ = {:.1e}, reduced gradient ‖Nᵀ Q_A‖∞ = {:.1e}",
+        eq.residual, eq.gradient
+    );
+    let _ = write!(
+        summary,
+        "  wrote {}",
+        match &destination {
+            Destination::Stdout => "standard output (1 row)".to_owned(),
+            Destination::File(p) => format!("`{}` (1 row)", p.display()),
+        }
+    );
+    if eq.stability != Stability::Stable {
+        print_stderr(&format!(
+            "warning: the equilibrium found is {}: a small disturbance moves the mechanism away",
+            eq.stability
+        ));
+    }
+    if destination == Destination::Stdout {
+        print_stderr(&summary);
+        Ok(())
+    } else {
+        print_stdout(&summary)
+    }
+}
