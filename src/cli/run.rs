@@ -345,7 +345,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
     let mut result_scratch = kinema::System::scratch(solver.system());
     let keep = plot_target.is_some() || page_target.is_some();
-    let mut samples = keep.then(|| Samples::new(names.len()));
+    let mut samples = keep.then(|| {
+        let s = Samples::new(names.len());
+        match &dynamics {
+            Some(d) => s.with_dynamics(d.names()),
+            None => s,
+        }
+    });
     // The last output state's time if thinning left it out of `samples`.
     let mut skipped: Option<f64> = None;
     let mut flagged: Vec<f64> = Vec::new();
@@ -460,6 +466,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 && (written.is_multiple_of(stride) || written + 1 == outputs)
             {
                 s.push(state);
+                s.push_dynamics(extra);
                 skipped = None;
             }
             written += 1;

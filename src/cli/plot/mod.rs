@@ -20,6 +20,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 mod charts;
+mod dynamics;
 mod legend;
 mod mechanism;
 mod outputs;
@@ -87,6 +88,10 @@ pub struct Samples {
     q: Vec<f64>,
     qd: Vec<f64>,
     qdd: Vec<f64>,
+    /// Names of the dynamics columns (empty for a kinematic model).
+    dyn_names: Vec<String>,
+    /// Their values, `dyn_names.len()` per state.
+    dyn_values: Vec<f64>,
 }
 
 impl Samples {
@@ -96,6 +101,20 @@ impl Samples {
             n,
             ..Samples::default()
         }
+    }
+
+    /// Also keeps the dynamics columns `names` (reactions, efforts) of
+    /// each state, given by [`Samples::push_dynamics`] after each push.
+    pub fn with_dynamics(mut self, names: &[String]) -> Samples {
+        self.dyn_names = names.to_vec();
+        self
+    }
+
+    /// The dynamics values of the state just pushed.
+    pub fn push_dynamics(&mut self, values: &[f64]) {
+        let w = self.dyn_names.len();
+        self.dyn_values
+            .extend((0..w).map(|k| values.get(k).copied().unwrap_or(f64::NAN)));
     }
 
     /// Keeps a state.
@@ -289,7 +308,12 @@ fn render(
     } else {
         outputs::HEIGHT
     };
-    let height = HEAD + mech_h + driven_h + POINTS + measures_h;
+    let dyn_h = if samples.dyn_names.is_empty() {
+        0
+    } else {
+        dynamics::HEIGHT
+    };
+    let height = HEAD + mech_h + driven_h + POINTS + measures_h + dyn_h;
 
     let mut svg = String::new();
     {
@@ -327,10 +351,14 @@ fn render(
             mechanism.draw(&view, &legend, &mut warnings)?;
             draw_driven(&driven_area, scene, samples, false, &mut warnings)?;
         }
-        let (points_area, measures_area) = lower.split_vertically(POINTS);
+        let (points_area, rest) = lower.split_vertically(POINTS);
+        let (measures_area, dyn_area) = rest.split_vertically(measures_h);
         draw_points(&points_area, scene, samples, &series, &mut warnings)?;
         if !measures.is_empty() {
             outputs::draw_measures(&measures_area, measures, &mut warnings)?;
+        }
+        if dyn_h > 0 {
+            dynamics::draw(&dyn_area, samples, &mut warnings)?;
         }
         root.present()?;
     }
