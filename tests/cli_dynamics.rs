@@ -185,11 +185,16 @@ fn kin_model_with_inertia_writes_the_dynamics_columns() -> TestResult {
     );
     // --plot adds the reaction forces and the driver efforts against time.
     let svg = tmp.path("p.svg");
-    let o = kinema(&["run", &model, "--steps", "20", "--out", &out, "--plot", &svg]);
+    let o = kinema(&[
+        "run", &model, "--steps", "20", "--out", &out, "--plot", &svg,
+    ]);
     assert_status(&o, 0);
     let text = std::fs::read_to_string(&svg)?;
     assert!(text.contains("Reaction forces") && text.contains("Driver efforts"));
-    assert!(text.contains("\npin.bar\n") && text.contains("\nswing\n"), "legends");
+    assert!(
+        text.contains("\npin.bar\n") && text.contains("\nswing\n"),
+        "legends"
+    );
     // A kinematic model writes the kinematic columns only.
     let out2 = tmp.path("k.csv");
     let kin = Path::new(ROOT)
