@@ -33,10 +33,10 @@ impl AdmInput {
     /// Dynamics analysis or of NDOF ≠ 0, with the counts.
     pub fn read_checked(path: &Path, analysis: Option<&Analysis>) -> Result<AdmInput, Failure> {
         let model = read_model(path)?;
-        super::dynamics::refuse_point_force_files(&model, path)?;
         if let Some(analysis) = analysis {
             kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
         }
+        super::dynamics::refuse_point_force_files(&model, path)?;
         let names = Names::of(&model);
         let rows = names
             .rows(&model)

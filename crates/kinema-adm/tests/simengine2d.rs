@@ -157,7 +157,7 @@ fn details_of_the_real_files() {
     assert_eq!(shuriken.bodies[2].name, "Long Rod");
     let kin = to_kin(&shuriken);
     assert!(
-        kin.contains("body Long_Rod { guess: (178, -126.2, 1.126) }"),
+        kin.contains("body Long_Rod { guess: (178, -126.2, 1.126), mass: 5, inertia: 900 }"),
         "{kin}"
     );
     assert!(kin.contains("joint Translational_Collar_Long_Rod: translational(Collar(3, 0), (1, 0), Long_Rod(2, 0), (1, 0));"), "{kin}");
