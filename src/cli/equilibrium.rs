@@ -9,8 +9,8 @@ use kinema::equilibrium::Stability;
 use kinema::{Dynamics, System};
 
 use super::args::RunArgs;
-use super::load::{Loaded, load_with};
 use super::columns::Selection;
+use super::load::{Loaded, load_with};
 use super::output::{CsvSink, Destination, Outputs};
 use super::{Failure, print_stderr, print_stdout};
 

@@ -320,7 +320,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         Some(spec) => Selection::parse(spec, derivation)?,
         None => Selection::all(derivation),
     };
-    let mut dynamics = super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some());
+    let mut dynamics =
+        super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some());
     let mut header = selection.header(derivation);
     if let Some(d) = &dynamics {
         header.extend(d.names().iter().cloned());
