@@ -204,7 +204,13 @@ fn kin_model_with_inertia_writes_the_dynamics_columns() -> TestResult {
         .to_string();
     let o = kinema(&["run", &kin, "--steps", "2", "--out", &out2]);
     assert_status(&o, 0);
-    assert_eq!(Csv::read(&out2)?.header.len(), 28);
+    let header = Csv::read(&out2)?.header;
+    assert!(
+        !header.iter().any(|h| h.starts_with("lambda.")
+            || h.starts_with("reaction.")
+            || h.starts_with("driver.")),
+        "{header:?}"
+    );
     Ok(())
 }
 
