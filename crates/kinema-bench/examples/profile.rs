@@ -3,10 +3,11 @@
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
-//! generated, tape, handwritten; mode: same, default (predictor, full
+//! generated, tape, handwritten, dynamics (generated with inertia and
+//! inverse dynamics at every step: slider_crank, chain10); mode: same, default (predictor, full
 //! Newton), predictor-modified, modified (no predictor); repetitions).
 
-use kinema::{LinearSolver, Options, Solver, System};
+use kinema::{Dynamics, InverseDynamics, LinearSolver, Options, Solver, System};
 use kinema_bench::{generated, grid, handwritten, steps, tape};
 
 fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
@@ -20,6 +21,25 @@ fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
         "{acc}: {:.3} Newton updates and {:.3} factorizations per step",
         run.mean_updates, run.mean_factorizations
     );
+}
+
+/// The grid with inverse dynamics at every step (generated solvers with
+/// inertia: back end `dynamics`).
+fn run_dynamics<S: Dynamics, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
+    let times = grid();
+    let mut id = InverseDynamics::new(solver.system());
+    let mut acc = 0.0;
+    for _ in 0..reps {
+        solver.reset();
+        for &t in std::hint::black_box(&times) {
+            solver.step(t).unwrap_or_else(|e| panic!("{e}"));
+            solver
+                .inverse_dynamics(&mut id)
+                .unwrap_or_else(|e| panic!("{e}"));
+            acc += id.lambda()[0];
+        }
+    }
+    eprintln!("{acc}");
 }
 
 fn main() {
@@ -93,6 +113,18 @@ fn main() {
         ),
         ("chain10", "handwritten") => run(
             kinema_bench::solver(handwritten::Chain::new(10), options),
+            reps,
+        ),
+        ("slider_crank", "dynamics") => run_dynamics(
+            kinema_bench::generated_dynamics::slider_crank::SliderCrank::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain10", "dynamics") => run_dynamics(
+            kinema_bench::generated_dynamics::chain10::Chain10::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
             reps,
         ),
         (name, "tape") => run(kinema_bench::solver(tape(name), options), reps),
