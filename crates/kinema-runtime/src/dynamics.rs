@@ -58,10 +58,24 @@ pub struct InverseDynamics {
     reactions: Vec<[f64; 3]>,
     efforts: Vec<f64>,
     values: Vec<f64>,
-    /// Per reaction, the Jacobian entries in its rows and its body's
-    /// columns: (pattern index, row, which coordinate of the body).
-    entries: Vec<Vec<(usize, usize, usize)>>,
+    /// Every reaction's Jacobian entries (in its rows and its body's
+    /// columns), in one flat list: one pass computes all reactions.
+    entries: Vec<ReactionEntry>,
     driving_start: usize,
+}
+
+/// One term of a reaction: reaction `reaction`'s component `coord` (x, y or
+/// the torque about the body's origin) gets −Φ_q[k] λ[row].
+#[derive(Debug, Clone, Copy)]
+struct ReactionEntry {
+    /// Index of the entry in the Jacobian pattern.
+    k: u32,
+    /// Its row of Φ.
+    row: u32,
+    /// The reaction it belongs to.
+    reaction: u32,
+    /// Which coordinate of the body: 0, 1 or 2.
+    coord: u8,
 }
 
 impl InverseDynamics {
@@ -70,20 +84,22 @@ impl InverseDynamics {
     pub fn new<S: Dynamics>(system: &S) -> Self {
         let n = system.len();
         let pattern = system.jacobian_pattern();
-        let entries = system
-            .reactions()
-            .iter()
-            .map(|r| {
-                pattern
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, (row, col))| {
-                        (r.rows.0..r.rows.1).contains(row) && col / 3 == r.body
-                    })
-                    .map(|(k, &(row, col))| (k, row as usize, (col % 3) as usize))
-                    .collect()
-            })
-            .collect();
+        let mut entries = Vec::new();
+        for (reaction, r) in (0u32..).zip(system.reactions()) {
+            let in_reaction =
+                |&(row, col): &(u32, u32)| (r.rows.0..r.rows.1).contains(&row) && col / 3 == r.body;
+            for (k, &(row, col)) in (0u32..).zip(pattern) {
+                if in_reaction(&(row, col)) {
+                    entries.push(ReactionEntry {
+                        k,
+                        row,
+                        reaction,
+                        // col % 3 < 3.
+                        coord: (col % 3) as u8,
+                    });
+                }
+            }
+        }
         let driving_start = system.driving_start().min(n);
         InverseDynamics {
             lambda: vec![0.0; n],
@@ -143,52 +159,65 @@ impl<S: Dynamics, L: LinearSolver> Solver<S, L> {
         // The system's outputs go into `values`; the right-hand side is
         // built in `lambda` and solved in place.
         system.dynamics(scratch, state.q(), state.qd(), t, &mut out.values);
-        let (m, rest) = out.values.split_at(n.min(out.values.len()));
-        let qa = &rest[..n.min(rest.len())];
-        if !scale_and_finite(&out.values).1 || m.len() != n || qa.len() != n {
-            let k = out.values.iter().position(|v| !v.is_finite()).unwrap_or(0);
-            let name = match k {
-                k if k < n => format!("M at {}", system.coordinate_name(k)),
-                k if k < 2 * n => format!("Q_A at {}", system.coordinate_name(k - n)),
-                k => format!("the arm of reaction {}", (k - 2 * n) / 2),
-            };
-            return Err(Error::NonFinite {
-                t,
-                quantity: Quantity::AppliedForce,
-                name,
-            });
+        if out.values.len() < 2 * n {
+            return Err(non_finite_value(system, t, n, &out.values));
         }
+        let (m, rest) = out.values.split_at(n);
+        let (qa, arms) = rest.split_at(n);
         let qdd = state.qdd();
         for (((l, &mi), &qi), &a) in out.lambda.iter_mut().zip(m).zip(qa).zip(qdd) {
             *l = qi - mi * a;
         }
+        // A non-finite M or Q_A makes its entry of the right-hand side, and
+        // so λ, non-finite (NaN and ∞ survive every operation of a solve):
+        // only λ is checked, the culprit named on the error path.
         let (system, jac) = self.solve_transposed_at_state(&mut out.lambda)?;
-        if let Some(i) = out.lambda.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite {
-                t,
-                quantity: Quantity::Multiplier,
-                name: system.equation_name(i).to_owned(),
+        if !scale_and_finite(&out.lambda).1 {
+            return Err(if scale_and_finite(&out.values).1 {
+                let i = out.lambda.iter().position(|v| !v.is_finite()).unwrap_or(0);
+                Error::NonFinite {
+                    t,
+                    quantity: Quantity::Multiplier,
+                    name: system.equation_name(i).to_owned(),
+                }
+            } else {
+                non_finite_value(system, t, n, &out.values)
             });
         }
-        let arms = &out.values[2 * n..];
-        for ((r, entries), arm) in out
-            .reactions
-            .iter_mut()
-            .zip(&out.entries)
-            .zip(arms.chunks_exact(2))
-        {
-            // [F; T_origin] = −Φ_q,bᵀ λ_c.
-            let mut g = [0.0; 3];
-            for &(k, row, c) in entries {
-                g[c] -= jac[k] * out.lambda[row];
-            }
-            // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).
-            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
-            *r = [g[0], g[1], torque];
+        // [F; T_origin] = −Φ_q,bᵀ λ_c, all reactions in one pass.
+        out.reactions.fill([0.0; 3]);
+        for e in &out.entries {
+            out.reactions[e.reaction as usize][usize::from(e.coord)] -=
+                jac[e.k as usize] * out.lambda[e.row as usize];
+        }
+        // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).
+        for (r, arm) in out.reactions.iter_mut().zip(arms.chunks_exact(2)) {
+            r[2] -= -arm[1] * r[0] + arm[0] * r[1];
+        }
+        // λ is finite, so a non-finite reaction comes from an arm.
+        if !scale_and_finite(out.reactions.as_flattened()).1 {
+            return Err(non_finite_value(system, t, n, &out.values));
         }
         for (e, &l) in out.efforts.iter_mut().zip(&out.lambda[out.driving_start..]) {
             *e = -l;
         }
         Ok(())
+    }
+}
+
+/// The error for a non-finite output of [`Dynamics::dynamics`], naming the
+/// first: an entry of M, of Q_A, or a reaction's arm (error path only).
+#[cold]
+fn non_finite_value<S: System>(system: &S, t: f64, n: usize, values: &[f64]) -> Error {
+    let k = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+    let name = match k {
+        k if k < n => format!("M at {}", system.coordinate_name(k)),
+        k if k < 2 * n => format!("Q_A at {}", system.coordinate_name(k - n)),
+        k => format!("the arm of reaction {}", (k - 2 * n) / 2),
+    };
+    Error::NonFinite {
+        t,
+        quantity: Quantity::AppliedForce,
+        name,
     }
 }
