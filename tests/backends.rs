@@ -333,9 +333,13 @@ fn every_model_file_has_a_generated_counterpart_here() {
         files,
         [
             "chain10.kin",
+            // eccentric_cam, roller_cam, scotch_yoke: tests/followers.rs
+            "eccentric_cam.kin",
             "four_bar.kin",
             "parabola_follower.kin",
             "pendulum.kin",
+            "roller_cam.kin",
+            "scotch_yoke.kin",
             "slider_crank.kin",
             "slider_crank_translational.kin"
         ]

@@ -136,6 +136,21 @@ fn header(loaded: &Loaded) -> String {
         bodies.len(),
         abbreviate(&bodies, 8)
     );
+    if !c.coords.is_empty() {
+        let own: Vec<&str> = c.coords.iter().map(|k| k.name.as_str()).collect();
+        let s = if own.len() == 1 { "" } else { "s" };
+        let _ = writeln!(
+            out,
+            "  {} coordinate{s} of {}, after the bodies' in q: {}",
+            own.len(),
+            if own.len() == 1 {
+                "its own"
+            } else {
+                "their own"
+            },
+            abbreviate(&own, 8)
+        );
+    }
     let _ = writeln!(out, "  DOF: {}", c.dof());
     out
 }

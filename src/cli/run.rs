@@ -650,7 +650,7 @@ fn summary(s: &SummaryInput<'_>) -> String {
         c.name,
         s.loaded.file,
         if nb == 1 { "y" } else { "ies" },
-        3 * nb
+        3 * nb + c.coords.len()
     );
     let _ = writeln!(out, "  grid: {}", s.grid.description);
     let st = s.stats;

@@ -33,11 +33,13 @@ pub const DERIVATION_BUDGET: usize = 2_000_000;
 /// One generalized coordinate.
 #[derive(Clone, Debug)]
 pub struct Coordinate {
-    /// `B.x`, `B.y` or `B.phi`.
+    /// `B.x`, `B.y` or `B.phi`; a coordinate of its own (`coord`) has its
+    /// declared name.
     pub name: String,
-    /// Index of the body (declaration order).
+    /// Index of the body (declaration order); for [`Comp::Extra`], the
+    /// index among the `coord` items.
     pub body: usize,
-    /// Which coordinate of the body.
+    /// Which coordinate of the body, or [`Comp::Extra`].
     pub comp: Comp,
     /// The coordinate's symbol (kind `Coordinate(index)`).
     pub sym: SymId,
@@ -102,7 +104,8 @@ pub struct Derivation {
     pub docs: Vec<String>,
     /// Parameters in declaration order (`Parameter(i)` is `params[i]`).
     pub params: Vec<ParamInfo>,
-    /// Body names in declaration order; body k owns coordinates 3k..3k+3.
+    /// Body names in declaration order; body k owns coordinates 3k..3k+3,
+    /// and the coordinates of their own (`coord`) follow the bodies'.
     pub bodies: Vec<String>,
     /// Doc comments of each body.
     pub body_docs: Vec<Vec<String>>,
@@ -181,6 +184,7 @@ impl Derivation {
                 });
             }
         }
+        crate::follower::push_coordinates(&mut arena, &lo, model, &mut coordinates);
         let params = model
             .params
             .iter()

@@ -134,6 +134,7 @@ mod ctxt;
 pub mod derive;
 pub mod diagnostic;
 pub mod dynamics;
+pub mod follower;
 mod library;
 mod lower;
 pub mod outputs;
@@ -143,7 +144,7 @@ pub mod source;
 pub mod span;
 pub mod syntax;
 
-pub use check::{BodyRef, CheckedModel, Comp, DofReport, LibKind, Output};
+pub use check::{BodyRef, CheckedModel, Comp, Coord, Curve, DofReport, LibKind, Output};
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use dynamics::{DynamicsDerivation, Reaction};

@@ -28,6 +28,9 @@ pub(crate) fn rows(
     kind: LibKind,
     args: &[LibArg],
 ) -> Vec<ExprId> {
+    if let Some(rows) = crate::follower::rows(lo, arena, kind, args) {
+        return rows;
+    }
     let args: Vec<Arg> = args
         .iter()
         .map(|a| match a {
@@ -38,6 +41,9 @@ pub(crate) fn rows(
             LibArg::Body(b) => Arg::Body(*b),
             LibArg::Vector(v) => Arg::Vector(lo.vector(arena, v)),
             LibArg::Scalar(s) => Arg::Scalar(lo.scalar(arena, s)),
+            // The followers' (crate::follower::rows).
+            LibArg::Curve(b, _) => Arg::Body(*b),
+            LibArg::Coord(_) => Arg::Body(BodyRef::Ground),
         })
         .collect();
     let zero = arena.num(0.0);
@@ -202,5 +208,7 @@ pub(crate) fn rows(
             let cd = arena.dot(vector(0), d);
             vec![minus(arena, cd, scalar(3))]
         }
+        // Built by crate::follower::rows above.
+        LibKind::PointFollower | LibKind::CamFollower | LibKind::FlatFollower => Vec::new(),
     }
 }

@@ -31,6 +31,8 @@ pub(crate) struct Lowerer<'m> {
     pub(crate) coords: Vec<[ExprId; 3]>,
     /// `[x_dot, y_dot, phi_dot]` per body (the derivation's velocity symbols).
     pub(crate) velocities: Vec<[ExprId; 3]>,
+    /// The coordinates of their own (`coord` items), after the bodies' in q.
+    pub(crate) extra: Vec<ExprId>,
     pub(crate) time: ExprId,
     /// Local coordinates of each named point.
     pub(crate) point_locals: Vec<Vec2>,
@@ -59,6 +61,13 @@ impl<'m> Lowerer<'m> {
                 ]
             })
             .collect();
+        let nb = 3 * model.bodies.len();
+        let extra = model
+            .coords
+            .iter()
+            .enumerate()
+            .map(|(k, c)| arena.coordinate(&c.name, idx(nb + k)))
+            .collect();
         // Time before the velocities: the order in which derive.rs created
         // symbols before the lowerer made velocities.
         let time = arena.time();
@@ -80,6 +89,7 @@ impl<'m> Lowerer<'m> {
             params,
             coords,
             velocities,
+            extra,
             time,
             point_locals: Vec::new(),
         };
@@ -99,6 +109,7 @@ impl<'m> Lowerer<'m> {
             params: Vec::new(),
             coords: Vec::new(),
             velocities: Vec::new(),
+            extra: Vec::new(),
             time: arena.time(),
             point_locals: Vec::new(),
         }
@@ -167,6 +178,43 @@ impl<'m> Lowerer<'m> {
         arena: &mut Arena,
         t: &TExpr,
         report: &mut dyn FnMut(u32, Undefined),
+    ) -> Value {
+        let nan = arena.num(f64::NAN);
+        self.lower_with(arena, t, report, nan)
+    }
+
+    /// Local coordinates of curve `k` of the model at `arg` (an expression
+    /// substituted for the curve's parameter); NaN for a curve that does
+    /// not exist.
+    pub(crate) fn curve(&self, arena: &mut Arena, k: u32, arg: ExprId) -> Vec2 {
+        match self.model.and_then(|m| m.curves.get(k as usize)) {
+            Some(c) => match self.lower_with(arena, &c.local, &mut |_, _| {}, arg) {
+                Value::V(v) => v,
+                Value::S(e) => Vec2::new(e, e),
+            },
+            None => {
+                let nan = arena.num(f64::NAN);
+                Vec2::new(nan, nan)
+            }
+        }
+    }
+
+    /// The coordinate of its own `k` (NaN if there is none).
+    pub(crate) fn extra(&self, arena: &mut Arena, k: u32) -> ExprId {
+        match self.extra.get(k as usize) {
+            Some(&e) => e,
+            None => arena.num(f64::NAN),
+        }
+    }
+
+    /// [`lower_reporting`](Self::lower_reporting) with `arg` standing for
+    /// a curve's parameter.
+    fn lower_with(
+        &self,
+        arena: &mut Arena,
+        t: &TExpr,
+        report: &mut dyn FnMut(u32, Undefined),
+        arg: ExprId,
     ) -> Value {
         let undefined = |arena: &Arena, v: Value| match v {
             Value::S(e) => arena.is_undefined(e),
@@ -250,12 +298,13 @@ impl<'m> Lowerer<'m> {
                 TNode::Pi => Value::S(arena.num(std::f64::consts::PI)),
                 TNode::Time => Value::S(self.time),
                 TNode::Param(i) => Value::S(self.params.get(i as usize).copied().unwrap_or(zero)),
+                TNode::Coord(k, Comp::Extra) => Value::S(self.extra(arena, k)),
                 TNode::Coord(k, c) => {
                     let xyz = self.coords[k as usize];
                     Value::S(match c {
                         Comp::X => xyz[0],
                         Comp::Y => xyz[1],
-                        Comp::Phi => xyz[2],
+                        Comp::Phi | Comp::Extra => xyz[2],
                     })
                 }
                 TNode::Vel(k, c) => Value::S(
@@ -263,6 +312,7 @@ impl<'m> Lowerer<'m> {
                         .get(k as usize)
                         .map_or(zero, |v| v[c as usize]),
                 ),
+                TNode::CurveArg => Value::S(arg),
                 TNode::Point(body, local) => {
                     let l = w(&vals, local);
                     Value::V(self.global(arena, body, l))
@@ -350,6 +400,7 @@ fn children(n: &TNode, out: &mut Vec<u32>) {
         | TNode::Param(_)
         | TNode::Coord(..)
         | TNode::Vel(..) => {}
+        TNode::CurveArg => {}
         TNode::NamedPoint(_) => {}
         TNode::Point(_, a)
         | TNode::X(a)

@@ -4,10 +4,12 @@
 //!
 //! ```text
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
-//! Item       := Doc* ( Param | Body | Point | Equation | Output )
+//! Item       := Doc* ( Param | Body | Point | Coord | Curve | Equation | Output )
 //! Param      := "param" Ident ( "=" Expr )? ";"
 //! Body       := "body" Ident ( "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" ","? )? "}" | ";" )
 //! Point      := "point" Ident "." Ident "=" Expr ";"
+//! Coord      := "coord" Ident ( "{" ( "guess" ":" Expr ","? )? "}" | ";" )
+//! Curve      := "curve" Ident "." Ident "(" Ident ")" "=" Expr ";"
 //! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" Expr ( "==" Expr )? ";"
 //! Output     := "output" Ident ":" Expr ";"
 //! Expr       := Product ( ( "+" | "-" ) Product )*
@@ -46,6 +48,8 @@ pub(crate) mod kw {
     syn::custom_keyword!(inertia);
     syn::custom_keyword!(gravity);
     syn::custom_keyword!(force);
+    syn::custom_keyword!(coord);
+    syn::custom_keyword!(curve);
 }
 
 mod dynamics;
@@ -87,6 +91,10 @@ pub enum Item {
     Gravity(GravityDecl),
     /// `force name: element(…);`
     Force(ForceDecl),
+    /// `coord name { guess: expr }`: a generalized coordinate of its own.
+    Coord(crate::follower::CoordDecl),
+    /// `curve body.name(u) = expr;`: a body-fixed parametric curve.
+    Curve(crate::follower::CurveDecl),
 }
 
 /// `param name = expr;`
@@ -841,11 +849,13 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
         dynamics::parse_gravity(input).map(Item::Gravity)
     } else if lookahead.peek(kw::force) {
         dynamics::parse_force(input, docs).map(Item::Force)
+    } else if lookahead.peek(kw::coord) || lookahead.peek(kw::curve) {
+        crate::follower::parse_item(input, docs)
     } else {
-        // error: expected an item (`param`, `body`, `point`, `joint`, `constraint`, `driver` or `output`), found `bdy`
+        // error: expected an item (`param`, `body`, `point`, `coord`, `curve`, `joint`, `constraint`, `driver` or `output`), found `bdy`
         Err(expected(
             input,
-            "an item (`param`, `body`, `point`, `joint`, `constraint`, `driver` or `output`)",
+            "an item (`param`, `body`, `point`, `coord`, `curve`, `joint`, `constraint`, `driver` or `output`)",
         ))
     }
 }

@@ -49,6 +49,19 @@ fn dof_reports() {
             "chain10.kin",
             "nc = 30, kinematic equations = 20, drivers = 10, KDOF = 10, NDOF = 0",
         ),
+        // Followers: the coordinates of their own count in nc.
+        (
+            "scotch_yoke.kin",
+            "nc = 7, kinematic equations = 6, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "eccentric_cam.kin",
+            "nc = 7, kinematic equations = 6, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "roller_cam.kin",
+            "nc = 8, kinematic equations = 7, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
     ];
     for (name, want) in expect {
         assert_eq!(dof(name), want, "{name}");

@@ -58,7 +58,7 @@ pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
                 .iter()
                 .filter_map(|a| match a {
                     LibArg::Point(_, t) | LibArg::Vector(t) | LibArg::Scalar(t) => Some(t),
-                    LibArg::Body(_) => None,
+                    LibArg::Body(_) | LibArg::Curve(..) | LibArg::Coord(_) => None,
                 })
                 .collect(),
         };

@@ -149,7 +149,13 @@ pub(super) fn check_constant(
 /// Evaluates a checked scalar constant. Rule: it is finite (unless a bad
 /// param, already reported, is the cause).
 ///   error: the value of param `x` is NaN: expected a finite number
-fn finite_scalar(cx: &mut Ctxt, t: &TExpr, values: &[f64], span: Span, what: &str) -> f64 {
+pub(super) fn finite_scalar(
+    cx: &mut Ctxt,
+    t: &TExpr,
+    values: &[f64],
+    span: Span,
+    what: &str,
+) -> f64 {
     let v = eval_scalar(t, values);
     if !v.is_finite() && !uses_bad_param(t, values) {
         cx.error(

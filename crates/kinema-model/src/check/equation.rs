@@ -232,7 +232,7 @@ fn check_library(
         }
         let arg = arg.map(|(arg, _)| arg);
         bodies.push(arg.as_ref().and_then(|a| match a {
-            LibArg::Point(b, _) | LibArg::Body(b) => Some(*b),
+            LibArg::Point(b, _) | LibArg::Body(b) | LibArg::Curve(b, _) => Some(*b),
             _ => None,
         }));
         out.push(arg);
@@ -243,7 +243,9 @@ fn check_library(
         return None;
     }
     // A library constraint depends on coordinates through its points and bodies.
-    if bodies.iter().any(|b| matches!(b, Some(BodyRef::Body(_)))) {
+    // and through the coordinates of its own it is given.
+    let own = out.iter().any(|a| matches!(a, LibArg::Coord(_)));
+    if own || bodies.iter().any(|b| matches!(b, Some(BodyRef::Body(_)))) {
         deps.coord = Some(expr.span());
     }
     Some((
@@ -295,6 +297,10 @@ fn check_lib_arg(
             let t = expect_ty(cx, t, Ty::Scalar, node.span)?;
             Some((LibArg::Scalar(t.expr), t.deps))
         }
+        ArgKind::Curve => super::coord::check_curve_arg(cx, names, expr, a, spec)
+            .map(|(b, k)| (LibArg::Curve(b, k), none)),
+        ArgKind::Coord => super::coord::check_coord_arg(cx, names, expr, a, spec)
+            .map(|k| (LibArg::Coord(k), none)),
     }
 }
 
@@ -436,7 +442,7 @@ fn vector_of(x: TExpr, y: TExpr) -> TExpr {
 fn shift(n: TNode, off: u32) -> TNode {
     use TNode::*;
     match n {
-        Num(_) | Pi | Time | Param(_) | Coord(..) | Vel(..) | NamedPoint(_) => n,
+        Num(_) | Pi | Time | Param(_) | Coord(..) | Vel(..) | NamedPoint(_) | CurveArg => n,
         Point(b, a) => Point(b, a + off),
         Vec(a, b) => Vec(a + off, b + off),
         X(a) => X(a + off),

@@ -148,9 +148,19 @@ impl ExprCheck<'_, '_> {
                 };
                 return Some((TNode::Time, Ty::Scalar, deps));
             }
+            _ if self.names.curve_arg.as_deref() == Some(n) => {
+                return Some((TNode::CurveArg, Ty::Scalar, Deps::default()));
+            }
             _ => {}
         }
         match (n, self.names.decls.get(n)) {
+            (_, Some(Decl::Coord(k))) => {
+                let deps = Deps {
+                    time: None,
+                    coord: Some(span),
+                };
+                Some((TNode::Coord(*k, Comp::Extra), Ty::Scalar, deps))
+            }
             (_, Some(Decl::Param(p))) if (*p as usize) < self.params_visible => {
                 Some((TNode::Param(*p), Ty::Scalar, Deps::default()))
             }
@@ -177,10 +187,14 @@ impl ExprCheck<'_, '_> {
             }
             (_, None) => {
                 // error: unknown name `l3`
-                cx.push(
-                    Diagnostic::error(span, format!("unknown name `{n}`"))
-                        .with_help("expected a param, `pi`, `t`, or a coordinate such as `body.x`"),
-                );
+                let help = match &self.names.curve_arg {
+                    // In a curve: `curve B.c(u) = (cos(v), …)`.
+                    Some(u) => format!("expected a param, `pi`, or the curve's parameter `{u}`"),
+                    None => {
+                        "expected a param, `pi`, `t`, or a coordinate such as `body.x`".to_string()
+                    }
+                };
+                cx.push(Diagnostic::error(span, format!("unknown name `{n}`")).with_help(help));
                 None
             }
         }

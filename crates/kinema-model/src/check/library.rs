@@ -1,4 +1,5 @@
-//! The table of library constraints (CONSTRAINTS.md §1–5): names,
+//! The table of library constraints (CONSTRAINTS.md §1–5, and the
+//! followers of §3 in [`crate::follower`]): names,
 //! argument kinds, signatures and row counts, read by the checker.
 
 /// The constraints of the library (CONSTRAINTS.md §1–5).
@@ -42,6 +43,12 @@ pub enum LibKind {
     D,
     /// `cd((cx, cy), Pi, Pj, f)`
     Cd,
+    /// `point_follower(P, B.curve, alpha)` (Haug PF, eq. 3.4.32)
+    PointFollower,
+    /// `cam_follower(Bi.ci, alpha_i, Bj.cj, alpha_j)` (Haug CF, §3.4.4)
+    CamFollower,
+    /// `flat_follower(B.curve, alpha, P, v)`: a flat face tangent to a cam
+    FlatFollower,
 }
 
 /// The kind of one argument of a library constraint.
@@ -55,6 +62,10 @@ pub(super) enum ArgKind {
     Vector,
     /// A scalar expression of params and `t`.
     Scalar,
+    /// A curve `B.name` declared with `curve`.
+    Curve,
+    /// A coordinate declared with `coord`.
+    Coord,
 }
 
 /// Signature of a library constraint.
@@ -68,7 +79,7 @@ pub(super) struct LibSpec {
     pub(super) pair: Option<(usize, usize)>,
 }
 
-use ArgKind::{Body as AB, Point as AP, Scalar as AS, Vector as AV};
+use ArgKind::{Body as AB, Coord as AQ, Curve as AC, Point as AP, Scalar as AS, Vector as AV};
 
 pub(super) const LIBRARY: &[LibSpec] = &[
     LibSpec {
@@ -223,6 +234,30 @@ pub(super) const LIBRARY: &[LibSpec] = &[
         rows: 1,
         pair: Some((1, 2)),
     },
+    LibSpec {
+        name: "point_follower",
+        kind: LibKind::PointFollower,
+        args: &[AP, AC, AQ],
+        signature: "point_follower(P, B.curve, alpha)",
+        rows: 2,
+        pair: Some((0, 1)),
+    },
+    LibSpec {
+        name: "cam_follower",
+        kind: LibKind::CamFollower,
+        args: &[AC, AQ, AC, AQ],
+        signature: "cam_follower(Bi.ci, alpha_i, Bj.cj, alpha_j)",
+        rows: 3,
+        pair: Some((0, 2)),
+    },
+    LibSpec {
+        name: "flat_follower",
+        kind: LibKind::FlatFollower,
+        args: &[AC, AQ, AP, AV],
+        signature: "flat_follower(B.curve, alpha, P, v)",
+        rows: 2,
+        pair: Some((0, 2)),
+    },
 ];
 
 pub(super) fn library(name: &str) -> Option<&'static LibSpec> {
@@ -252,8 +287,9 @@ impl LibKind {
     #[must_use]
     pub fn row_suffixes(self) -> &'static [&'static str] {
         match self {
-            LibKind::Revolute => &[".x", ".y"],
-            LibKind::Translational | LibKind::RackPinion => &[".1", ".2"],
+            LibKind::Revolute | LibKind::PointFollower => &[".x", ".y"],
+            LibKind::Translational | LibKind::RackPinion | LibKind::FlatFollower => &[".1", ".2"],
+            LibKind::CamFollower => &[".1", ".2", ".3"],
             _ => &[""],
         }
     }

@@ -20,6 +20,7 @@
 //! silent instead of "unknown" errors about a name the user did declare.
 
 mod call;
+mod coord;
 mod count;
 mod decls;
 mod dynamics;
@@ -38,6 +39,7 @@ use crate::diagnostic::{Diagnostic, Diagnostics};
 use crate::span::Span;
 use crate::syntax::{self, ExprKind};
 
+pub use coord::{Coord, Curve};
 pub use dynamics::{Dynamics, Force, ForceKind, Inertia};
 pub use library::LibKind;
 pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
@@ -57,6 +59,8 @@ pub(crate) use eval::eval_vector;
 enum Decl {
     Param(u32),
     Body(u32),
+    /// A coordinate of its own (`coord`).
+    Coord(u32),
     /// A declaration that was rejected (a duplicate, a body named like a
     /// function): its uses say nothing, the declaration's error said it.
     Poisoned,
@@ -106,6 +110,10 @@ struct Names<'a> {
     point_decls: &'a [Point],
     /// Whether velocities (`B.x_dot`) may appear: in forces only.
     velocities: bool,
+    /// The declared curves.
+    curves: coord::CurveNames,
+    /// The parameter of the curve being checked: a name only there.
+    curve_arg: Option<String>,
 }
 
 impl Names<'_> {
@@ -123,6 +131,8 @@ impl Names<'_> {
             points: HashMap::new(),
             point_decls: &[],
             velocities: false,
+            curves: coord::CurveNames::new(),
+            curve_arg: None,
         }
     }
 
@@ -166,6 +176,8 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     let out_points = decls::check_points(&mut cx, &names, &point_items, &values);
     names.point_decls = &out_points;
     let bodies = decls::check_guesses(&mut cx, &names, &declared.bodies, &values);
+    let coords = coord::check_coords(&mut cx, &names, &declared.coords, &values);
+    let curves = coord::check_curves(&mut cx, &mut names, mech, &values);
     let (equations, rows_known) = equation::check_equations(&mut cx, &names, mech, &values);
     let outputs = output::check_outputs(&mut cx, &names, mech, &bodies, &out_points);
     names.velocities = true;
@@ -177,6 +189,8 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         params,
         bodies,
         points: out_points,
+        coords,
+        curves,
         equations,
         outputs,
         warnings: Diagnostics::new(),

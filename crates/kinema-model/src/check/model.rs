@@ -26,6 +26,10 @@ pub enum Comp {
     Y,
     /// `B.phi`
     Phi,
+    /// A coordinate of its own (a `coord` item): in `TNode::Coord(k, _)`
+    /// and [`crate::Coordinate::body`], `k` is then its index among the
+    /// `coord` items, not a body.
+    Extra,
 }
 
 /// The type of an expression.
@@ -73,6 +77,9 @@ pub(crate) enum TNode {
     Norm(u32),
     Rot(u32, u32),
     Perp(u32),
+    /// The parameter of the curve being defined (in a curve's expression
+    /// only; a follower substitutes a coordinate for it).
+    CurveArg,
 }
 
 /// A typed expression: flat, children first, root last.
@@ -163,6 +170,10 @@ pub(crate) enum LibArg {
     Body(BodyRef),
     Vector(TExpr),
     Scalar(TExpr),
+    /// A declared curve: its body, its index into [`CheckedModel::curves`].
+    Curve(BodyRef, u32),
+    /// A coordinate of its own (index into [`CheckedModel::coords`]).
+    Coord(u32),
 }
 
 /// What an equation is made of.
@@ -185,7 +196,7 @@ pub struct Equation {
     pub docs: Vec<String>,
     /// The keyword that introduced it.
     pub keyword: EquationKeyword,
-    /// Number of scalar rows (1 or 2).
+    /// Number of scalar rows (1, 2, or 3 for `cam_follower`).
     pub rows: usize,
     /// The library constraint, if it is one.
     pub library: Option<LibKind>,
@@ -217,7 +228,7 @@ impl Equation {
 /// Degree-of-freedom counts (CONSTRAINTS.md §6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct DofReport {
-    /// Number of coordinates, nc = 3·nb.
+    /// Number of coordinates, nc = 3·nb + the `coord` items.
     pub coordinates: usize,
     /// Number of kinematic equations m_K.
     pub kinematic: usize,
@@ -269,6 +280,11 @@ pub struct CheckedModel {
     pub bodies: Vec<Body>,
     /// Named points in declaration order.
     pub points: Vec<Point>,
+    /// Coordinates of their own (`coord` items) in declaration order: in q
+    /// after every body's.
+    pub coords: Vec<super::coord::Coord>,
+    /// Body-fixed curves (`curve` items) in declaration order.
+    pub curves: Vec<super::coord::Curve>,
     /// Equations in declaration order (joints, constraints and drivers mixed).
     pub equations: Vec<Equation>,
     /// Measures (`output NAME: EXPR;`) in declaration order.
@@ -285,7 +301,7 @@ impl CheckedModel {
     #[must_use]
     pub fn dof(&self) -> DofReport {
         let mut r = DofReport {
-            coordinates: 3 * self.bodies.len(),
+            coordinates: 3 * self.bodies.len() + self.coords.len(),
             kinematic: 0,
             driving: 0,
         };

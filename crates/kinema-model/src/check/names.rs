@@ -1,8 +1,10 @@
 //! Rules on declarations: which names may be declared, and where.
 //!
 //! Name spaces (README, "Names"):
-//! - params and bodies share one: both are read by bare name in
-//!   expressions (`L`, `crank.x`, `crank(1, 0)`);
+//! - params, bodies and coordinates of their own (`coord`) share one: all
+//!   are read by bare name in expressions (`L`, `crank.x`, `crank(1, 0)`,
+//!   `alpha`);
+//! - curves live in their body's, as points do (`yoke.slot`);
 //! - points live in their body's: `crank.o` and `rod.o` are different;
 //! - equations (`joint`, `constraint`, `driver`) have their own: their
 //!   names label rows and never appear in expressions;
@@ -33,6 +35,7 @@ pub(super) struct Declared<'m> {
     pub(super) body_names: Vec<String>,
     pub(super) params: Vec<&'m syntax::ParamDecl>,
     pub(super) bodies: Vec<&'m syntax::BodyDecl>,
+    pub(super) coords: Vec<&'m crate::follower::CoordDecl>,
 }
 
 /// Rule: names are unique among params and bodies, and none is reserved.
@@ -51,6 +54,7 @@ pub(super) fn check_names<'m>(cx: &mut Ctxt, mech: &'m syntax::Mechanism) -> Dec
         body_names: Vec::new(),
         params: Vec::new(),
         bodies: Vec::new(),
+        coords: Vec::new(),
     };
     let mut first_span: HashMap<String, Span> = HashMap::new();
     for item in &mech.items {
@@ -63,6 +67,10 @@ pub(super) fn check_names<'m>(cx: &mut Ctxt, mech: &'m syntax::Mechanism) -> Dec
                 out.bodies.push(b);
                 out.body_names.push(b.name.to_string());
                 (&b.name, Decl::Body(idx(out.bodies.len() - 1)))
+            }
+            Item::Coord(c) => {
+                out.coords.push(c);
+                (&c.name, Decl::Coord(idx(out.coords.len() - 1)))
             }
             _ => continue,
         };
@@ -123,7 +131,9 @@ fn check_name(
 fn same_kind(a: Decl, b: Decl) -> bool {
     matches!(
         (a, b),
-        (Decl::Param(_), Decl::Param(_)) | (Decl::Body(_), Decl::Body(_))
+        (Decl::Param(_), Decl::Param(_))
+            | (Decl::Body(_), Decl::Body(_))
+            | (Decl::Coord(_), Decl::Coord(_))
     )
 }
 
