@@ -48,11 +48,13 @@
 //!
 //! ```text
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
-//! Item       := Doc* ( Param | Body | Point | Equation | Output )
+//! Item       := Doc* ( Param | Body | Point | Coord | Curve | Equation | Output )
 //! Param      := "param" Ident "=" Expr ";"              constant: numbers, `pi`, earlier params
 //! Body       := "body" Ident "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" )? "}"
 //!             | "body" Ident ";"                          guess (0, 0, 0)
 //! Point      := "point" Body "." Ident "=" Expr ";"      local coordinates, constants of params
+//! Coord      := "coord" Ident ( "{" "guess" ":" Expr "}" | ";" )   a coordinate of its own (guess 0)
+//! Curve      := "curve" Body "." Ident "(" Ident ")" "=" Expr ";"  vector of params and the parameter
 //! Equation   := ( "joint" | "constraint" | "driver" ) Ident ":" ( Expr "==" Expr | LibraryCall ) ";"
 //! Output     := "output" Ident ":" Expr ";"                a measure: scalar or vector of q, params, t
 //! Expr       := Product ( ( "+" | "-" ) Product )*
@@ -66,7 +68,8 @@
 //!   (`2f64`) are errors, so are non-finite values (`1e999`) and `1.e5`
 //!   (Rust reads it as the field `e5` of `1`; write `1e5` or `1.0e5`).
 //! - Names: `pi`; `t` (time); `ground` (the fixed body, no coordinates; a
-//!   point on ground `ground(x, y)` is a global point); params; bodies.
+//!   point on ground `ground(x, y)` is a global point); params; bodies;
+//!   coordinates of their own (`coord`, a scalar by its bare name).
 //! - Scalars: numbers, params, `pi`, `t`, coordinates `B.x`, `B.y`,
 //!   `B.phi`, components `v.x`, `v.y` of a vector `v`, `+ - * /`, unary `-`,
 //!   and the functions `sin cos tan asin acos atan sinh cosh tanh exp ln sqrt
@@ -83,7 +86,8 @@
 //!   `driver` rows are driving equations, normally functions of `t` (a driver
 //!   that does not mention `t` is accepted with a warning).
 //! - Every equation depends on at least one coordinate.
-//! - The mechanism must have NDOF = 3·bodies − kinematic rows − driving rows = 0.
+//! - The mechanism must have NDOF = 3·bodies + coords − kinematic rows −
+//!   driving rows = 0.
 //!
 //! - `output NAME: EXPR;` is a measure, a result of the analysis with its
 //!   first and second time derivatives (columns `NAME`, `NAME_dot`,
@@ -92,15 +96,22 @@
 //!   [`outputs`].
 //!
 //! In the derivation, coordinates are `B.x`, `B.y`, `B.phi` for each body in
-//! declaration order (velocities `B.x_dot`, …); rows of Φ are the kinematic
-//! equations in declaration order, then the driving ones.
+//! declaration order, then the coordinates of their own (`coord`) by name in
+//! declaration order (velocities `B.x_dot`, …, `alpha_dot`); rows of Φ are
+//! the kinematic equations in declaration order, then the driving ones.
+//!
+//! A curve `curve B.c(u) = (x(u), y(u));` is fixed in body `B` (or
+//! `ground`); its expression may use params, `pi` and its parameter `u`
+//! (nothing else: no `t`, no coordinates) and must depend on `u`. The
+//! followers take it as `B.c` with a coordinate of its own, which they
+//! substitute for `u` ([`follower`]).
 //!
 //! Library constraints (CONSTRAINTS.md; P is a point `B(sx, sy)`, `B.name`
 //! or `ground(x, y)`; B a body or `ground`; v, a body-fixed vectors `(vx, vy)`
 //! in the frame of the body of the point they follow; f, C, L, c, R, θ scalar
 //! expressions of params and `t`). Rows are named `name` for one row,
-//! `name.x`/`name.y` for `revolute` and `name.1`/`name.2` for the other
-//! two-row constraints. Distance forms are Φ = dᵀd − C² (no ½).
+//! `name.x`/`name.y` for `revolute` and `point_follower`, and `name.1`,
+//! `name.2` (, `name.3`) for the other constraints of several rows. Distance forms are Φ = dᵀd − C² (no ½).
 //!
 //! | call | Φ | rows |
 //! |---|---|---|
@@ -121,11 +132,14 @@
 //! | `dp2(Pi, ai, Pj, f)` | a_iᵀd − f | 1 |
 //! | `d(Pi, Pj, f)` | dᵀd − f | 1 |
 //! | `cd((cx, cy), Pi, Pj, f)` | cᵀd − f | 1 |
+//! | `point_follower(P, B.curve, alpha)` | P − (r_B + A_B c'(α)) (Haug PF) | 2 |
+//! | `cam_follower(Bi.ci, alpha_i, Bj.cj, alpha_j)` | [p_i − p_j; (R t_i)ᵀt_j], p = r + A c'(α), t = A dc'/dα (Haug CF) | 3 |
+//! | `flat_follower(B.curve, alpha, P, v)` | [n̂ᵀ(c − P); (R t)ᵀû], c, t of the curve at α, û = A v̂, n̂ = R û | 2 |
 //!
 //! Every library constraint is written with the same vector algebra users
-//! have ([`algebra`]); no derivative is written by hand. The point-follower
-//! and cam-follower constraints (PF, CF), which need extra coordinates, are
-//! not part of the language yet.
+//! have ([`algebra`]); no derivative is written by hand. The followers'
+//! curves are differentiated with respect to their coordinate by the
+//! engine (the tangent dc'/dα and, in Φ_q, ν, γ, its derivatives).
 
 pub mod algebra;
 pub mod chain;

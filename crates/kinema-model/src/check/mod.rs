@@ -10,6 +10,7 @@
 //! | `decls` | params, points' local coordinates, initial guesses (constants) |
 //! | `expr` | expressions: names, fields, operators, types |
 //! | `call` | function calls (`sin(x)`, `dot(a, b)`, …) |
+//! | `coord` | coordinates of their own, curves, the followers' curve and coordinate arguments |
 //! | `equation` | equations and library constraints |
 //! | `count` | counts (NDOF) and undefined parts |
 //! | `output` | measures (`output NAME: EXPR;`) and the columns they add |
