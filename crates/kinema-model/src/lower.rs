@@ -187,8 +187,20 @@ impl<'m> Lowerer<'m> {
     /// substituted for the curve's parameter); NaN for a curve that does
     /// not exist.
     pub(crate) fn curve(&self, arena: &mut Arena, k: u32, arg: ExprId) -> Vec2 {
+        self.curve_reporting(arena, k, arg, &mut |_, _| {})
+    }
+
+    /// [`curve`](Self::curve), reporting undefined parts as
+    /// [`lower_reporting`](Self::lower_reporting) does.
+    pub(crate) fn curve_reporting(
+        &self,
+        arena: &mut Arena,
+        k: u32,
+        arg: ExprId,
+        report: &mut dyn FnMut(u32, Undefined),
+    ) -> Vec2 {
         match self.model.and_then(|m| m.curves.get(k as usize)) {
-            Some(c) => match self.lower_with(arena, &c.local, &mut |_, _| {}, arg) {
+            Some(c) => match self.lower_with(arena, &c.local, report, arg) {
                 Value::V(v) => v,
                 Value::S(e) => Vec2::new(e, e),
             },

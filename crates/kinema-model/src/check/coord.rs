@@ -273,3 +273,36 @@ pub(super) fn check_coord_arg(
     );
     None
 }
+
+/// Rule: no part of a curve is undefined whatever its parameter (as for
+/// equations, `count::check_undefined_parts`): each curve is lowered with
+/// a fresh symbol for its parameter.
+///   error: division by zero: this divisor is identically zero
+pub(super) fn check_undefined_curves(
+    cx: &mut Ctxt,
+    model: &super::CheckedModel,
+    lo: &crate::lower::Lowerer<'_>,
+    arena: &mut kinema_expr::Arena,
+) {
+    // An index past every coordinate: the symbol is the curve's parameter
+    // alone.
+    let next = 3 * model.bodies.len() + model.coords.len();
+    for (k, c) in model.curves.iter().enumerate() {
+        let u = arena.coordinate(&c.param, idx(next));
+        lo.curve_reporting(arena, idx(k), u, &mut |i, why| {
+            let span = c.local.span(i).unwrap_or(c.span);
+            cx.push(match why {
+                crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+                    span,
+                    "division by zero: this divisor is identically zero",
+                )
+                .with_help("the curve is undefined whatever its parameter"),
+                crate::lower::Undefined::Value => Diagnostic::error(
+                    span,
+                    "this expression is undefined whatever the curve's parameter",
+                )
+                .with_help("a function is applied where it has no finite value (such as `ln` of an expression that is identically zero)"),
+            });
+        });
+    }
+}

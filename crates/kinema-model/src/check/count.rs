@@ -51,6 +51,7 @@ fn plural(n: i64) -> &'static str {
 pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
     let mut arena = kinema_expr::Arena::new();
     let lo = crate::lower::Lowerer::new(&mut arena, model);
+    super::coord::check_undefined_curves(cx, model, &lo, &mut arena);
     for eq in &model.equations {
         let exprs: Vec<&TExpr> = match &eq.form {
             Form::User { lhs, rhs } => vec![lhs, rhs],
