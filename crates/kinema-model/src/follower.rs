@@ -133,8 +133,7 @@ pub(crate) fn push_coordinates(
         let qd = arena.velocity(&format!("{}_dot", c.name), idx(i));
         let guess = lo.scalar(arena, &c.guess);
         let (Some(sym), Some(velocity)) = (arena.symbol_of(q), arena.symbol_of(qd)) else {
-            // `Lowerer::new` made one coordinate symbol per `coord` item.
-            continue;
+            unreachable!("`Lowerer::new` makes one coordinate symbol per `coord` item")
         };
         out.push(crate::Coordinate {
             name: c.name.clone(),

@@ -327,3 +327,55 @@ fn derivations() {
         small("flat_follower(cam.disc, a, f(0, 0), (1, 0))", circle, 2)
     );
 }
+
+/// Malformed coordinates, curves and follower calls are errors, never
+/// panics; the accepted ones derive.
+#[test]
+fn malformed_items_are_errors() {
+    let bad = [
+        "coord",
+        "coord ;",
+        "coord x = 3;",
+        "coord c { guess: }",
+        "coord c { gues: 1 }",
+        "coord c { guess: 1 } extra",
+        "coord c { guess: 1, 2 }",
+        "curve",
+        "curve a",
+        "curve a.",
+        "curve a.c",
+        "curve a.c = (1, 2);",
+        "curve a.c() = (1, 2);",
+        "curve a.c(u, v) = (u, v);",
+        "curve a.c(1) = (1, 2);",
+        "curve a.c(u) = ;",
+        "curve a.c(u) = (u, u)",
+        "curve a.c(pi) = (pi, pi);",
+        "coord q; curve ground.c(u) = (u, u); joint j: point_follower(a(0, 0), ground.c, a);",
+        "coord q; curve a.c(u) = (u, u); joint j: point_follower(a(0, 0), a.c, q);",
+        "coord q; curve ground.c(u) = (u, u); joint j: cam_follower(ground.c, q, ground.c, q);",
+        "coord q; joint j: point_follower(a(0, 0), q, q);",
+        "coord q; curve ground.c(u) = (u, u); joint j: point_follower(a(0, 0), ground.c, q + 1);",
+        "coord q; curve ground.c(u) = (u, u); joint j: point_follower(a(0, 0), ground.c);",
+        "coord q; curve ground.c(u) = (u, u); joint j: point_follower(a(0, 0), ground.d, q);",
+        "coord q; curve ground.c(u) = (u, u); joint j: point_follower(a(0, 0), (1, 2), q);",
+        "coord q; curve ground.c(u) = (1 / (u - u), u); joint j: point_follower(a(0, 0), ground.c, q); constraint k: a.phi == 0; driver d: q == t;",
+        "coord q; constraint k: abs_x(a(0, 0), q);",
+        "coord q; param p = q;",
+        "coord q; point a.p = (q, 0);",
+        "coord q; body b { guess: (q, 0, 0) }",
+    ];
+    for item in bad {
+        let src = format!("mechanism M {{\n    body a;\n    {item}\n}}\n");
+        let Err(d) = derive_str(&src) else {
+            panic!("accepted: {item}");
+        };
+        assert!(d.has_errors(), "{item}");
+        let text = d.render(&src, "m.kin");
+        assert!(text.contains("error"), "{item}: {text}");
+    }
+    // A curve's parameter may shadow a coordinate's name inside the curve.
+    let src = "mechanism M {\n    body a;\n    coord q;\n    curve ground.c(q) = (q, 2 * q);\n    joint j: point_follower(a(0, 0), ground.c, q);\n    constraint k: a.phi == 0;\n    driver d: q == t;\n}\n";
+    let d = derive_str(src).unwrap_or_else(|e| panic!("{}", e.render(src, "m.kin")));
+    assert_eq!(d.dof.ndof(), 0);
+}
