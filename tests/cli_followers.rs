@@ -122,3 +122,31 @@ fn a_follower_error_is_rendered_at_its_place() -> TestResult {
     assert!(err.contains("write `b.slot`"), "{err}");
     Ok(())
 }
+
+#[test]
+fn columns_select_bodies_and_coordinates_of_their_own() -> TestResult {
+    // `cam` is the cam's three coordinates only (a coordinate of its own
+    // belongs to no body); `a` is the coordinate.
+    let o = kinema(&[
+        "run",
+        "models/roller_cam.kin",
+        "--steps",
+        "2",
+        "--columns",
+        "cam,a",
+        "--out",
+        "-",
+    ]);
+    assert_status(&o, 0);
+    let csv = Csv::parse(&stdout(&o))?;
+    let mut want = vec!["t".to_string()];
+    for suffix in ["", "_dot", "_ddot"] {
+        want.extend(
+            ["cam.x", "cam.y", "cam.phi", "a"]
+                .iter()
+                .map(|n| format!("{n}{suffix}")),
+        );
+    }
+    assert_eq!(csv.header, want);
+    Ok(())
+}

@@ -37,7 +37,8 @@ pub struct Coordinate {
     /// declared name.
     pub name: String,
     /// Index of the body (declaration order); for [`Comp::Extra`], the
-    /// index among the `coord` items.
+    /// number of bodies plus the index among the `coord` items (never a
+    /// body's index).
     pub body: usize,
     /// Which coordinate of the body, or [`Comp::Extra`].
     pub comp: Comp,

@@ -137,7 +137,8 @@ pub(crate) fn push_coordinates(
         };
         out.push(crate::Coordinate {
             name: c.name.clone(),
-            body: k,
+            // Never a body's index: `bodies.get(body)` is `None`.
+            body: model.bodies.len() + k,
             comp: Comp::Extra,
             sym,
             velocity,

@@ -26,9 +26,9 @@ pub enum Comp {
     Y,
     /// `B.phi`
     Phi,
-    /// A coordinate of its own (a `coord` item): in `TNode::Coord(k, _)`
-    /// and [`crate::Coordinate::body`], `k` is then its index among the
-    /// `coord` items, not a body.
+    /// A coordinate of its own (a `coord` item): in `TNode::Coord(k, _)`,
+    /// `k` is then its index among the `coord` items, not a body (see
+    /// [`crate::Coordinate::body`]).
     Extra,
 }
 
