@@ -306,3 +306,20 @@ pub(super) fn check_undefined_curves(
         });
     }
 }
+
+/// Rule (for now): a model with coordinates of their own has no dynamics.
+/// The dynamics (mass matrix, applied forces) is built over the bodies'
+/// coordinates only; a massless curve parameter in it is not supported yet.
+///   error: a model with coordinates of their own (`coord`) cannot have dynamics yet
+pub(super) fn check_no_dynamics(cx: &mut Ctxt, model: &super::CheckedModel) {
+    let (Some(c), Some(_)) = (model.coords.first(), &model.dynamics) else {
+        return;
+    };
+    cx.push(
+        Diagnostic::error(
+            c.span,
+            "a model with coordinates of their own (`coord`) cannot have dynamics (mass, inertia, gravity, forces) yet",
+        )
+        .with_help("the dynamics is built over the bodies' coordinates only; analyse the kinematics of this model, or leave out its dynamics"),
+    );
+}

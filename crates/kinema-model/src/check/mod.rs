@@ -197,6 +197,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
         warnings: Diagnostics::new(),
         dynamics,
     };
+    coord::check_no_dynamics(&mut cx, &model);
     // Counts over a model with missing or bad declarations would mislead.
     if rows_known && cx.error_count() == 0 {
         count::check_dof(&mut cx, &model);
