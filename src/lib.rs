@@ -34,7 +34,7 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, InverseDynamics,
+    Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, InverseDynamics,
     LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport,
     PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu, State,
     StepStats, System, Trajectory, diagnose, point_kinematics,

@@ -9,7 +9,6 @@
 //! | [`run`] | `kinema run`: the time loop and its summary |
 //! | [`columns`] | `run --columns`: which quantities the CSV holds |
 //! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
-//! | [`number`] | fast `{:e}` formatting of the CSV's numbers |
 //! | [`progress`] | the progress bar on standard error |
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
 //! | [`plot`] | the SVG figure |
@@ -30,7 +29,6 @@ pub mod columns;
 pub mod dynamics;
 pub mod equilibrium;
 pub mod load;
-pub mod number;
 pub mod output;
 pub mod plot;
 pub mod progress;

@@ -19,7 +19,7 @@ use std::time::Duration;
 use kinema::State;
 
 use super::Failure;
-use super::number::push_e;
+use kinema::CsvLine;
 
 /// Where the CSV goes.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -357,12 +357,10 @@ impl Sink {
 /// Streams states as CSV rows: columns `t`, the selected coordinate names,
 /// suffixed `_dot`, then `_ddot`; then the selected results (named points,
 /// measures) in the same three blocks; numbers in `{:e}`, shortest
-/// round-trip (the text of the runtime's `CsvWriter`, written faster: see
-/// [`super::number`]).
+/// round-trip, as the runtime's [`CsvLine`] writes every CSV of kinema.
 pub struct CsvSink {
     out: BufWriter<Sink>,
-    line: Vec<u8>,
-    buffer: ryu::Buffer,
+    line: CsvLine,
     destination: Destination,
     rows: usize,
     columns: usize,
@@ -402,8 +400,7 @@ impl CsvSink {
         header.push('\n');
         let mut sink = CsvSink {
             out,
-            line: Vec::new(),
-            buffer: ryu::Buffer::new(),
+            line: CsvLine::new(),
             destination,
             rows: 0,
             columns: 1 + header_names.len(),
@@ -454,34 +451,20 @@ impl CsvSink {
         extra: &[f64],
     ) -> Result<(), Failure> {
         self.line.clear();
-        push_e(&mut self.line, &mut self.buffer, t);
+        self.line.number(t);
         for values in states {
             for &k in &self.selection.coordinates {
-                self.line.push(b',');
-                push_e(
-                    &mut self.line,
-                    &mut self.buffer,
-                    values.get(k).copied().unwrap_or(f64::NAN),
-                );
+                self.line.number(values.get(k).copied().unwrap_or(f64::NAN));
             }
         }
         for values in results {
             for &k in &self.selection.outputs {
-                self.line.push(b',');
-                push_e(
-                    &mut self.line,
-                    &mut self.buffer,
-                    values.get(k).copied().unwrap_or(f64::NAN),
-                );
+                self.line.number(values.get(k).copied().unwrap_or(f64::NAN));
             }
         }
-        for &v in extra {
-            self.line.push(b',');
-            push_e(&mut self.line, &mut self.buffer, v);
-        }
-        self.line.push(b'\n');
-        self.out
-            .write_all(&self.line)
+        self.line.numbers(extra);
+        self.line
+            .write_to(&mut self.out)
             .map_err(|e| write_failure(&self.destination, &e))?;
         self.rows += 1;
         Ok(())

@@ -20,10 +20,10 @@ use kinema::sweep::{ModelSweep, shard};
 
 use super::args::SweepArgs;
 use super::load::{Format, load};
-use super::number::push_e;
 use super::output::{Destination, Outputs, Sink, duration, time, write_failure};
 use super::run::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
 use super::{Failure, print_stderr};
+use kinema::CsvLine;
 
 /// Most rows a parameter table may have.
 pub const MAX_ROWS: usize = 10_000_000;
@@ -254,13 +254,10 @@ fn sweep_chunk(
 ) -> Vec<Result<VariantText, Error>> {
     sweep.map(rows, |k, solver| {
         let row = &rows[k];
-        let mut prefix = Vec::new();
-        let mut buffer = ryu::Buffer::new();
-        prefix.extend_from_slice((first + k + 1).to_string().as_bytes());
-        for &v in row {
-            prefix.push(b',');
-            push_e(&mut prefix, &mut buffer, v);
-        }
+        let mut prefix = CsvLine::new();
+        prefix.text(&(first + k + 1).to_string());
+        prefix.numbers(row);
+        let mut line = CsvLine::new();
         let mut text = Vec::new();
         // The named points and outputs, evaluated per state as `run` does.
         let m = kinema::Outputs::output_len(solver.system());
@@ -283,14 +280,12 @@ fn sweep_chunk(
                 yd,
                 ydd,
             );
-            text.extend_from_slice(&prefix);
-            text.push(b',');
-            push_e(&mut text, &mut buffer, state.t());
+            line.clear();
+            line.fields_of(&prefix);
+            line.number(state.t());
             let values = state.q().iter().chain(state.qd()).chain(state.qdd());
-            for &v in values.chain(results.iter().flatten()) {
-                text.push(b',');
-                push_e(&mut text, &mut buffer, v);
-            }
+            line.numbers(values.chain(results.iter().flatten()));
+            text.extend_from_slice(line.as_bytes());
             text.push(b'\n');
         }
         Ok((text, None))

@@ -58,7 +58,7 @@ pub mod state;
 pub mod system;
 pub mod trajectory;
 
-pub use csv::CsvWriter;
+pub use csv::{CsvLine, CsvWriter};
 pub use diagnose::{Rank, RankError};
 pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
 pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};

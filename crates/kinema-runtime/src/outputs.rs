@@ -164,19 +164,14 @@ impl Table {
     /// Write errors of `out`.
     pub fn write_csv<W: std::io::Write>(&self, mut out: W) -> std::io::Result<()> {
         writeln!(out, "{}", self.names.join(","))?;
+        let mut line = crate::csv::CsvLine::new();
         for r in 0..self.rows {
+            line.clear();
             for j in 0..self.names.len() {
-                let v = self
-                    .data
-                    .get(j * self.rows + r)
-                    .copied()
-                    .unwrap_or(f64::NAN);
-                if j > 0 {
-                    out.write_all(b",")?;
-                }
-                write!(out, "{v:e}")?;
+                let v = self.data.get(j * self.rows + r).copied();
+                line.number(v.unwrap_or(f64::NAN));
             }
-            out.write_all(b"\n")?;
+            line.write_to(&mut out)?;
         }
         out.flush()
     }

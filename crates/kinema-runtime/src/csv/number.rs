@@ -1,6 +1,5 @@
 //! Fast shortest round-trip formatting of `f64` in the exact text of Rust's
-//! `{:e}` — the number format of the CSV contract and of the runtime's
-//! `CsvWriter` — for large CSVs (a 1000-body chain writes 9 million
+//! `{:e}` — the number format of the CSV contract — for large CSVs (a 1000-body chain writes 9 million
 //! numbers per 1000 steps).
 //!
 //! `ryu` finds the shortest digit string that reads back to the same `f64`,
@@ -15,7 +14,7 @@
 use std::fmt::Write as _;
 
 /// Appends `v` as `format!("{v:e}")` would.
-pub fn push_e(out: &mut Vec<u8>, buffer: &mut ryu::Buffer, v: f64) {
+pub(crate) fn push_e(out: &mut Vec<u8>, buffer: &mut ryu::Buffer, v: f64) {
     if !v.is_finite() || v == 0.0 {
         // NaN, ±inf, ±0: rare; the standard formatter.
         let mut s = String::new();
