@@ -204,7 +204,7 @@ impl LinearSolver for SparseLu {
                 Ok(())
             }
             Active::Faer => {
-                self.solve_with_faer(rhs);
+                self.solve_with_faer(rhs, false);
                 Ok(())
             }
         }
@@ -219,7 +219,7 @@ impl LinearSolver for SparseLu {
                 Ok(())
             }
             Active::Faer => {
-                self.solve_transpose_with_faer(rhs);
+                self.solve_with_faer(rhs, true);
                 Ok(())
             }
         }
@@ -307,32 +307,26 @@ impl SparseLu {
         Ok(())
     }
 
-    fn solve_transpose_with_faer(&mut self, rhs: &mut [f64]) {
+    /// Solves A x = b (or Aᵀ x = b) in place with faer's factorization.
+    fn solve_with_faer(&mut self, rhs: &mut [f64], transpose: bool) {
         let n = self.n;
         let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, n);
         let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
-        self.lu.solve_transpose_in_place_with_conj(
-            row_perm,
-            col_perm,
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.scratch),
-        );
-    }
-
-    fn solve_with_faer(&mut self, rhs: &mut [f64]) {
-        let n = self.n;
-        let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, n);
-        let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, n);
-        self.lu.solve_in_place_with_conj(
-            row_perm,
-            col_perm,
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.scratch),
-        );
+        let rhs = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        let stack = MemStack::new(&mut self.scratch);
+        if transpose {
+            self.lu.solve_transpose_in_place_with_conj(
+                row_perm,
+                col_perm,
+                Conj::No,
+                rhs,
+                Par::Seq,
+                stack,
+            );
+        } else {
+            self.lu
+                .solve_in_place_with_conj(row_perm, col_perm, Conj::No, rhs, Par::Seq, stack);
+        }
     }
 }
 

@@ -685,11 +685,10 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.factor_and_rates(t)
     }
 
-    /// Factors Φ_q from `ws.jac` and solves q̇ and q̈ of `self.next`.
+    /// Factors Φ_q from `ws.jac` (at time `t`); the factorization is marked
+    /// stale on success, none on failure.
     #[inline]
-    fn factor_and_rates(&mut self, t: f64) -> Result<(), Error> {
-        self.factored_t = f64::NAN;
-        let State { q, qd, qdd, .. } = &mut self.next;
+    fn factor_jacobian(&mut self, t: f64) -> Result<(), Error> {
         self.factorization = Factorization::None;
         factor(
             &self.system,
@@ -701,6 +700,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &mut self.ws.diagnoses_left,
         )?;
         self.factorization = Factorization::Stale;
+        Ok(())
+    }
+
+    /// Factors Φ_q from `ws.jac` and solves q̇ and q̈ of `self.next`.
+    #[inline]
+    fn factor_and_rates(&mut self, t: f64) -> Result<(), Error> {
+        self.factored_t = f64::NAN;
+        self.factor_jacobian(t)?;
+        let State { q, qd, qdd, .. } = &mut self.next;
 
         // A non-finite ν (γ) gives a non-finite q̇ (q̈): each right-hand side
         // entry reaches its own entry of the solution, and NaN and ∞ survive
@@ -776,17 +784,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             let t = self.state.t;
             self.system
                 .jacobian(&mut self.scratch, &self.state.q, t, &mut self.ws.jac);
-            self.factorization = Factorization::None;
-            factor(
-                &self.system,
-                &mut self.lu,
-                t,
-                &self.ws.jac,
-                &mut self.ws.scaling,
-                self.options.singular_tolerance,
-                &mut self.ws.diagnoses_left,
-            )?;
-            self.factorization = Factorization::Stale;
+            self.factor_jacobian(t)?;
             self.factored_q.copy_from_slice(&self.state.q);
             self.factored_t = t;
             self.factored_scaled = self.ws.scaling.active;
