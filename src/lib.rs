@@ -34,10 +34,11 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, InverseDynamics,
-    LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport,
-    PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu, State,
-    StepStats, System, Trajectory, diagnose, point_kinematics,
+    Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, ForwardSystem,
+    Hht, HhtOptions, IntegrateError, InverseDynamics, LinalgError, LinearSolver, LinearSolverFor,
+    ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
+    SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, diagnose,
+    integrate, point_kinematics,
 };
 pub use kinema_runtime::{Outputs, Table};
 
@@ -45,6 +46,8 @@ pub use kinema_runtime::{Outputs, Table};
 pub mod dynamics;
 #[cfg(feature = "model")]
 pub mod equilibrium;
+#[cfg(feature = "model")]
+pub mod forward;
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]

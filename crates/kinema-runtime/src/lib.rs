@@ -21,6 +21,7 @@
 //! | [`options`] | [`Options`]: tolerances, predictor, full or modified Newton |
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
 //! | [`diagnose`], [`event`] | the one rank rule (equilibrated SVD); singular configurations met during a run |
+//! | [`integrate`] | forward dynamics: HHT-α ([`Hht`]) over a [`ForwardSystem`] |
 //! | [`trajectory`], [`state`], [`kinematics`], [`csv`] | results: states, body-point kinematics, CSV |
 //! | `handwritten` | reference mechanisms of the benchmarks (feature `handwritten`) |
 //!
@@ -48,6 +49,7 @@ pub mod error;
 pub mod event;
 #[cfg(feature = "handwritten")]
 pub mod handwritten;
+pub mod integrate;
 pub mod kinematics;
 pub mod linalg;
 mod newton;
@@ -63,6 +65,7 @@ pub use diagnose::{Rank, RankError};
 pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
 pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
+pub use integrate::{ForwardSystem, Hht, HhtOptions, IntegrateError};
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{
     Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, LinearSolverFor, PivotReport, SparseLu,

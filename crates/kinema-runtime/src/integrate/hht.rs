@@ -1,0 +1,565 @@
+//! HHT-α on the index-3 DAE (Negrut, Rampalli, Ottarsson, Sandu 2007):
+//!
+//! ```text
+//! q₊ = q + h q̇ + h²/2 [(1 − 2β) q̈ + 2β q̈₊]
+//! q̇₊ = q̇ + h [(1 − γ) q̈ + γ q̈₊]
+//! M q̈₊ + (1 + α)(Φ_qᵀλ − Q_A)₊ − α (Φ_qᵀλ − Q_A) = 0
+//! Φ(q₊, t₊) / (β h²) = 0
+//! ```
+//!
+//! with α ∈ [−1/3, 0], β = (1 − α)²/4, γ = ½ − α: second order, with
+//! numerical damping of the high frequencies growing as α goes to −1/3
+//! (α = 0 is the trapezoidal rule). The unknowns are q̈₊ and λ₊; Newton's
+//! Jacobian is exact, from the symbolic derivatives:
+//!
+//! ```text
+//! [ M + (1+α)[(∂(Φ_qᵀλ)/∂q − ∂Q_A/∂q) β h² − ∂Q_A/∂q̇ γ h]   (1+α) Φ_qᵀ ]
+//! [ Φ_q                                                      0          ]
+//! ```
+//!
+//! (full Newton: factored every iteration). The start is made consistent:
+//! q is projected onto Φ = 0 and q̇ onto Φ_q q̇ = ν by minimum-norm
+//! corrections, and q̈, λ come from the index-1 system
+//! [M Φ_qᵀ; Φ_q 0][q̈; λ] = [Q_A; γ].
+
+use super::dense::Lu;
+use super::{ForwardSystem, IntegrateError};
+
+/// HHT-α's settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HhtOptions {
+    /// α ∈ [−1/3, 0] (default −0.1: β = 0.3025, γ = 0.6, simEngine2D's).
+    pub alpha: f64,
+    /// Newton stops when the position change it makes, β h² ‖Δq̈‖∞, is at
+    /// most `tolerance` (1 + ‖q‖∞) and ‖Δλ‖∞ ≤ √tolerance (1 + ‖λ‖∞) (λ
+    /// enters the next step only through the α-weighted forces).
+    pub tolerance: f64,
+    /// Newton iterations per step before the step fails.
+    pub max_iterations: usize,
+}
+
+impl Default for HhtOptions {
+    fn default() -> Self {
+        HhtOptions {
+            alpha: -0.1,
+            tolerance: 1e-13,
+            max_iterations: 25,
+        }
+    }
+}
+
+/// How far the initial conditions were from consistent.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Consistency {
+    /// ‖Φ(q₀)‖∞ as given.
+    pub phi: f64,
+    /// ‖Φ_q q̇₀ − ν‖∞ as given (after the position projection).
+    pub velocity: f64,
+    /// ‖Δq‖∞ of the position projection.
+    pub dq: f64,
+    /// ‖Δq̇‖∞ of the velocity projection.
+    pub dqd: f64,
+}
+
+/// Counters of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HhtStats {
+    /// Steps taken.
+    pub steps: usize,
+    /// Newton iterations (factorizations) in all.
+    pub iterations: usize,
+    /// Most iterations in one step.
+    pub max_iterations: usize,
+}
+
+/// Fixed-step HHT-α integrator and its state.
+#[derive(Debug)]
+pub struct Hht<S> {
+    system: S,
+    n: usize,
+    m: usize,
+    alpha: f64,
+    beta: f64,
+    gamma: f64,
+    options: HhtOptions,
+    t: f64,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    lambda: Vec<f64>,
+    /// (Φ_qᵀλ − Q_A) at the current state.
+    f: Vec<f64>,
+    /// Work of Q_A and of the constraint forces since the start.
+    work: f64,
+    /// Qᵀq̇ − λᵀν at the current state.
+    power: f64,
+    stats: HhtStats,
+    // Buffers.
+    qn: Vec<f64>,
+    qdn: Vec<f64>,
+    qddn: Vec<f64>,
+    lambdan: Vec<f64>,
+    mass: Vec<f64>,
+    qa: Vec<f64>,
+    jac: Vec<f64>,
+    phi: Vec<f64>,
+    nu: Vec<f64>,
+    kq: Vec<f64>,
+    cqd: Vec<f64>,
+    hess: Vec<f64>,
+    rhs: Vec<f64>,
+    lu: Lu,
+    small: Lu,
+    ys: Vec<f64>,
+}
+
+fn amax(v: &[f64]) -> f64 {
+    v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
+}
+
+fn finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl<S: ForwardSystem> Hht<S> {
+    /// An integrator at t₀ from q₀, q̇₀, made consistent (see the module
+    /// documentation); the [`Consistency`] says how much was corrected.
+    /// Allocates every buffer of the run.
+    ///
+    /// # Errors
+    /// α outside [−1/3, 0], wrong lengths, an initial configuration that
+    /// cannot be projected, a singular or non-finite index-1 system.
+    pub fn new(
+        system: S,
+        q0: &[f64],
+        qd0: &[f64],
+        t0: f64,
+        options: HhtOptions,
+    ) -> Result<(Hht<S>, Consistency), IntegrateError> {
+        let alpha = options.alpha;
+        if !(-1.0 / 3.0..=0.0).contains(&alpha) {
+            return Err(IntegrateError::Setup(format!(
+                "HHT's α must be in [−1/3, 0], not {alpha}"
+            )));
+        }
+        let (n, m) = (system.coords(), system.rows());
+        if q0.len() != n || qd0.len() != n || m > n {
+            return Err(IntegrateError::Setup(format!(
+                "{n} coordinates and {m} equations, given {} positions and {} velocities",
+                q0.len(),
+                qd0.len()
+            )));
+        }
+        let mut hht = Hht {
+            system,
+            n,
+            m,
+            alpha,
+            beta: (1.0 - alpha) * (1.0 - alpha) / 4.0,
+            gamma: 0.5 - alpha,
+            options,
+            t: t0,
+            q: q0.to_vec(),
+            qd: qd0.to_vec(),
+            qdd: vec![0.0; n],
+            lambda: vec![0.0; m],
+            f: vec![0.0; n],
+            work: 0.0,
+            power: 0.0,
+            stats: HhtStats::default(),
+            qn: vec![0.0; n],
+            qdn: vec![0.0; n],
+            qddn: vec![0.0; n],
+            lambdan: vec![0.0; m],
+            mass: vec![0.0; n],
+            qa: vec![0.0; n],
+            jac: vec![0.0; m * n],
+            phi: vec![0.0; m],
+            nu: vec![0.0; m],
+            kq: vec![0.0; n * n],
+            cqd: vec![0.0; n * n],
+            hess: vec![0.0; n * n],
+            rhs: vec![0.0; n + m],
+            lu: Lu::new(n + m),
+            small: Lu::new(m),
+            ys: vec![0.0; m],
+        };
+        let consistency = hht.make_consistent()?;
+        hht.index1()?;
+        Ok((hht, consistency))
+    }
+
+    /// Factors Φ_q Φ_qᵀ (the jacobian in `self.jac`) into `small`.
+    fn factor_gram(&mut self, what: &'static str) -> Result<(), IntegrateError> {
+        let (n, m) = (self.n, self.m);
+        let a = self.small.matrix_mut();
+        for i in 0..m {
+            for j in 0..m {
+                let (ri, rj) = (&self.jac[i * n..(i + 1) * n], &self.jac[j * n..(j + 1) * n]);
+                a[i * m + j] = ri.iter().zip(rj).map(|(x, y)| x * y).sum();
+            }
+        }
+        self.small.factor().map_err(|k| IntegrateError::Singular {
+            t: self.t,
+            what,
+            at: self.system.equation_name(k).to_owned(),
+        })
+    }
+
+    /// x ← x − Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ r with r in `ys` (the Gram matrix factored).
+    fn correct(&mut self, which: bool) {
+        let n = self.n;
+        self.small.solve(&mut self.ys);
+        let x = if which { &mut self.q } else { &mut self.qd };
+        for (i, &y) in self.ys.iter().enumerate() {
+            for (xj, &a) in x.iter_mut().zip(&self.jac[i * n..(i + 1) * n]) {
+                *xj -= a * y;
+            }
+        }
+    }
+
+    fn make_consistent(&mut self) -> Result<Consistency, IntegrateError> {
+        let mut c = Consistency::default();
+        let t = self.t;
+        let q0 = self.q.clone();
+        let scale = amax(&self.q).max(1.0);
+        let mut residual = f64::INFINITY;
+        let mut done = false;
+        for it in 0..50 {
+            self.system.phi(&self.q, t, &mut self.phi);
+            if !finite(&self.phi) {
+                return Err(self.non_finite("Φ at the start"));
+            }
+            residual = amax(&self.phi);
+            if it == 0 {
+                c.phi = residual;
+            }
+            if residual <= 1e-14 * scale {
+                done = true;
+                break;
+            }
+            self.system.jacobian(&self.q, t, &mut self.jac);
+            if !finite(&self.jac) {
+                return Err(self.non_finite("Φ_q at the start"));
+            }
+            self.factor_gram("Φ_q Φ_qᵀ (projecting the initial positions)")?;
+            self.ys.copy_from_slice(&self.phi);
+            self.correct(true);
+        }
+        if !done && residual > 1e-10 * scale {
+            return Err(IntegrateError::NoAssembly {
+                residual,
+                iterations: 50,
+            });
+        }
+        c.dq = self
+            .q
+            .iter()
+            .zip(&q0)
+            .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+        // Velocities: one linear projection.
+        self.system.jacobian(&self.q, t, &mut self.jac);
+        self.system.nu(&self.q, t, &mut self.nu);
+        if !finite(&self.jac) || !finite(&self.nu) {
+            return Err(self.non_finite("Φ_q or ν at the start"));
+        }
+        let n = self.n;
+        for i in 0..self.m {
+            let r: f64 = self.jac[i * n..(i + 1) * n]
+                .iter()
+                .zip(&self.qd)
+                .map(|(a, v)| a * v)
+                .sum();
+            self.ys[i] = r - self.nu[i];
+        }
+        c.velocity = amax(&self.ys);
+        if self.m > 0 {
+            self.factor_gram("Φ_q Φ_qᵀ (projecting the initial velocities)")?;
+            let qd0 = self.qd.clone();
+            self.correct(false);
+            c.dqd = self
+                .qd
+                .iter()
+                .zip(&qd0)
+                .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+        }
+        Ok(c)
+    }
+
+    fn non_finite(&self, what: &str) -> IntegrateError {
+        IntegrateError::NonFinite {
+            t: self.t,
+            what: what.to_owned(),
+        }
+    }
+
+    /// q̈, λ at the current state from [M Φ_qᵀ; Φ_q 0][q̈; λ] = [Q_A; γ].
+    fn index1(&mut self) -> Result<(), IntegrateError> {
+        let (n, m, t) = (self.n, self.m, self.t);
+        let s = &mut self.system;
+        s.mass(&self.q, &mut self.mass);
+        s.applied(&self.q, &self.qd, t, &mut self.qa);
+        s.jacobian(&self.q, t, &mut self.jac);
+        s.gamma(&self.q, &self.qd, t, &mut self.phi);
+        if !finite(&self.mass) || !finite(&self.qa) || !finite(&self.jac) || !finite(&self.phi) {
+            return Err(self.non_finite("M, Q_A, Φ_q or γ at the start"));
+        }
+        let w = n + m;
+        let a = self.lu.matrix_mut();
+        a.fill(0.0);
+        for i in 0..n {
+            a[i * w + i] = self.mass[i];
+        }
+        for r in 0..m {
+            for c in 0..n {
+                let v = self.jac[r * n + c];
+                a[(n + r) * w + c] = v;
+                a[c * w + n + r] = v;
+            }
+        }
+        self.rhs[..n].copy_from_slice(&self.qa);
+        self.rhs[n..].copy_from_slice(&self.phi);
+        self.lu.factor().map_err(|k| IntegrateError::Singular {
+            t,
+            what: "the index-1 matrix [M Φ_qᵀ; Φ_q 0]",
+            at: self.unknown_name(k),
+        })?;
+        self.lu.solve(&mut self.rhs);
+        self.qdd.copy_from_slice(&self.rhs[..n]);
+        self.lambda.copy_from_slice(&self.rhs[n..]);
+        if !finite(&self.rhs) {
+            return Err(self.non_finite("q̈ or λ at the start"));
+        }
+        self.store_force_and_power();
+        Ok(())
+    }
+
+    fn unknown_name(&self, k: usize) -> String {
+        if k < self.n {
+            format!("q̈ of {}", self.system.coordinate_name(k))
+        } else {
+            format!("λ of {}", self.system.equation_name(k - self.n))
+        }
+    }
+
+    /// f = Φ_qᵀλ − Q_A and the power at the current state, from `jac`,
+    /// `qa` evaluated there.
+    fn store_force_and_power(&mut self) {
+        let n = self.n;
+        self.f.copy_from_slice(&self.qa);
+        for v in &mut self.f {
+            *v = -*v;
+        }
+        for (r, &l) in self.lambda.iter().enumerate() {
+            for (fc, &a) in self.f.iter_mut().zip(&self.jac[r * n..(r + 1) * n]) {
+                *fc += a * l;
+            }
+        }
+        self.system.nu(&self.q, self.t, &mut self.nu);
+        let pq: f64 = self.qa.iter().zip(&self.qd).map(|(a, b)| a * b).sum();
+        let pc: f64 = self.lambda.iter().zip(&self.nu).map(|(a, b)| a * b).sum();
+        self.power = pq - pc;
+    }
+
+    /// One step of length `h`.
+    ///
+    /// # Errors
+    /// No convergence (naming the equation with the largest residual), a
+    /// singular Newton matrix, non-finite values; the state is unchanged.
+    pub fn step(&mut self, h: f64) -> Result<(), IntegrateError> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(IntegrateError::Setup(format!(
+                "the step must be positive and finite, not {h}"
+            )));
+        }
+        let (n, m) = (self.n, self.m);
+        let (alpha, beta, gamma) = (self.alpha, self.beta, self.gamma);
+        let t1 = self.t + h;
+        let bh2 = beta * h * h;
+        let gh = gamma * h;
+        self.qddn.copy_from_slice(&self.qdd);
+        self.lambdan.copy_from_slice(&self.lambda);
+        let w = n + m;
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut worst = (0usize, f64::INFINITY);
+        while iterations < self.options.max_iterations {
+            iterations += 1;
+            for i in 0..n {
+                let (q, v, a, an) = (self.q[i], self.qd[i], self.qdd[i], self.qddn[i]);
+                self.qn[i] = q + h * v + 0.5 * h * h * ((1.0 - 2.0 * beta) * a + 2.0 * beta * an);
+                self.qdn[i] = v + h * ((1.0 - gamma) * a + gamma * an);
+            }
+            let s = &mut self.system;
+            s.mass(&self.qn, &mut self.mass);
+            s.applied(&self.qn, &self.qdn, t1, &mut self.qa);
+            s.phi(&self.qn, t1, &mut self.phi);
+            s.jacobian(&self.qn, t1, &mut self.jac);
+            s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
+            s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
+            s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
+            let ok = [
+                &self.mass, &self.qa, &self.phi, &self.jac, &self.kq, &self.cqd, &self.hess,
+            ]
+            .iter()
+            .all(|v| finite(v));
+            if !ok {
+                return Err(IntegrateError::NonFinite {
+                    t: self.t,
+                    what: "M, Q_A, Φ, Φ_q or their derivatives in a Newton iteration".to_owned(),
+                });
+            }
+            // Residual r = [M q̈ + (1+α)(Φ_qᵀλ − Q) − α f; Φ/(βh²)].
+            for i in 0..n {
+                self.rhs[i] =
+                    self.mass[i] * self.qddn[i] - (1.0 + alpha) * self.qa[i] - alpha * self.f[i];
+            }
+            for (r, &l) in self.lambdan.iter().enumerate() {
+                let row = &self.jac[r * n..(r + 1) * n];
+                for (x, &a) in self.rhs[..n].iter_mut().zip(row) {
+                    *x += (1.0 + alpha) * a * l;
+                }
+            }
+            for (x, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
+                *x = p / bh2;
+            }
+            worst = self.rhs.iter().enumerate().fold((0, 0.0), |b, (i, v)| {
+                if v.abs() > b.1 { (i, v.abs()) } else { b }
+            });
+            // Jacobian.
+            let a = self.lu.matrix_mut();
+            for i in 0..n {
+                for j in 0..n {
+                    let k = i * n + j;
+                    let d = if i == j { self.mass[i] } else { 0.0 };
+                    a[i * w + j] =
+                        d + (1.0 + alpha) * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh);
+                }
+            }
+            for r in 0..m {
+                for c in 0..n {
+                    let v = self.jac[r * n + c];
+                    a[(n + r) * w + c] = v;
+                    a[c * w + n + r] = (1.0 + alpha) * v;
+                }
+                for c in 0..m {
+                    a[(n + r) * w + n + c] = 0.0;
+                }
+            }
+            if let Err(k) = self.lu.factor() {
+                return Err(IntegrateError::Singular {
+                    t: self.t,
+                    what: "HHT's Newton matrix",
+                    at: self.unknown_name(k),
+                });
+            }
+            self.lu.solve(&mut self.rhs);
+            let (dq, dl) = self.rhs.split_at(n);
+            for (x, d) in self.qddn.iter_mut().zip(dq) {
+                *x -= d;
+            }
+            for (x, d) in self.lambdan.iter_mut().zip(dl) {
+                *x -= d;
+            }
+            let tol = self.options.tolerance;
+            if !finite(&self.rhs) {
+                return Err(self.non_finite("a Newton correction"));
+            }
+            if bh2 * amax(dq) <= tol * (1.0 + amax(&self.q))
+                && amax(dl) <= tol.sqrt() * (1.0 + amax(&self.lambdan))
+            {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            let (i, residual) = worst;
+            let equation = if i < n {
+                format!(
+                    "the equation of motion of {}",
+                    self.system.coordinate_name(i)
+                )
+            } else {
+                format!("constraint `{}`", self.system.equation_name(i - n))
+            };
+            return Err(IntegrateError::NoConvergence {
+                t: self.t,
+                iterations,
+                equation,
+                residual,
+            });
+        }
+        // Accept: the state at t + h with the final q̈, λ.
+        for i in 0..n {
+            let (q, v, a, an) = (self.q[i], self.qd[i], self.qdd[i], self.qddn[i]);
+            self.qn[i] = q + h * v + 0.5 * h * h * ((1.0 - 2.0 * beta) * a + 2.0 * beta * an);
+            self.qdn[i] = v + h * ((1.0 - gamma) * a + gamma * an);
+        }
+        std::mem::swap(&mut self.q, &mut self.qn);
+        std::mem::swap(&mut self.qd, &mut self.qdn);
+        std::mem::swap(&mut self.qdd, &mut self.qddn);
+        std::mem::swap(&mut self.lambda, &mut self.lambdan);
+        self.t = t1;
+        let p0 = self.power;
+        self.system.applied(&self.q, &self.qd, t1, &mut self.qa);
+        self.system.jacobian(&self.q, t1, &mut self.jac);
+        self.store_force_and_power();
+        self.work += 0.5 * h * (p0 + self.power);
+        self.stats.steps += 1;
+        self.stats.iterations += iterations;
+        self.stats.max_iterations = self.stats.max_iterations.max(iterations);
+        Ok(())
+    }
+
+    /// Current time.
+    #[must_use]
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+    /// Positions.
+    #[must_use]
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+    /// Velocities.
+    #[must_use]
+    pub fn qd(&self) -> &[f64] {
+        &self.qd
+    }
+    /// Accelerations (HHT's q̈ at the step's end).
+    #[must_use]
+    pub fn qdd(&self) -> &[f64] {
+        &self.qdd
+    }
+    /// Lagrange multipliers, one per row of Φ.
+    #[must_use]
+    pub fn lambda(&self) -> &[f64] {
+        &self.lambda
+    }
+    /// Work done since the start by Q_A and by the constraints (through ν,
+    /// i.e. by drivers), trapezoidal rule over the steps: with T the kinetic
+    /// energy, T − work stays T(t₀) up to the integrator's error.
+    #[must_use]
+    pub fn work(&self) -> f64 {
+        self.work
+    }
+    /// Kinetic energy ½ q̇ᵀ M q̇ at the current state.
+    pub fn kinetic_energy(&mut self) -> f64 {
+        self.system.mass(&self.q, &mut self.mass);
+        0.5 * self
+            .mass
+            .iter()
+            .zip(&self.qd)
+            .map(|(m, v)| m * v * v)
+            .sum::<f64>()
+    }
+    /// Counters.
+    #[must_use]
+    pub fn stats(&self) -> HhtStats {
+        self.stats
+    }
+    /// The system.
+    pub fn system_mut(&mut self) -> &mut S {
+        &mut self.system
+    }
+}

@@ -1,0 +1,105 @@
+//! Forward dynamics: integrating M q̈ + Φ_qᵀλ = Q_A(q, q̇, t), Φ(q, t) = 0
+//! from initial conditions (DYNAMICS.md).
+//!
+//! The integrators see the model through [`ForwardSystem`] (dense
+//! matrices: the models of the course engine have tens of coordinates) and
+//! keep every buffer they need from construction on, so a step does not
+//! allocate.
+//!
+//! | module | job |
+//! |---|---|
+//! | [`hht`] | [`Hht`]: fixed-step HHT-α on the index-3 DAE, Newton on [q̈; λ] |
+//! | [`dense`] | the dense LU they factor with |
+
+pub mod dense;
+pub mod hht;
+
+pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
+
+/// A constrained mechanical system with inertia, as forward dynamics needs
+/// it: n coordinates, m ≤ n rows of Φ. Every matrix is dense, row-major.
+///
+/// Methods take `&mut self` so an implementation keeps its evaluation
+/// registers in itself; they must not allocate. A slice of the wrong length
+/// or a failed evaluation gives NaN outputs, which the integrators report.
+pub trait ForwardSystem {
+    /// Number of coordinates n.
+    fn coords(&self) -> usize;
+    /// Number of rows m of Φ.
+    fn rows(&self) -> usize;
+    /// Name of coordinate `i` (diagnostics).
+    fn coordinate_name(&self, i: usize) -> &str;
+    /// Name of row `i` of Φ (diagnostics).
+    fn equation_name(&self, i: usize) -> &str;
+    /// Φ(q, t) (m).
+    fn phi(&mut self, q: &[f64], t: f64, out: &mut [f64]);
+    /// Φ_q(q, t) (m × n).
+    fn jacobian(&mut self, q: &[f64], t: f64, out: &mut [f64]);
+    /// ν(q, t) = −Φ_t (m).
+    fn nu(&mut self, q: &[f64], t: f64, out: &mut [f64]);
+    /// γ(q, q̇, t) (m).
+    fn gamma(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
+    /// diag M(q) (n).
+    fn mass(&mut self, q: &[f64], out: &mut [f64]);
+    /// Q_A(q, q̇, t) (n).
+    fn applied(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
+    /// ∂Q_A/∂q (n × n).
+    fn applied_q(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
+    /// ∂Q_A/∂q̇ (n × n).
+    fn applied_qd(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
+    /// ∂(Φ_qᵀλ)/∂q (n × n) at `lambda` (m).
+    fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]);
+}
+
+/// Why forward dynamics stopped.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IntegrateError {
+    /// Newton on [q̈; λ] did not converge in a step.
+    #[error(
+        "the step from t = {t} did not converge in {iterations} Newton iterations: \
+         the largest residual ({residual:.3e}) is in {equation}; try a smaller step"
+    )]
+    NoConvergence {
+        /// Start of the step.
+        t: f64,
+        /// Iterations done.
+        iterations: usize,
+        /// Which equation (an equation of motion or a row of Φ).
+        equation: String,
+        /// Its residual.
+        residual: f64,
+    },
+    /// A matrix the integrator factors is singular.
+    #[error(
+        "at t = {t}: {what} is singular (no pivot at {at}): dependent constraints or zero inertia"
+    )]
+    Singular {
+        /// When.
+        t: f64,
+        /// Which matrix.
+        what: &'static str,
+        /// The unknown without a pivot.
+        at: String,
+    },
+    /// A value is NaN or infinite.
+    #[error("at t = {t}: a non-finite value of {what}")]
+    NonFinite {
+        /// When.
+        t: f64,
+        /// Which quantity (and where).
+        what: String,
+    },
+    /// The initial configuration cannot be brought onto Φ = 0.
+    #[error(
+        "the initial configuration cannot be projected onto Φ = 0 (‖Φ‖∞ = {residual:.3e} after {iterations} iterations)"
+    )]
+    NoAssembly {
+        /// ‖Φ‖∞ where the projection stopped.
+        residual: f64,
+        /// Iterations done.
+        iterations: usize,
+    },
+    /// Wrong sizes or options.
+    #[error("{0}")]
+    Setup(String),
+}

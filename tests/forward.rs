@@ -1,0 +1,183 @@
+//! Forward dynamics (HHT-α) against closed forms and its convergence order.
+//!
+//! The pendulum released from horizontal has the elliptic solution
+//! sin(θ/2) = k sn(K(k) − ω₀t, k), k = sin(θ₀/2), θ the angle from the
+//! downward vertical; sn and K are computed here by the arithmetic–geometric
+//! mean (descending Landen transformation, Abramowitz & Stegun 16.4), good to
+//! roundoff.
+
+use kinema::{ForwardSystem, Hht, HhtOptions, Model};
+
+const PENDULUM: &str = "
+mechanism Pendulum {
+    param L = 1;
+    body bar { guess: (L, 0, 0), mass: 2, inertia: 0.3 }
+    gravity = (0, -9.81);
+    constraint pivot_x: abs_x(bar(-L, 0), 0);
+    constraint pivot_y: abs_y(bar(-L, 0), 0);
+}";
+
+const SLIDER_CRANK: &str = "
+mechanism SliderCrankFree {
+    param l1 = 0.3;
+    param l2 = 1.0;
+    body crank  { guess: (0.106066, 0.106066, 0.785398), mass: 2, inertia: 0.015 }
+    body rod    { guess: (0.7, 0.1, -0.2), mass: 3, inertia: 0.25 }
+    body slider { guess: (1.2, 0.0, 0.0), mass: 5, inertia: 0.5 }
+    gravity = (0, -9.81);
+    force gas: point_force(slider(0, 0), (-40 - 3 * slider.x_dot, 0));
+    joint pivot: revolute(crank(-l1 / 2, 0), ground(0, 0));
+    joint pin:   revolute(crank(l1 / 2, 0), rod(-l2 / 2, 0));
+    joint wrist: revolute(rod(l2 / 2, 0), slider(0, 0));
+    constraint on_axis: abs_y(slider(0, 0), 0);
+    constraint no_turn: abs_angle(slider, 0);
+}";
+
+/// K(k) and sn(u, k) by the AGM.
+fn jacobi_sn(u: f64, k: f64) -> (f64, f64) {
+    let mut a = vec![1.0_f64];
+    let mut c = vec![k];
+    let mut b = (1.0 - k * k).sqrt();
+    while c.last().is_some_and(|c| c.abs() > 1e-17) && a.len() < 40 {
+        let an = a[a.len() - 1];
+        let (a1, b1, c1) = ((an + b) / 2.0, (an * b).sqrt(), (an - b) / 2.0);
+        a.push(a1);
+        c.push(c1);
+        b = b1;
+    }
+    let nn = a.len() - 1;
+    let big_k = std::f64::consts::PI / (2.0 * a[nn]);
+    let mut phi = 2f64.powi(nn as i32) * a[nn] * u;
+    for i in (1..=nn).rev() {
+        phi = (phi + (c[i] / a[i] * phi.sin()).asin()) / 2.0;
+    }
+    (big_k, phi.sin())
+}
+
+/// φ(t) of the pendulum (angle of the bar from +x) released at φ = 0.
+fn pendulum_phi(t: f64) -> f64 {
+    let (m, j, d, g): (f64, f64, f64, f64) = (2.0, 0.3, 1.0, 9.81);
+    let w0 = (m * g * d / (j + m * d * d)).sqrt();
+    let k = (std::f64::consts::FRAC_PI_4).sin();
+    let (big_k, _) = jacobi_sn(0.0, k);
+    let (_, sn) = jacobi_sn(big_k - w0 * t, k);
+    let theta = 2.0 * (k * sn).asin();
+    theta - std::f64::consts::FRAC_PI_2
+}
+
+fn model(src: &str) -> Model {
+    match Model::from_source(src, "test.kin") {
+        Ok(m) => m,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Integrates `model` from rest to `t_end` in steps of `h`; returns q.
+fn hht_q(model: &Model, h: f64, t_end: f64) -> Vec<f64> {
+    let Some(sys) = model.forward_system() else {
+        panic!("no dynamics")
+    };
+    let q0 = model.initial_configuration();
+    let qd0 = vec![0.0; q0.len()];
+    let (mut hht, _) = Hht::new(sys, &q0, &qd0, 0.0, HhtOptions::default()).expect("start");
+    let steps = (t_end / h).round() as usize;
+    for _ in 0..steps {
+        hht.step(h).expect("step");
+    }
+    hht.q().to_vec()
+}
+
+#[test]
+fn sn_matches_known_values() {
+    // k = 0: sn = sin; K(1/√2) = 1.854074677301372 (A&S table 17.1).
+    let (_, s) = jacobi_sn(0.7, 0.0);
+    assert!((s - 0.7f64.sin()).abs() < 1e-15);
+    let (k, s) = jacobi_sn(1.854074677301372, std::f64::consts::FRAC_1_SQRT_2);
+    assert!((k - 1.854074677301372).abs() < 1e-14, "{k}");
+    assert!((s - 1.0).abs() < 1e-14, "{s}");
+}
+
+#[test]
+fn pendulum_from_horizontal_follows_the_elliptic_solution_at_second_order() {
+    let m = model(PENDULUM);
+    let t_end = 1.0;
+    let mut errors = Vec::new();
+    for h in [4e-3, 2e-3, 1e-3] {
+        let q = hht_q(&m, h, t_end);
+        errors.push((q[2] - pendulum_phi(t_end)).abs());
+    }
+    eprintln!("pendulum HHT errors in phi at t = 1: {errors:?}");
+    assert!(errors[2] < 1e-4, "{errors:?}");
+    for w in errors.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
+    }
+}
+
+#[test]
+fn slider_crank_from_rest_converges_at_second_order() {
+    let m = model(SLIDER_CRANK);
+    let t_end = 0.5;
+    let qs: Vec<Vec<f64>> = [4e-3, 2e-3, 1e-3, 5e-4]
+        .iter()
+        .map(|&h| hht_q(&m, h, t_end))
+        .collect();
+    let diff = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+    };
+    let d: Vec<f64> = qs.windows(2).map(|w| diff(&w[0], &w[1])).collect();
+    eprintln!("slider-crank successive differences in q at t = 0.5: {d:?}");
+    assert!(d[0] > 1e-9, "the crank must move: {d:?}");
+    for w in d.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {d:?}");
+    }
+}
+
+#[test]
+fn start_is_projected_and_reported() {
+    // The crank's guess is off the constraints by ~1e-6 (0.106066 for
+    // 0.15 cos 45°) and the rod's by much more.
+    let m = model(SLIDER_CRANK);
+    let Some(sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let q0 = m.initial_configuration();
+    let qd0 = vec![0.1; q0.len()];
+    let (mut hht, c) = Hht::new(sys, &q0, &qd0, 0.0, HhtOptions::default()).expect("start");
+    assert!(c.phi > 1e-3 && c.dq > 1e-3 && c.dqd > 1e-3, "{c:?}");
+    let (q, qd) = (hht.q().to_vec(), hht.qd().to_vec());
+    let s = hht.system_mut();
+    let mut phi = vec![0.0; s.rows()];
+    s.phi(&q, 0.0, &mut phi);
+    assert!(phi.iter().all(|v| v.abs() < 1e-12), "{phi:?}");
+    let (n, mr) = (s.coords(), s.rows());
+    let mut jac = vec![0.0; n * mr];
+    s.jacobian(&q, 0.0, &mut jac);
+    for r in 0..mr {
+        let v: f64 = (0..n).map(|c| jac[r * n + c] * qd[c]).sum();
+        assert!(v.abs() < 1e-12, "row {r}: {v}");
+    }
+}
+
+#[test]
+fn energy_is_conserved_to_the_integrator_error() {
+    let m = model(PENDULUM);
+    let Some(mut sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let q0 = m.initial_configuration();
+    let v0 = sys.gravity_potential(&q0);
+    let (mut hht, _) = Hht::new(sys, &q0, &[0.0; 3], 0.0, HhtOptions::default()).expect("start");
+    for _ in 0..1000 {
+        hht.step(1e-3).expect("step");
+    }
+    let ke = hht.kinetic_energy();
+    let q = hht.q().to_vec();
+    let v = hht.system_mut().gravity_potential(&q);
+    // Work of gravity equals the potential's drop.
+    assert!((hht.work() - (v0 - v)).abs() < 1e-4 * v0.abs().max(1.0));
+    assert!((ke + v - v0).abs() < 1e-4 * 19.62, "{ke} {v} {v0}");
+}
