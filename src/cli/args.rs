@@ -173,6 +173,22 @@ pub struct RunArgs {
     /// one CSV row (same columns), its stability in the summary.
     #[arg(long)]
     pub equilibrium: bool,
+    /// Forward dynamics (a `.kin` model with NDOF > 0 and inertia, or a
+    /// simEngine2D Dynamics ACF): the integrator.
+    #[arg(long, value_enum, default_value_t = Integrator::Hht)]
+    pub integrator: Integrator,
+    /// Forward dynamics: the step (default: the ACF's `stepSize`; 1e-3 for
+    /// a `.kin` model), shortened to land on every output time.
+    #[arg(long, value_name = "H")]
+    pub step: Option<f64>,
+}
+
+/// Forward-dynamics integrators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Integrator {
+    /// HHT-α (α = −0.1) at a fixed step: second order, index-3, Newton on
+    /// [q̈; λ] with the symbolic Jacobian.
+    Hht,
 }
 
 /// Evaluation back ends available at run time.

@@ -25,9 +25,9 @@ pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
         return Ok(());
     }
     Err(Failure::usage(format_args!(
-        "mechanism `{}` has NDOF = {} ({dof}): a motion needs NDOF = 0 (forward dynamics is not \
-         supported yet)\n  = help: `kinema run {} --equilibrium` finds its stable static \
-         equilibrium",
+        "mechanism `{}` has NDOF = {} ({dof}): a kinematic motion needs NDOF = 0 (forward \
+         dynamics needs inertia: `mass` and `inertia` on every body)\n  = help: `kinema run {} \
+         --equilibrium` finds the stable static equilibrium of a model with inertia",
         loaded.checked.name,
         dof.ndof(),
         loaded.file

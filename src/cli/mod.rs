@@ -28,6 +28,7 @@ pub mod check;
 pub mod columns;
 pub mod dynamics;
 pub mod equilibrium;
+pub mod forward;
 pub mod load;
 pub mod output;
 pub mod plot;

@@ -294,11 +294,41 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             if let Err(e) = analysis.check_times() {
                 return Err(Failure::usage(format_args!("{}: {e}", source())));
             }
+            if analysis.simulation == kinema_adm::Simulation::Dynamics {
+                let loaded = super::load::load_with(&args.model, None, false)?;
+                loaded.print_warnings();
+                if loaded.model.derivation().dynamics.is_none() {
+                    return Err(Failure::usage(format_args!(
+                        "`{}` cannot run a Dynamics analysis: it has no inertia (every body \
+                         needs `mass` and `jbar`)",
+                        loaded.file
+                    )));
+                }
+                let description = format!(
+                    "{} outputs from t = 0 to {} (outputSteps {}, stepSize {})",
+                    analysis.output_steps + 1,
+                    time(analysis.tend),
+                    analysis.output_steps,
+                    analysis.step_size
+                );
+                let times = analysis.output_times();
+                return super::forward::run(
+                    args,
+                    &loaded,
+                    &times,
+                    Some(analysis.step_size),
+                    &description,
+                );
+            }
             (Grid::simengine(&analysis, &source)?, Some(analysis))
         }
     };
     let loaded = load(&args.model, analysis.as_ref())?;
     loaded.print_warnings();
+    if super::forward::is_forward(&loaded) {
+        return super::forward::run(args, &loaded, &grid.times, None, &grid.description);
+    }
+    super::forward::refuse_options(args)?;
     super::equilibrium::refuse_free_dof(&loaded)?;
 
     // Outputs are created before the analysis: a bad path fails at once.

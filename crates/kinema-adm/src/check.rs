@@ -82,8 +82,8 @@ impl fmt::Display for Refusal {
         let mut reasons = Vec::new();
         if self.dynamics {
             reasons.push(
-                "the analysis asks for a Dynamics simulation; kinema does kinematics only \
-                 (dynamics is not supported yet)"
+                "the analysis asks for a Dynamics simulation (forward dynamics: `kinema run` \
+                 integrates it), not kinematics"
                     .to_string(),
             );
         }
@@ -91,7 +91,8 @@ impl fmt::Display for Refusal {
             reasons.push(format!(
                 "kinematic analysis needs NDOF = 0, and {d} degree{} of freedom {} not driven: \
                  add {d} driver{} (an Absolute* element whose fun depends on t); \
-                 a model with free degrees of freedom needs dynamics, which is not supported yet",
+                 a model with free degrees of freedom and inertia (`mass`, `jbar`) runs forward \
+                 dynamics under a Dynamics ACF (`--acf dynamics.acf`)",
                 s(d),
                 if d == 1 { "is" } else { "are" },
                 s(d),

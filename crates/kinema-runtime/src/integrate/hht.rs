@@ -511,6 +511,39 @@ impl<S: ForwardSystem> Hht<S> {
         Ok(())
     }
 
+    /// Steps to `t_end` exactly in the fewest equal steps no longer than
+    /// `h` (so output times are hit, not approached).
+    ///
+    /// # Errors
+    /// As [`step`](Self::step); a `t_end` not after the current time.
+    pub fn advance_to(&mut self, t_end: f64, h: f64) -> Result<(), IntegrateError> {
+        let span = t_end - self.t;
+        if !(span.is_finite() && span > 0.0 && h.is_finite() && h > 0.0) {
+            return Err(IntegrateError::Setup(format!(
+                "cannot step from t = {} to t = {t_end} with steps of {h}",
+                self.t
+            )));
+        }
+        let count = (span / h * (1.0 - 1e-12)).ceil().max(1.0);
+        if count > 1e12 {
+            return Err(IntegrateError::Setup(format!(
+                "{count:e} steps of {h} from t = {} to t = {t_end}: too many",
+                self.t
+            )));
+        }
+        let sub = span / count;
+        let steps = count as u64;
+        for k in 1..=steps {
+            if k == steps {
+                self.step(t_end - self.t)?;
+                self.t = t_end;
+            } else {
+                self.step(sub)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Current time.
     #[must_use]
     pub fn t(&self) -> f64 {

@@ -1,0 +1,299 @@
+//! `kinema run` of forward dynamics: a `.kin` model with NDOF > 0 and
+//! inertia, or a simEngine2D model under a Dynamics ACF. HHT-α at a fixed
+//! step (`--step`, or the ACF's `stepSize`) shortened to land on every
+//! output time; the CSV has the columns of a Dynamics I run (q, q̇, q̈,
+//! named points and outputs, λ, reactions, driver efforts); the summary
+//! gives the consistency corrections at the start, Newton's work and the
+//! energy balance.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use kinema::{Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
+
+use super::args::{Integrator, RunArgs};
+use super::columns::Selection;
+use super::load::Loaded;
+use super::output::{CsvSink, Destination, Outputs, duration, time};
+use super::{Failure, print_stderr, print_stdout};
+
+/// Default step of a `.kin` model's forward dynamics.
+pub const DEFAULT_STEP: f64 = 1e-3;
+
+/// Whether `loaded` runs as forward dynamics: it has inertia and NDOF > 0.
+pub fn is_forward(loaded: &Loaded) -> bool {
+    loaded.model.derivation().dynamics.is_some() && loaded.checked.dof().ndof() > 0
+}
+
+/// Refuses the forward-dynamics options in a kinematic run.
+///
+/// # Errors
+/// [`Failure::Input`] naming the option.
+pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
+    if args.step.is_some() {
+        return Err(Failure::usage(
+            "--step is for forward dynamics (a model with inertia and NDOF > 0, or a Dynamics ACF); \
+             a kinematic run takes --t-end and --steps",
+        ));
+    }
+    Ok(())
+}
+
+/// Runs forward dynamics of `loaded`, writing the state at each of
+/// `outputs` (increasing, from t₀ = outputs[0]). `acf_step`: the ACF's
+/// `stepSize`; `grid`: the grid's description for the summary.
+///
+/// # Errors
+/// Usage errors (a bad step, `--plot`/`--animate`, a model without
+/// inertia); [`Failure::Analysis`] when a step fails (the rows before it
+/// are kept).
+pub fn run(
+    args: &RunArgs,
+    loaded: &Loaded,
+    outputs_t: &[f64],
+    acf_step: Option<f64>,
+    grid: &str,
+) -> Result<(), Failure> {
+    let start = Instant::now();
+    let Integrator::Hht = args.integrator;
+    for (given, option) in [
+        (args.plot.is_some(), "--plot"),
+        (args.animate.is_some(), "--animate"),
+        (args.stop_at_singular, "--stop-at-singular"),
+    ] {
+        if given {
+            return Err(Failure::usage(format_args!(
+                "{option} is not available for forward dynamics yet"
+            )));
+        }
+    }
+    let h = args.step.or(acf_step).unwrap_or(DEFAULT_STEP);
+    if !(h.is_finite() && h > 0.0) {
+        return Err(Failure::usage(format_args!(
+            "the step must be positive and finite, not {h}"
+        )));
+    }
+    let d = loaded.model.derivation();
+    let Some(fwd) = loaded.model.forward_system() else {
+        return Err(Failure::usage(format_args!(
+            "`{}` has no inertia: forward dynamics needs `mass` and `inertia` on every body",
+            loaded.file
+        )));
+    };
+    let (n, rows) = (d.nc(), d.rows.len());
+    let q0 = loaded.model.initial_configuration();
+    let mut qd0 = vec![0.0; n];
+    if let Some(adm) = &loaded.adm {
+        for (k, b) in adm.model.bodies.iter().enumerate() {
+            if let (Some(v), Some(slot)) = (b.qd0, qd0.get_mut(3 * k..3 * k + 3)) {
+                slot.copy_from_slice(&v);
+            }
+        }
+    }
+
+    let system = loaded.model.system();
+    let selection = match &args.columns {
+        Some(spec) => Selection::parse(spec, d)?,
+        None => Selection::all(d),
+    };
+    let mut header = selection.header(d);
+    header.extend(super::dynamics::column_names(
+        &system,
+        rows,
+        loaded.adm.is_some(),
+    ));
+    let mut outputs = Outputs::new();
+    outputs.input("the model", &args.model);
+    if let Some(acf) = &args.acf {
+        outputs.input("the analysis file", acf);
+    }
+    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
+
+    let analysis_start = Instant::now();
+    let t0 = outputs_t.first().copied().unwrap_or(0.0);
+    let mut gravity_of = fwd.clone();
+    let (mut hht, consistency) = Hht::new(fwd, &q0, &qd0, t0, HhtOptions::default())
+        .map_err(|e| Failure::analysis(format_args!("forward dynamics cannot start: {e}")))?;
+    if consistency.dq > 0.0 || consistency.dqd > 0.0 {
+        print_stderr(&format!(
+            "note: the initial conditions were made consistent: q moved by ‖Δq‖∞ = {:.3e} \
+             (‖Φ‖∞ was {:.3e}), q̇ by ‖Δq̇‖∞ = {:.3e} (‖Φ_q q̇ − ν‖∞ was {:.3e}), \
+             minimum-norm projections",
+            consistency.dq, consistency.phi, consistency.dqd, consistency.velocity
+        ));
+    }
+    let mut row = RowBuffers::new(&system, n, rows, d.phi_q.entries.len(), d.outputs.len());
+    let v0 = gravity_of.gravity_potential(hht.q()) + 0.0;
+    let ke0 = hht.kinetic_energy();
+    for (k, &t) in outputs_t.iter().enumerate() {
+        if k > 0
+            && let Err(e) = hht.advance_to(t, h)
+        {
+            return Err(step_failure(sink, &e, loaded));
+        }
+        row.fill(&system, &mut hht)?;
+        let (q, qd, qdd) = (hht.q(), hht.qd(), hht.qdd());
+        let [y, yd, ydd] = &row.results;
+        sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &row.extra)?;
+    }
+    let (out_rows, columns, destination) =
+        (sink.rows(), sink.columns(), sink.destination().clone());
+    sink.finish()?;
+    let analysis = analysis_start.elapsed();
+
+    let ke = hht.kinetic_energy();
+    let v = gravity_of.gravity_potential(hht.q()) + 0.0;
+    let other = hht.work() - (v0 - v);
+    let stats = hht.stats();
+    let mut s = String::new();
+    let nb = d.bodies.len();
+    let _ = writeln!(
+        s,
+        "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, forward dynamics (tape back end)",
+        loaded.checked.name,
+        loaded.file,
+        if nb == 1 { "y" } else { "ies" },
+    );
+    let _ = writeln!(s, "  grid: {grid}");
+    let _ = writeln!(
+        s,
+        "  integrator: HHT-α (α = -0.1, β = 0.3025, γ = 0.6), step ≤ {h:e}: {} steps, \
+         Newton iterations per step mean {:.2}, max {}",
+        stats.steps,
+        if stats.steps == 0 {
+            0.0
+        } else {
+            stats.iterations as f64 / stats.steps as f64
+        },
+        stats.max_iterations
+    );
+    let _ = writeln!(
+        s,
+        "  start: ‖Δq‖∞ = {:.2e}, ‖Δq̇‖∞ = {:.2e} (consistency projections)",
+        consistency.dq, consistency.dqd
+    );
+    let _ = writeln!(
+        s,
+        "  energy at t = {}: kinetic {ke:.9e}, potential (gravity) {v:.9e}; at t = {}: kinetic \
+         {ke0:.9e}, potential {v0:.9e}",
+        time(hht.t()),
+        time(t0)
+    );
+    let _ = writeln!(
+        s,
+        "  work of the other forces and drivers {other:.9e}; balance error {:.3e}",
+        (ke + v) - (ke0 + v0) - other
+    );
+    let _ = writeln!(
+        s,
+        "  time: {} (model {}, analysis {})",
+        duration(start.elapsed()),
+        duration(loaded.elapsed),
+        duration(analysis)
+    );
+    let csv = match &destination {
+        Destination::Stdout => "standard output".to_string(),
+        Destination::File(p) => format!("`{}`", p.display()),
+    };
+    let _ = write!(s, "  wrote {csv} ({out_rows} rows × {columns} columns)");
+    if destination == Destination::Stdout {
+        print_stderr(&s);
+        Ok(())
+    } else {
+        print_stdout(&s)
+    }
+}
+
+fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded) -> Failure {
+    let rows = sink.rows();
+    let destination = sink.destination().clone();
+    let kept = if sink.finish().is_ok() { rows } else { 0 };
+    let mut message = format!("error: forward dynamics of `{}`: {e}", loaded.file);
+    if let Some(adm) = &loaded.adm
+        && let IntegrateError::NoConvergence { equation, .. } = e
+        && let Some(name) = equation
+            .strip_prefix("constraint `")
+            .and_then(|s| s.strip_suffix('`'))
+    {
+        message.push_str(&adm.explain(&[name]));
+    }
+    if kept > 0
+        && let Destination::File(p) = &destination
+    {
+        let _ = write!(
+            message,
+            "\n  = note: the {kept} rows computed before the failure are in `{}`",
+            p.display()
+        );
+    }
+    Failure::Analysis(message)
+}
+
+/// Buffers of one CSV row's derived values.
+struct RowBuffers {
+    n: usize,
+    rows: usize,
+    q: Vec<f64>,
+    jac: Vec<f64>,
+    values: Vec<f64>,
+    results: [Vec<f64>; 3],
+    extra: Vec<f64>,
+    scratch: <kinema::TapeSystem as System>::Scratch,
+}
+
+impl RowBuffers {
+    fn new(
+        system: &kinema::TapeSystem,
+        n: usize,
+        rows: usize,
+        _nnz: usize,
+        outputs: usize,
+    ) -> RowBuffers {
+        RowBuffers {
+            n,
+            rows,
+            q: vec![0.0; n],
+            jac: vec![0.0; rows * n],
+            values: vec![0.0; system.dynamics_len()],
+            results: [vec![0.0; outputs], vec![0.0; outputs], vec![0.0; outputs]],
+            extra: Vec::new(),
+            scratch: system.scratch(),
+        }
+    }
+
+    /// Named points and outputs, λ, reactions and efforts at the state.
+    fn fill(
+        &mut self,
+        system: &kinema::TapeSystem,
+        hht: &mut Hht<kinema::forward::TapeForward>,
+    ) -> Result<(), Failure> {
+        let (n, rows) = (self.n, self.rows);
+        let t = hht.t();
+        self.q.copy_from_slice(hht.q());
+        hht.system_mut().jacobian(&self.q, t, &mut self.jac);
+        let (q, qd, qdd, lambda) = (hht.q(), hht.qd(), hht.qdd(), hht.lambda());
+        {
+            let [y, yd, ydd] = &mut self.results;
+            kinema::Outputs::outputs(system, &mut self.scratch, t, q, qd, qdd, y, yd, ydd);
+        }
+        system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
+        self.extra.clear();
+        self.extra.extend_from_slice(lambda);
+        let arms = self.values.get(2 * n..).unwrap_or(&[]);
+        for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
+            let mut g = [0.0; 3];
+            let (r0, r1) = (spec.rows.0 as usize, (spec.rows.1 as usize).min(rows));
+            for (row, &l) in lambda.iter().enumerate().take(r1).skip(r0) {
+                for (c, gc) in g.iter_mut().enumerate() {
+                    let col = 3 * spec.body as usize + c;
+                    *gc -= self.jac.get(row * n + col).copied().unwrap_or(f64::NAN) * l;
+                }
+            }
+            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
+            self.extra.extend([g[0], g[1], torque]);
+        }
+        let start = system.driving_start().min(rows);
+        self.extra.extend(lambda[start..].iter().map(|l| -l));
+        Ok(())
+    }
+}
