@@ -34,7 +34,11 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error, ForwardSystem,
+    Accurate, Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error,
+    ForwardSystem, Hht, HhtOptions, IntegrateError, InverseDynamics, LinalgError, LinearSolver,
+    LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank,
+    RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System,
+    Trajectory, diagnose, integrate, point_kinematics,
     Hht, HhtOptions, IntegrateError, InverseDynamics, LinalgError, LinearSolver, LinearSolverFor,
     ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
     SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, diagnose,

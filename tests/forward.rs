@@ -6,7 +6,7 @@
 //! mean (descending Landen transformation, Abramowitz & Stegun 16.4), good to
 //! roundoff.
 
-use kinema::{ForwardSystem, Hht, HhtOptions, Model};
+use kinema::{Accurate, ForwardSystem, Hht, HhtOptions, Model};
 
 const PENDULUM: &str = "
 mechanism Pendulum {
@@ -180,4 +180,63 @@ fn energy_is_conserved_to_the_integrator_error() {
     // Work of gravity equals the potential's drop.
     assert!((hht.work() - (v0 - v)).abs() < 1e-4 * v0.abs().max(1.0));
     assert!((ke + v - v0).abs() < 1e-4 * 19.62, "{ke} {v} {v0}");
+}
+
+/// The accurate mode: max |φ − φ_exact| over 101 times in [0, 2].
+fn accurate_error(rtol: f64) -> (f64, f64, kinema::integrate::AccurateStats) {
+    let m = model(PENDULUM);
+    let Some(mut sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let q0 = m.initial_configuration();
+    let v0 = sys.gravity_potential(&q0);
+    let mut a = Accurate::new(sys, &q0, &[0.0; 3], 0.0, rtol).expect("start");
+    let (mut err, mut drift) = (0.0_f64, 0.0_f64);
+    for k in 1..=100 {
+        let t = k as f64 * 0.02;
+        a.advance_to(t).expect("step");
+        err = err.max((a.q()[2] - pendulum_phi(t)).abs());
+        let ke = a.kinetic_energy();
+        let q = a.q().to_vec();
+        let v = a.system_mut().gravity_potential(&q);
+        drift = drift.max((ke + v - v0).abs());
+    }
+    (err, drift, a.stats())
+}
+
+#[test]
+fn accurate_mode_meets_its_tolerance_with_outputs_far_apart() {
+    // One output at t = 2: the steps are the controller's alone.
+    let m = model(PENDULUM);
+    for rtol in [1e-5, 1e-7, 1e-9] {
+        let Some(sys) = m.forward_system() else {
+            panic!("no dynamics")
+        };
+        let q0 = m.initial_configuration();
+        let mut a = Accurate::new(sys, &q0, &[0.0; 3], 0.0, rtol).expect("start");
+        a.advance_to(2.0).expect("steps");
+        let err = (a.q()[2] - pendulum_phi(2.0)).abs();
+        eprintln!(
+            "one output, rtol {rtol:e}: error {err:.3e}, {:?}",
+            a.stats()
+        );
+        assert!(err <= 10.0 * rtol, "rtol {rtol}: {err}");
+    }
+}
+
+#[test]
+fn accurate_mode_meets_its_tolerance_on_the_pendulum() {
+    for rtol in [1e-6, 1e-8, 1e-10] {
+        let (err, drift, stats) = accurate_error(rtol);
+        // Energy scale: m g d = 19.62 J.
+        eprintln!(
+            "rtol {rtol:e}: max error in phi {err:.3e}, energy drift {:.3e} relative, {stats:?}",
+            drift / 19.62
+        );
+        assert!(err <= 10.0 * rtol, "rtol {rtol}: {err}");
+        if rtol <= 1e-10 {
+            assert!(err <= 1e-8, "{err}");
+            assert!(drift / 19.62 <= 1e-9, "{drift}");
+        }
+    }
 }

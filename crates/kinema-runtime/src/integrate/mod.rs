@@ -9,12 +9,15 @@
 //! | module | job |
 //! |---|---|
 //! | [`hht`] | [`Hht`]: fixed-step HHT-α on the index-3 DAE, Newton on [q̈; λ] |
+//! | [`rk`] | [`Accurate`]: error-controlled Dormand–Prince 5(4) on the index-1 form with projection |
 //! | [`dense`] | the dense LU they factor with |
 
 pub mod dense;
 pub mod hht;
+pub mod rk;
 
 pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
+pub use rk::{Accurate, AccurateStats};
 
 /// A constrained mechanical system with inertia, as forward dynamics needs
 /// it: n coordinates, m ≤ n rows of Φ. Every matrix is dense, row-major.

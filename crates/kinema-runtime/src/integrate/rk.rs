@@ -1,0 +1,478 @@
+//! The accurate mode: the index-1 form of the equations of motion,
+//!
+//! ```text
+//! [M Φ_qᵀ; Φ_q 0] [q̈; λ] = [Q_A; γ]
+//! ```
+//!
+//! integrated as the ODE y = (q, q̇, W)′ = (q̇, q̈, Q_Aᵀq̇ − λᵀν) by the
+//! Dormand–Prince 5(4) pair (Dormand & Prince 1980; the coefficients of
+//! Hairer, Nørsett & Wanner, *Solving ODEs I*, table II.5.2) with error
+//! control on (q, q̇) and step-size adaptation, and after every accepted
+//! step a projection of q onto Φ = 0 and of q̇ onto Φ_q q̇ = ν
+//! (minimum-norm), so the constraint drift of the index-1 form does not
+//! accumulate. W is the work of the applied forces and of the drivers,
+//! integrated to the same tolerance (the energy balance in the summary).
+//!
+//! Why written here and not taken from a crate: `ode_solvers`' `Dopri5` /
+//! `Dop853` evaluate through `&self` (a tape's registers need `&mut`),
+//! offer no hook to change the state after a step (the projection), and
+//! keep every step's output; diffsol targets stiff problems (BDF, SDIRK) on
+//! its own matrix types. The pair is seven stages and a dozen lines.
+
+use super::dense::Lu;
+use super::{ForwardSystem, IntegrateError};
+
+const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+const A: [[f64; 6]; 7] = [
+    [0.0; 6],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+/// Fifth-order weights (the last row of A).
+const B: [f64; 7] = [
+    35.0 / 384.0,
+    0.0,
+    500.0 / 1113.0,
+    125.0 / 192.0,
+    -2187.0 / 6784.0,
+    11.0 / 84.0,
+    0.0,
+];
+/// B minus the fourth-order weights: the error estimate's.
+const E: [f64; 7] = [
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+
+/// Counters of an accurate run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AccurateStats {
+    /// Accepted steps.
+    pub accepted: usize,
+    /// Rejected steps.
+    pub rejected: usize,
+    /// Evaluations of the index-1 system.
+    pub evaluations: usize,
+}
+
+/// The error-controlled integrator and its state.
+#[derive(Debug)]
+pub struct Accurate<S> {
+    system: S,
+    n: usize,
+    m: usize,
+    rtol: f64,
+    atol: f64,
+    t: f64,
+    /// (q, q̇, W).
+    y: Vec<f64>,
+    qdd: Vec<f64>,
+    lambda: Vec<f64>,
+    h: f64,
+    stats: AccurateStats,
+    k: [Vec<f64>; 7],
+    ys: Vec<f64>,
+    ynew: Vec<f64>,
+    mass: Vec<f64>,
+    qa: Vec<f64>,
+    jac: Vec<f64>,
+    gam: Vec<f64>,
+    nu: Vec<f64>,
+    phi: Vec<f64>,
+    rhs: Vec<f64>,
+    lu: Lu,
+    small: Lu,
+    ysmall: Vec<f64>,
+}
+
+fn amax(v: &[f64]) -> f64 {
+    v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
+}
+
+impl<S: ForwardSystem> Accurate<S> {
+    /// An integrator at t₀ from q₀, q̇₀, which must be consistent (see
+    /// [`super::Hht::new`], whose projection can make them so), to the
+    /// relative tolerance `rtol` (absolute `rtol` too: coordinates of
+    /// order one).
+    ///
+    /// # Errors
+    /// A tolerance outside (1e-14, 1), wrong lengths, a singular or
+    /// non-finite index-1 system at the start.
+    pub fn new(
+        system: S,
+        q0: &[f64],
+        qd0: &[f64],
+        t0: f64,
+        rtol: f64,
+    ) -> Result<Accurate<S>, IntegrateError> {
+        if !(rtol > 1e-14 && rtol < 1.0) {
+            return Err(IntegrateError::Setup(format!(
+                "the tolerance must be in (1e-14, 1), not {rtol}"
+            )));
+        }
+        let (n, m) = (system.coords(), system.rows());
+        if q0.len() != n || qd0.len() != n || m > n {
+            return Err(IntegrateError::Setup(format!(
+                "{n} coordinates and {m} equations, given {} positions and {} velocities",
+                q0.len(),
+                qd0.len()
+            )));
+        }
+        let len = 2 * n + 1;
+        let mut y = Vec::with_capacity(len);
+        y.extend_from_slice(q0);
+        y.extend_from_slice(qd0);
+        y.push(0.0);
+        let mut a = Accurate {
+            system,
+            n,
+            m,
+            rtol,
+            atol: rtol,
+            t: t0,
+            y,
+            qdd: vec![0.0; n],
+            lambda: vec![0.0; m],
+            h: 0.0,
+            stats: AccurateStats::default(),
+            k: std::array::from_fn(|_| vec![0.0; len]),
+            ys: vec![0.0; len],
+            ynew: vec![0.0; len],
+            mass: vec![0.0; n],
+            qa: vec![0.0; n],
+            jac: vec![0.0; m * n],
+            gam: vec![0.0; m],
+            nu: vec![0.0; m],
+            phi: vec![0.0; m],
+            rhs: vec![0.0; n + m],
+            lu: Lu::new(n + m),
+            small: Lu::new(m),
+            ysmall: vec![0.0; m],
+        };
+        // First derivative, and a first step from its size (Hairer's
+        // starting-step heuristic, simplified).
+        let y0 = std::mem::take(&mut a.y);
+        let mut k0 = std::mem::take(&mut a.k[0]);
+        let r = a.derivative(t0, &y0, &mut k0);
+        a.y = y0;
+        a.k[0] = k0;
+        r?;
+        let d0 = amax(&a.y[..2 * n]).max(1e-5);
+        let d1 = amax(&a.k[0][..2 * n]).max(1e-5);
+        a.h = (0.01 * d0 / d1 * rtol.powf(0.2)).clamp(1e-10, 0.1);
+        a.qdd.copy_from_slice(&a.k[0][n..2 * n]);
+        Ok(a)
+    }
+
+    /// dy/dt at (t, y) into `out`; λ into `self.lambda`.
+    fn derivative(&mut self, t: f64, y: &[f64], out: &mut [f64]) -> Result<(), IntegrateError> {
+        let (n, m) = (self.n, self.m);
+        let (q, qd) = (&y[..n], &y[n..2 * n]);
+        self.stats.evaluations += 1;
+        let s = &mut self.system;
+        s.mass(q, &mut self.mass);
+        s.applied(q, qd, t, &mut self.qa);
+        s.jacobian(q, t, &mut self.jac);
+        s.gamma(q, qd, t, &mut self.gam);
+        s.nu(q, t, &mut self.nu);
+        let finite = [&self.mass, &self.qa, &self.jac, &self.gam, &self.nu]
+            .iter()
+            .all(|v| v.iter().all(|x| x.is_finite()));
+        if !finite {
+            return Err(IntegrateError::NonFinite {
+                t,
+                what: "M, Q_A, Φ_q, γ or ν".to_owned(),
+            });
+        }
+        let w = n + m;
+        let a = self.lu.matrix_mut();
+        a.fill(0.0);
+        for i in 0..n {
+            a[i * w + i] = self.mass[i];
+        }
+        for r in 0..m {
+            for c in 0..n {
+                let v = self.jac[r * n + c];
+                a[(n + r) * w + c] = v;
+                a[c * w + n + r] = v;
+            }
+        }
+        if let Err(k) = self.lu.factor() {
+            let at = if k < n {
+                format!("q̈ of {}", self.system.coordinate_name(k))
+            } else {
+                format!("λ of {}", self.system.equation_name(k - n))
+            };
+            return Err(IntegrateError::Singular {
+                t,
+                what: "the index-1 matrix [M Φ_qᵀ; Φ_q 0]",
+                at,
+            });
+        }
+        self.rhs[..n].copy_from_slice(&self.qa);
+        self.rhs[n..].copy_from_slice(&self.gam);
+        self.lu.solve(&mut self.rhs);
+        if !self.rhs.iter().all(|x| x.is_finite()) {
+            return Err(IntegrateError::NonFinite {
+                t,
+                what: "q̈ or λ".to_owned(),
+            });
+        }
+        out[..n].copy_from_slice(qd);
+        out[n..2 * n].copy_from_slice(&self.rhs[..n]);
+        self.lambda.copy_from_slice(&self.rhs[n..]);
+        let pq: f64 = self.qa.iter().zip(qd).map(|(a, b)| a * b).sum();
+        let pc: f64 = self.lambda.iter().zip(&self.nu).map(|(a, b)| a * b).sum();
+        out[2 * n] = pq - pc;
+        Ok(())
+    }
+
+    /// Projects `ynew`'s q onto Φ = 0 and q̇ onto Φ_q q̇ = ν at `t`.
+    fn project(&mut self, t: f64) -> Result<(), IntegrateError> {
+        let (n, m) = (self.n, self.m);
+        if m == 0 {
+            return Ok(());
+        }
+        let scale = amax(&self.ynew[..n]).max(1.0);
+        for pass in 0..=10 {
+            let q = &self.ynew[..n];
+            self.system.phi(q, t, &mut self.phi);
+            let err = amax(&self.phi);
+            if !err.is_finite() {
+                return Err(IntegrateError::NonFinite {
+                    t,
+                    what: "Φ in the projection".to_owned(),
+                });
+            }
+            self.system.jacobian(q, t, &mut self.jac);
+            self.gram(t)?;
+            if err <= 1e-15 * scale || pass == 10 {
+                break;
+            }
+            self.ysmall.copy_from_slice(&self.phi);
+            self.correct(0);
+        }
+        self.system.nu(&self.ynew[..n], t, &mut self.nu);
+        for i in 0..m {
+            let r: f64 = self.jac[i * n..(i + 1) * n]
+                .iter()
+                .zip(&self.ynew[n..2 * n])
+                .map(|(a, v)| a * v)
+                .sum();
+            self.ysmall[i] = r - self.nu[i];
+        }
+        self.correct(n);
+        Ok(())
+    }
+
+    fn gram(&mut self, t: f64) -> Result<(), IntegrateError> {
+        let (n, m) = (self.n, self.m);
+        let a = self.small.matrix_mut();
+        for i in 0..m {
+            for j in 0..m {
+                let (ri, rj) = (&self.jac[i * n..(i + 1) * n], &self.jac[j * n..(j + 1) * n]);
+                a[i * m + j] = ri.iter().zip(rj).map(|(x, y)| x * y).sum();
+            }
+        }
+        self.small.factor().map_err(|k| IntegrateError::Singular {
+            t,
+            what: "Φ_q Φ_qᵀ (projection)",
+            at: self.system.equation_name(k).to_owned(),
+        })
+    }
+
+    /// ynew[offset..offset + n] −= Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ ysmall.
+    fn correct(&mut self, offset: usize) {
+        let n = self.n;
+        self.small.solve(&mut self.ysmall);
+        for (i, &y) in self.ysmall.iter().enumerate() {
+            let row = &self.jac[i * n..(i + 1) * n];
+            for (x, &a) in self.ynew[offset..offset + n].iter_mut().zip(row) {
+                *x -= a * y;
+            }
+        }
+    }
+
+    /// Integrates to `t_end` exactly (the last step is shortened onto it).
+    ///
+    /// # Errors
+    /// A step size below roundoff (naming the time), non-finite values, a
+    /// singular system.
+    pub fn advance_to(&mut self, t_end: f64) -> Result<(), IntegrateError> {
+        let n = self.n;
+        let len = 2 * n + 1;
+        if !(t_end.is_finite() && t_end > self.t) {
+            return Err(IntegrateError::Setup(format!(
+                "cannot integrate from t = {} to t = {t_end}",
+                self.t
+            )));
+        }
+        while self.t < t_end {
+            let last = self.h >= t_end - self.t;
+            let h = if last { t_end - self.t } else { self.h };
+            if h <= 1e-14 * self.t.abs().max(1.0) {
+                return Err(IntegrateError::Setup(format!(
+                    "the step fell to {h:e} at t = {}: the tolerance {} cannot be met \
+                     (a singularity or a stiff force?)",
+                    self.t, self.rtol
+                )));
+            }
+            let t = self.t;
+            // k₀ at (t, y).
+            let y = std::mem::take(&mut self.y);
+            let mut k = std::mem::take(&mut self.k);
+            let mut result = self.derivative(t, &y, &mut k[0]);
+            for s in 1..7 {
+                if result.is_err() {
+                    break;
+                }
+                for i in 0..len {
+                    let mut v = y[i];
+                    for (j, kj) in k.iter().enumerate().take(s) {
+                        v += h * A[s][j] * kj[i];
+                    }
+                    self.ys[i] = v;
+                }
+                let ys = std::mem::take(&mut self.ys);
+                result = self.derivative(t + C[s] * h, &ys, &mut k[s]);
+                self.ys = ys;
+            }
+            // The new state and the error estimate.
+            let mut err: f64 = 0.0;
+            if result.is_ok() {
+                for i in 0..len {
+                    let mut v = y[i];
+                    let mut e = 0.0;
+                    for (s, ks) in k.iter().enumerate() {
+                        v += h * B[s] * ks[i];
+                        e += h * E[s] * ks[i];
+                    }
+                    self.ynew[i] = v;
+                    if i < 2 * n {
+                        let sc = self.atol + self.rtol * y[i].abs().max(v.abs());
+                        err = err.max((e / sc).abs());
+                    }
+                }
+            }
+            self.y = y;
+            self.k = k;
+            if let Err(e) = result {
+                // A failed evaluation inside the step: retry smaller once
+                // the step allows, else report.
+                if self.h > 1e-10 {
+                    self.h /= 4.0;
+                    self.stats.rejected += 1;
+                    continue;
+                }
+                return Err(e);
+            }
+            if !err.is_finite() {
+                err = 1e10;
+            }
+            let factor = (0.9 * err.max(1e-10).powf(-0.2)).clamp(0.2, 5.0);
+            if err <= 1.0 {
+                let t1 = if last { t_end } else { t + h };
+                self.project(t1)?;
+                std::mem::swap(&mut self.y, &mut self.ynew);
+                self.t = t1;
+                self.stats.accepted += 1;
+                if !last || factor < 1.0 {
+                    self.h = h * factor;
+                }
+            } else {
+                self.stats.rejected += 1;
+                self.h = h * factor.min(1.0);
+            }
+        }
+        // q̈ and λ at the end.
+        let y = std::mem::take(&mut self.y);
+        let mut k0 = std::mem::take(&mut self.k[0]);
+        let r = self.derivative(self.t, &y, &mut k0);
+        self.y = y;
+        self.qdd.copy_from_slice(&k0[n..2 * n]);
+        self.k[0] = k0;
+        r
+    }
+
+    /// Current time.
+    #[must_use]
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+    /// Positions.
+    #[must_use]
+    pub fn q(&self) -> &[f64] {
+        &self.y[..self.n]
+    }
+    /// Velocities.
+    #[must_use]
+    pub fn qd(&self) -> &[f64] {
+        &self.y[self.n..2 * self.n]
+    }
+    /// Accelerations (index-1 solution at the state).
+    #[must_use]
+    pub fn qdd(&self) -> &[f64] {
+        &self.qdd
+    }
+    /// Lagrange multipliers at the state.
+    #[must_use]
+    pub fn lambda(&self) -> &[f64] {
+        &self.lambda
+    }
+    /// Work of Q_A and of the drivers since the start (integrated to the
+    /// tolerance).
+    #[must_use]
+    pub fn work(&self) -> f64 {
+        self.y[2 * self.n]
+    }
+    /// Kinetic energy ½ q̇ᵀ M q̇.
+    pub fn kinetic_energy(&mut self) -> f64 {
+        let n = self.n;
+        self.system.mass(&self.y[..n], &mut self.mass);
+        0.5 * self
+            .mass
+            .iter()
+            .zip(&self.y[n..2 * n])
+            .map(|(m, v)| m * v * v)
+            .sum::<f64>()
+    }
+    /// Counters.
+    #[must_use]
+    pub fn stats(&self) -> AccurateStats {
+        self.stats
+    }
+    /// The system.
+    pub fn system_mut(&mut self) -> &mut S {
+        &mut self.system
+    }
+}
