@@ -88,50 +88,56 @@ fn every_simengine2d_model_with_inertia_runs_its_dynamics_acf() -> TestResult {
             dir.join("dynamics.acf")
         };
         let analysis = kinema_adm::Analysis::read(&acf).map_err(|e| format!("{e:?}"))?;
-        let out = tmp.path(&format!("{stem}.csv"));
-        let o = kinema(&[
-            "run",
-            &adm.display().to_string(),
-            "--acf",
-            &acf.display().to_string(),
-            "--out",
-            &out,
-        ]);
-        assert_status(&o, 0);
-        let csv = Csv::read(&out)?;
-        // Exactly the ACF's output times, labelled as the ACF computes them.
-        let times = analysis.output_times();
-        assert_eq!(csv.rows.len(), analysis.output_steps + 1, "{stem}");
-        for (row, t) in csv.rows.iter().zip(&times) {
-            assert_eq!(row[0], *t, "{stem}: time column");
-        }
-        assert!(csv.column(&format!("lambda.{}", "x")).is_err());
-        assert!(
-            csv.header.iter().any(|h| h.starts_with("lambda.")),
-            "{stem}: λ columns"
-        );
-        assert!(
-            csv.header.iter().any(|h| h.starts_with("reaction.")),
-            "{stem}: reaction columns"
-        );
-        // The energy balance closes to the integrator's error.
-        let s = stdout(&o);
-        let balance = number_after(&s, "balance error ").ok_or("balance in the summary")?;
-        let ke = number_after(&s, "kinetic ").ok_or("kinetic energy in the summary")?;
-        let v = number_after(&s, "potential (gravity) ").ok_or("potential")?;
-        let work = number_after(&s, "drivers ").ok_or("work in the summary")?;
-        let ke0 = number_after(&s, ": kinetic ").ok_or("initial kinetic energy")?;
-        // A driven model's drivers do work: the balance is held to the
-        // energies that flow, whose trapezoidal quadrature is second order
-
-        let scale = ke
-            .abs()
-            .max(v.abs())
-            .max(work.abs())
-            .max(ke0.abs())
-            .max(1.0);
-        if dynamics_file {
-            assert!(balance.abs() <= 1e-3 * scale, "{stem}: {s}");
+        for mode in ["hht", "accurate"] {
+            let out = tmp.path(&format!("{stem}_{mode}.csv"));
+            let o = kinema(&[
+                "run",
+                &adm.display().to_string(),
+                "--acf",
+                &acf.display().to_string(),
+                "--out",
+                &out,
+                "--integrator",
+                mode,
+            ]);
+            assert_status(&o, 0);
+            let csv = Csv::read(&out)?;
+            // Exactly the ACF's output times, labelled as the ACF computes them.
+            let times = analysis.output_times();
+            assert_eq!(csv.rows.len(), analysis.output_steps + 1, "{stem}");
+            for (row, t) in csv.rows.iter().zip(&times) {
+                assert_eq!(row[0], *t, "{stem}: time column");
+            }
+            assert!(csv.column(&format!("lambda.{}", "x")).is_err());
+            assert!(
+                csv.header.iter().any(|h| h.starts_with("lambda.")),
+                "{stem}: λ columns"
+            );
+            assert!(
+                csv.header.iter().any(|h| h.starts_with("reaction.")),
+                "{stem}: reaction columns"
+            );
+            // The energy balance closes to the integrator's error.
+            let s = stdout(&o);
+            let balance = number_after(&s, "balance error ").ok_or("balance in the summary")?;
+            let ke = number_after(&s, "kinetic ").ok_or("kinetic energy in the summary")?;
+            let v = number_after(&s, "potential (gravity) ").ok_or("potential")?;
+            let work = number_after(&s, "drivers ").ok_or("work in the summary")?;
+            let ke0 = number_after(&s, ": kinetic ").ok_or("initial kinetic energy")?;
+            // A driven model's drivers do work: the balance is held to the
+            // energies that flow.
+            let scale = ke
+                .abs()
+                .max(v.abs())
+                .max(work.abs())
+                .max(ke0.abs())
+                .max(1.0);
+            // HHT's balance is its step's (1e-3 of the energies at the
+            // ACF's step); the accurate mode's, its tolerance's (1e-8).
+            let tolerance = if mode == "hht" { 1e-3 } else { 1e-7 };
+            if dynamics_file {
+                assert!(balance.abs() <= tolerance * scale, "{stem} {mode}: {s}");
+            }
         }
         ran.push(stem.to_owned());
     }
@@ -190,6 +196,30 @@ fn pend1_against_the_elliptic_solution() -> TestResult {
         let ratio = w[0] / w[1];
         assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
     }
+    // The accurate mode at rtol 1e-10: to 1e-8 over the whole run (4 s).
+    let out = tmp.path("accurate.csv");
+    let o = kinema(&[
+        "run",
+        &adm,
+        "--acf",
+        &acf,
+        "--integrator",
+        "accurate",
+        "--rtol",
+        "1e-10",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 0);
+    let csv = Csv::read(&out)?;
+    let c = csv.column("pend.phi")?;
+    let err = csv
+        .rows
+        .iter()
+        .map(|r| (r[c] - phi(r[0])).abs())
+        .fold(0.0, f64::max);
+    eprintln!("pend1 accurate, rtol 1e-10: max |φ − φ_exact| over 4 s: {err:.3e}");
+    assert!(err <= 1e-8, "{err}");
     Ok(())
 }
 

@@ -240,3 +240,50 @@ fn accurate_mode_meets_its_tolerance_on_the_pendulum() {
         }
     }
 }
+
+const OSCILLATOR: &str = "
+mechanism Oscillator {
+    body block { guess: (1.3, 0, 0), mass: 2, inertia: 0.1 }
+    gravity = (0, -9.81);
+    force spring: tsda(block(0, 0), ground(0, 0), 50, 2, 1);
+    constraint on_axis: abs_y(block(0, 0), 0);
+    constraint no_turn: abs_angle(block, 0);
+}";
+
+/// x(t) of the block: m ü + c u̇ + k u = 0, u = x − L0, u(0) = 0.3 at rest.
+fn oscillator_x(t: f64) -> f64 {
+    let (m, k, c, l0, a): (f64, f64, f64, f64, f64) = (2.0, 50.0, 2.0, 1.0, 0.3);
+    let w0 = (k / m).sqrt();
+    let zeta = c / (2.0 * (k * m).sqrt());
+    let wd = w0 * (1.0 - zeta * zeta).sqrt();
+    l0 + a * (-zeta * w0 * t).exp() * ((wd * t).cos() + zeta * w0 / wd * (wd * t).sin())
+}
+
+#[test]
+fn mass_on_a_linear_tsda_follows_the_damped_oscillator() {
+    let m = model(OSCILLATOR);
+    let q0 = m.initial_configuration();
+    // Accurate mode at rtol 1e-10: to 1e-8 over 3 s (about 2.4 periods).
+    let Some(sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let mut a = Accurate::new(sys, &q0, &[0.0; 3], 0.0, 1e-10).expect("start");
+    let mut err = 0.0_f64;
+    for k in 1..=150 {
+        let t = k as f64 * 0.02;
+        a.advance_to(t).expect("step");
+        err = err.max((a.q()[0] - oscillator_x(t)).abs());
+    }
+    eprintln!("oscillator, accurate rtol 1e-10: max error {err:.3e}");
+    assert!(err <= 1e-8, "{err}");
+    // HHT: second order.
+    let errors: Vec<f64> = [4e-3, 2e-3, 1e-3]
+        .iter()
+        .map(|&h| (hht_q(&m, h, 1.0)[0] - oscillator_x(1.0)).abs())
+        .collect();
+    eprintln!("oscillator, HHT errors at t = 1: {errors:?}");
+    for w in errors.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
+    }
+}

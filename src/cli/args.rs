@@ -181,6 +181,10 @@ pub struct RunArgs {
     /// a `.kin` model), shortened to land on every output time.
     #[arg(long, value_name = "H")]
     pub step: Option<f64>,
+    /// Forward dynamics with `--integrator accurate`: the relative (and
+    /// absolute) tolerance of the error control [default: 1e-8].
+    #[arg(long, value_name = "X")]
+    pub rtol: Option<f64>,
 }
 
 /// Forward-dynamics integrators.
@@ -189,6 +193,9 @@ pub enum Integrator {
     /// HHT-α (α = −0.1) at a fixed step: second order, index-3, Newton on
     /// [q̈; λ] with the symbolic Jacobian.
     Hht,
+    /// Error-controlled adaptive steps to `--rtol` (Dormand–Prince 5(4) on
+    /// the index-1 form, projected onto the constraints after each step).
+    Accurate,
 }
 
 /// Evaluation back ends available at run time.

@@ -9,7 +9,8 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use kinema::{Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
+use kinema::forward::TapeForward;
+use kinema::{Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
 
 use super::args::{Integrator, RunArgs};
 use super::columns::Selection;
@@ -19,6 +20,98 @@ use super::{Failure, print_stderr, print_stdout};
 
 /// Default step of a `.kin` model's forward dynamics.
 pub const DEFAULT_STEP: f64 = 1e-3;
+/// Default tolerance of `--integrator accurate`.
+pub const DEFAULT_RTOL: f64 = 1e-8;
+
+/// The integrator of a run.
+enum Engine {
+    Hht(Box<Hht<TapeForward>>),
+    Accurate(Box<Accurate<TapeForward>>),
+}
+
+impl Engine {
+    fn advance_to(&mut self, t: f64, h: f64) -> Result<(), IntegrateError> {
+        match self {
+            Engine::Hht(e) => e.advance_to(t, h),
+            Engine::Accurate(e) => e.advance_to(t),
+        }
+    }
+    fn t(&self) -> f64 {
+        match self {
+            Engine::Hht(e) => e.t(),
+            Engine::Accurate(e) => e.t(),
+        }
+    }
+    fn q(&self) -> &[f64] {
+        match self {
+            Engine::Hht(e) => e.q(),
+            Engine::Accurate(e) => e.q(),
+        }
+    }
+    fn qd(&self) -> &[f64] {
+        match self {
+            Engine::Hht(e) => e.qd(),
+            Engine::Accurate(e) => e.qd(),
+        }
+    }
+    fn qdd(&self) -> &[f64] {
+        match self {
+            Engine::Hht(e) => e.qdd(),
+            Engine::Accurate(e) => e.qdd(),
+        }
+    }
+    fn lambda(&self) -> &[f64] {
+        match self {
+            Engine::Hht(e) => e.lambda(),
+            Engine::Accurate(e) => e.lambda(),
+        }
+    }
+    fn work(&self) -> f64 {
+        match self {
+            Engine::Hht(e) => e.work(),
+            Engine::Accurate(e) => e.work(),
+        }
+    }
+    fn kinetic_energy(&mut self) -> f64 {
+        match self {
+            Engine::Hht(e) => e.kinetic_energy(),
+            Engine::Accurate(e) => e.kinetic_energy(),
+        }
+    }
+    fn system_mut(&mut self) -> &mut TapeForward {
+        match self {
+            Engine::Hht(e) => e.system_mut(),
+            Engine::Accurate(e) => e.system_mut(),
+        }
+    }
+    /// The summary's line on the integrator.
+    fn describe(&self, h: f64, rtol: f64) -> String {
+        match self {
+            Engine::Hht(e) => {
+                let stats = e.stats();
+                format!(
+                    "HHT-α (α = -0.1, β = 0.3025, γ = 0.6), step ≤ {h:e}: {} steps, Newton \
+                     iterations per step mean {:.2}, max {}",
+                    stats.steps,
+                    if stats.steps == 0 {
+                        0.0
+                    } else {
+                        stats.iterations as f64 / stats.steps as f64
+                    },
+                    stats.max_iterations
+                )
+            }
+            Engine::Accurate(e) => {
+                let stats = e.stats();
+                format!(
+                    "accurate (Dormand–Prince 5(4), index-1 with projection), rtol {rtol:e}: \
+                     {} steps accepted, {} rejected, {} evaluations",
+                    stats.accepted, stats.rejected, stats.evaluations
+                )
+            }
+        }
+    }
+}
 
 /// Whether `loaded` runs as forward dynamics: it has inertia and NDOF > 0.
 pub fn is_forward(loaded: &Loaded) -> bool {
@@ -30,6 +123,12 @@ pub fn is_forward(loaded: &Loaded) -> bool {
 /// # Errors
 /// [`Failure::Input`] naming the option.
 pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
+    if args.rtol.is_some() || args.integrator != Integrator::Hht {
+        return Err(Failure::usage(
+            "--integrator and --rtol are for forward dynamics (a model with inertia and NDOF > 0, \
+             or a Dynamics ACF)",
+        ));
+    }
     if args.step.is_some() {
         return Err(Failure::usage(
             "--step is for forward dynamics (a model with inertia and NDOF > 0, or a Dynamics ACF); \
@@ -55,7 +154,25 @@ pub fn run(
     grid: &str,
 ) -> Result<(), Failure> {
     let start = Instant::now();
-    let Integrator::Hht = args.integrator;
+    let rtol = args.rtol.unwrap_or(DEFAULT_RTOL);
+    match args.integrator {
+        Integrator::Hht if args.rtol.is_some() => {
+            return Err(Failure::usage(
+                "--rtol is the tolerance of --integrator accurate; HHT takes --step",
+            ));
+        }
+        Integrator::Accurate if args.step.is_some() => {
+            return Err(Failure::usage(
+                "--step is HHT's; --integrator accurate chooses its steps to meet --rtol",
+            ));
+        }
+        Integrator::Accurate if !(rtol > 1e-14 && rtol < 1.0) => {
+            return Err(Failure::usage(format_args!(
+                "--rtol must be in (1e-14, 1), not {rtol}"
+            )));
+        }
+        _ => {}
+    }
     for (given, option) in [
         (args.plot.is_some(), "--plot"),
         (args.animate.is_some(), "--animate"),
@@ -112,8 +229,17 @@ pub fn run(
     let analysis_start = Instant::now();
     let t0 = outputs_t.first().copied().unwrap_or(0.0);
     let mut gravity_of = fwd.clone();
-    let (mut hht, consistency) = Hht::new(fwd, &q0, &qd0, t0, HhtOptions::default())
-        .map_err(|e| Failure::analysis(format_args!("forward dynamics cannot start: {e}")))?;
+    let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
+    let start_failure =
+        |e: IntegrateError| Failure::analysis(format_args!("forward dynamics cannot start: {e}"));
+    let (hht, consistency) =
+        Hht::new(fwd, &q0, &qd0, t0, HhtOptions::default()).map_err(start_failure)?;
+    let mut hht = match accurate_system {
+        None => Engine::Hht(Box::new(hht)),
+        Some(system) => Engine::Accurate(Box::new(
+            Accurate::new(system, hht.q(), hht.qd(), t0, rtol).map_err(start_failure)?,
+        )),
+    };
     if consistency.dq > 0.0 || consistency.dqd > 0.0 {
         print_stderr(&format!(
             "note: the initial conditions were made consistent: q moved by ‖Δq‖∞ = {:.3e} \
@@ -144,29 +270,18 @@ pub fn run(
     let ke = hht.kinetic_energy();
     let v = gravity_of.gravity_potential(hht.q()) + 0.0;
     let other = hht.work() - (v0 - v);
-    let stats = hht.stats();
     let mut s = String::new();
     let nb = d.bodies.len();
     let _ = writeln!(
         s,
-        "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, forward dynamics (tape back end)",
+        "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, forward dynamics (tape back \
+         end)",
         loaded.checked.name,
         loaded.file,
         if nb == 1 { "y" } else { "ies" },
     );
     let _ = writeln!(s, "  grid: {grid}");
-    let _ = writeln!(
-        s,
-        "  integrator: HHT-α (α = -0.1, β = 0.3025, γ = 0.6), step ≤ {h:e}: {} steps, \
-         Newton iterations per step mean {:.2}, max {}",
-        stats.steps,
-        if stats.steps == 0 {
-            0.0
-        } else {
-            stats.iterations as f64 / stats.steps as f64
-        },
-        stats.max_iterations
-    );
+    let _ = writeln!(s, "  integrator: {}", hht.describe(h, rtol));
     let _ = writeln!(
         s,
         "  start: ‖Δq‖∞ = {:.2e}, ‖Δq̇‖∞ = {:.2e} (consistency projections)",
@@ -262,11 +377,7 @@ impl RowBuffers {
     }
 
     /// Named points and outputs, λ, reactions and efforts at the state.
-    fn fill(
-        &mut self,
-        system: &kinema::TapeSystem,
-        hht: &mut Hht<kinema::forward::TapeForward>,
-    ) -> Result<(), Failure> {
+    fn fill(&mut self, system: &kinema::TapeSystem, hht: &mut Engine) -> Result<(), Failure> {
         let (n, rows) = (self.n, self.rows);
         let t = hht.t();
         self.q.copy_from_slice(hht.q());
