@@ -173,16 +173,11 @@ pub fn run(
         }
         _ => {}
     }
-    for (given, option) in [
-        (args.plot.is_some(), "--plot"),
-        (args.animate.is_some(), "--animate"),
-        (args.stop_at_singular, "--stop-at-singular"),
-    ] {
-        if given {
-            return Err(Failure::usage(format_args!(
-                "{option} is not available for forward dynamics yet"
-            )));
-        }
+    if args.stop_at_singular {
+        return Err(Failure::usage(
+            "--stop-at-singular is for kinematic runs: forward dynamics stops at a step that \
+             fails",
+        ));
     }
     let h = args.step.or(acf_step).unwrap_or(DEFAULT_STEP);
     if !(h.is_finite() && h > 0.0) {
@@ -225,6 +220,20 @@ pub fn run(
         outputs.input("the analysis file", acf);
     }
     let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
+    let plot_target = args
+        .plot
+        .as_deref()
+        .map(|p| super::plot::Target::create(&mut outputs, p))
+        .transpose()?;
+    let page_target = args
+        .animate
+        .as_deref()
+        .map(|p| super::animate::Target::create(&mut outputs, p))
+        .transpose()?;
+    let dyn_names = super::dynamics::column_names(&system, rows, loaded.adm.is_some());
+    let mut samples = (plot_target.is_some() || page_target.is_some())
+        .then(|| super::plot::Samples::new(n).with_dynamics(&dyn_names));
+    let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
 
     let analysis_start = Instant::now();
     let t0 = outputs_t.first().copied().unwrap_or(0.0);
@@ -261,11 +270,24 @@ pub fn run(
         let (q, qd, qdd) = (hht.q(), hht.qd(), hht.qdd());
         let [y, yd, ydd] = &row.results;
         sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &row.extra)?;
+        if let Some(samples) = &mut samples
+            && (k.is_multiple_of(stride) || k + 1 == outputs_t.len())
+        {
+            samples.push_values(t, [q, qd, qdd]);
+            samples.push_dynamics(&row.extra);
+        }
     }
     let (out_rows, columns, destination) =
         (sink.rows(), sink.columns(), sink.destination().clone());
     sink.finish()?;
     let analysis = analysis_start.elapsed();
+    let title = format!("{}: forward dynamics", loaded.checked.name);
+    if let (Some(target), Some(samples)) = (plot_target, &samples) {
+        target.write(loaded, &system, samples, &title)?;
+    }
+    if let (Some(target), Some(samples)) = (page_target, &samples) {
+        target.write(loaded, &system, samples, &[], &title)?;
+    }
 
     let ke = hht.kinetic_energy();
     let v = gravity_of.gravity_potential(hht.q()) + 0.0;
@@ -311,6 +333,12 @@ pub fn run(
         Destination::File(p) => format!("`{}`", p.display()),
     };
     let _ = write!(s, "  wrote {csv} ({out_rows} rows × {columns} columns)");
+    for p in [args.plot.as_deref(), args.animate.as_deref()]
+        .into_iter()
+        .flatten()
+    {
+        let _ = write!(s, " and `{}`", p.display());
+    }
     if destination == Destination::Stdout {
         print_stderr(&s);
         Ok(())

@@ -119,10 +119,16 @@ impl Samples {
 
     /// Keeps a state.
     pub fn push(&mut self, state: &State) {
-        self.t.push(state.t());
-        self.q.extend_from_slice(state.q());
-        self.qd.extend_from_slice(state.qd());
-        self.qdd.extend_from_slice(state.qdd());
+        self.push_values(state.t(), [state.q(), state.qd(), state.qdd()]);
+    }
+
+    /// Keeps a state given by its parts (forward dynamics has no
+    /// kinematic [`State`]).
+    pub fn push_values(&mut self, t: f64, [q, qd, qdd]: [&[f64]; 3]) {
+        self.t.push(t);
+        self.q.extend_from_slice(q);
+        self.qd.extend_from_slice(qd);
+        self.qdd.extend_from_slice(qdd);
     }
 
     /// Number of states.
