@@ -268,3 +268,74 @@ fn a_kin_model_with_free_dof_and_inertia_integrates_by_default() -> TestResult {
     assert!(stderr(&o).contains("--step is for forward dynamics"));
     Ok(())
 }
+
+/// A force that blows up at t = 0.5 stops the run there, naming the time
+/// and the quantity, with the rows before it kept; a step far too large
+/// for the motion is warned about from the energy balance.
+#[test]
+fn failures_and_inaccuracy_are_said() -> TestResult {
+    let tmp = TempDir::new("forward_fail");
+    let model = tmp.path("bad.kin");
+    std::fs::write(
+        &model,
+        "mechanism P {
+            body bar { guess: (1, 0, 0), mass: 2, inertia: 0.3 }
+            gravity = (0, -9.81);
+            force kick: point_force(bar(0, 0), (0, 1 / (0.5 - t)));
+            constraint px: abs_x(bar(-1, 0), 0);
+            constraint py: abs_y(bar(-1, 0), 0);
+        }",
+    )?;
+    let out = tmp.path("bad.csv");
+    let o = kinema(&["run", &model, "--out", &out]);
+    assert_status(&o, 1);
+    let err = stderr(&o);
+    assert!(
+        err.contains("at t = 0.5") && err.contains("Q_A at bar.y"),
+        "{err}"
+    );
+    assert!(
+        err.contains("the 50 rows computed before the failure"),
+        "{err}"
+    );
+    assert_eq!(Csv::read(&out)?.rows.len(), 50);
+
+    let good = tmp.path("pend.kin");
+    std::fs::write(
+        &good,
+        "mechanism P {
+            body bar { guess: (1, 0, 0), mass: 2, inertia: 0.3 }
+            gravity = (0, -9.81);
+            constraint px: abs_x(bar(-1, 0), 0);
+            constraint py: abs_y(bar(-1, 0), 0);
+        }",
+    )?;
+    let o = kinema(&[
+        "run", &good, "--t-end", "20", "--steps", "2", "--step", "10", "--out", &out,
+    ]);
+    assert_status(&o, 0);
+    assert!(
+        stderr(&o).contains("warning: the energy balance is off"),
+        "{}",
+        stderr(&o)
+    );
+    // At a sensible step, no warning.
+    let o = kinema(&["run", &good, "--out", &out]);
+    assert_status(&o, 0);
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    // Options of the other integrator are refused.
+    let o = kinema(&["run", &good, "--rtol", "1e-9", "--out", &out]);
+    assert_status(&o, 2);
+    let o = kinema(&[
+        "run",
+        &good,
+        "--integrator",
+        "accurate",
+        "--step",
+        "1e-3",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 2);
+    Ok(())
+}

@@ -316,11 +316,27 @@ pub fn run(
         time(hht.t()),
         time(t0)
     );
+    let balance = (ke + v) - (ke0 + v0) - other;
     let _ = writeln!(
         s,
-        "  work of the other forces and drivers {other:.9e}; balance error {:.3e}",
-        (ke + v) - (ke0 + v0) - other
+        "  work of the other forces and drivers {other:.9e}; balance error {balance:.3e}"
     );
+    // The balance is the run's own accuracy check: a large error is said,
+    // not left in a number of the summary.
+    let scale = [ke, v, ke0, v0, other]
+        .iter()
+        .fold(0.0_f64, |m, x| m.max(x.abs()));
+    if balance.is_nan() || balance.abs() > 1e-2 * scale {
+        print_stderr(&format!(
+            "warning: the energy balance is off by {balance:.3e} ({:.1}% of the energies): the \
+             results are not accurate; {}",
+            100.0 * balance.abs() / scale.max(f64::MIN_POSITIVE),
+            match args.integrator {
+                Integrator::Hht => "try a smaller --step or --integrator accurate",
+                Integrator::Accurate => "try a smaller --rtol",
+            }
+        ));
+    }
     let _ = writeln!(
         s,
         "  time: {} (model {}, analysis {})",

@@ -334,6 +334,44 @@ impl<S: ForwardSystem> Hht<S> {
         Ok(())
     }
 
+    /// The first non-finite value among the Newton iteration's
+    /// evaluations, named (`Q_A at bar.y`), or `None`.
+    fn first_non_finite(&self) -> Option<String> {
+        let n = self.n;
+        let coord = |i: usize| self.system.coordinate_name(i).to_owned();
+        let first = |v: &[f64]| v.iter().position(|x| !x.is_finite());
+        if let Some(i) = first(&self.mass) {
+            return Some(format!("M at {}", coord(i)));
+        }
+        if let Some(i) = first(&self.qa) {
+            return Some(format!("Q_A at {}", coord(i)));
+        }
+        if let Some(i) = first(&self.phi) {
+            return Some(format!("Φ of `{}`", self.system.equation_name(i)));
+        }
+        if let Some(k) = first(&self.jac) {
+            return Some(format!(
+                "Φ_q of `{}` by {}",
+                self.system.equation_name(k / n.max(1)),
+                coord(k % n.max(1))
+            ));
+        }
+        for (v, name) in [
+            (&self.kq, "∂Q_A/∂q"),
+            (&self.cqd, "∂Q_A/∂q̇"),
+            (&self.hess, "∂(Φ_qᵀλ)/∂q"),
+        ] {
+            if let Some(k) = first(v) {
+                return Some(format!(
+                    "{name} at ({}, {})",
+                    coord(k / n.max(1)),
+                    coord(k % n.max(1))
+                ));
+            }
+        }
+        None
+    }
+
     fn unknown_name(&self, k: usize) -> String {
         if k < self.n {
             format!("q̈ of {}", self.system.coordinate_name(k))
@@ -398,16 +436,8 @@ impl<S: ForwardSystem> Hht<S> {
             s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
             s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
             s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
-            let ok = [
-                &self.mass, &self.qa, &self.phi, &self.jac, &self.kq, &self.cqd, &self.hess,
-            ]
-            .iter()
-            .all(|v| finite(v));
-            if !ok {
-                return Err(IntegrateError::NonFinite {
-                    t: self.t,
-                    what: "M, Q_A, Φ, Φ_q or their derivatives in a Newton iteration".to_owned(),
-                });
+            if let Some(what) = self.first_non_finite() {
+                return Err(IntegrateError::NonFinite { t: t1, what });
             }
             // Residual r = [M q̈ + (1+α)(Φ_qᵀλ − Q) − α f; Φ/(βh²)].
             for i in 0..n {

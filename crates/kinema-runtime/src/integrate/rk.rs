@@ -342,7 +342,7 @@ impl<S: ForwardSystem> Accurate<S> {
             let h = if last { t_end - self.t } else { self.h };
             if h <= 1e-14 * self.t.abs().max(1.0) {
                 return Err(IntegrateError::Setup(format!(
-                    "the step fell to {h:e} at t = {}: the tolerance {} cannot be met \
+                    "the step fell to {h:e} at t = {}: the tolerance {:e} cannot be met \
                      (a singularity or a stiff force?)",
                     self.t, self.rtol
                 )));
