@@ -91,14 +91,15 @@ impl Engine {
                 let stats = e.stats();
                 format!(
                     "HHT-α (α = -0.1, β = 0.3025, γ = 0.6), step ≤ {h:e}: {} steps, Newton \
-                     iterations per step mean {:.2}, max {}",
+                     iterations per step mean {:.2}, max {}, {} factorizations",
                     stats.steps,
                     if stats.steps == 0 {
                         0.0
                     } else {
                         stats.iterations as f64 / stats.steps as f64
                     },
-                    stats.max_iterations
+                    stats.max_iterations,
+                    stats.factorizations
                 )
             }
             Engine::Accurate(e) => {
