@@ -339,3 +339,56 @@ fn failures_and_inaccuracy_are_said() -> TestResult {
     assert_status(&o, 2);
     Ok(())
 }
+
+/// sliderCrankDYN (released from rest under gravity): HHT's error in q at
+/// t = 1 against the accurate mode at rtol 1e-11 falls 4× when the step
+/// halves from the ACF's 0.005.
+#[test]
+fn slider_crank_dyn_hht_is_second_order_against_the_accurate_mode() -> TestResult {
+    let Some(dir) = shared() else {
+        println!("notice: ../shared/simengine2d is absent; skipping");
+        return Ok(());
+    };
+    let adm = dir.join("sliderCrankDYN.adm").display().to_string();
+    let acf = dir.join("dynamics.acf").display().to_string();
+    let tmp = TempDir::new("forward_sc");
+    let run = |extra: &[&str], name: &str| -> Result<Csv, Box<dyn std::error::Error>> {
+        let out = tmp.path(name);
+        let mut args = vec![
+            "run",
+            adm.as_str(),
+            "--acf",
+            acf.as_str(),
+            "--out",
+            out.as_str(),
+        ];
+        args.extend_from_slice(extra);
+        let o = kinema(&args);
+        assert_status(&o, 0);
+        Csv::read(&out)
+    };
+    let reference = run(&["--integrator", "accurate", "--rtol", "1e-11"], "ref.csv")?;
+    let coords: Vec<usize> = reference
+        .header
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.ends_with(".x") || h.ends_with(".y") || h.ends_with(".phi"))
+        .map(|(i, _)| i)
+        .collect();
+    assert!(coords.len() >= 9, "{:?}", reference.header);
+    let mut errors = Vec::new();
+    for step in ["0.005", "0.0025"] {
+        let csv = run(&["--step", step], &format!("h{step}.csv"))?;
+        let row = 100; // t = 1
+        assert_eq!(csv.rows[row][0], 1.0);
+        let err = coords
+            .iter()
+            .map(|&c| (csv.rows[row][c] - reference.rows[row][c]).abs())
+            .fold(0.0, f64::max);
+        errors.push(err);
+    }
+    eprintln!("sliderCrankDYN: HHT error in q at t = 1: {errors:?}");
+    let ratio = errors[0] / errors[1];
+    assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
+    Ok(())
+}
