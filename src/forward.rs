@@ -39,6 +39,7 @@ pub struct TapeForward {
     registers: Vec<f64>,
     values: Vec<f64>,
     zeros: Vec<f64>,
+    masses: Vec<f64>,
 }
 
 impl TapeForward {
@@ -96,6 +97,7 @@ impl TapeForward {
             registers: Vec::new(),
             values: Vec::new(),
             zeros: vec![0.0; n],
+            masses: vec![0.0; n],
         };
         let tapes = [
             &f.phi,
@@ -137,15 +139,19 @@ impl TapeForward {
         g
     }
 
-    /// The gravitational potential −Σ m (g · r) of the bodies at q.
+    /// The gravitational potential −Σ m (g · r) of the bodies at q (no
+    /// allocation).
     pub fn gravity_potential(&mut self, q: &[f64]) -> f64 {
         let g = self.gravity();
-        let mut mass = vec![0.0; self.n];
+        let mut mass = std::mem::take(&mut self.masses);
         self.mass(q, &mut mass);
-        mass.chunks_exact(3)
+        let v = mass
+            .chunks_exact(3)
             .zip(q.chunks_exact(3))
             .map(|(m, r)| -(m[0] * g[0] * r[0] + m[1] * g[1] * r[1]))
-            .sum()
+            .sum();
+        self.masses = mass;
+        v
     }
 }
 

@@ -74,6 +74,10 @@ const E: [f64; 7] = [
     -1.0 / 40.0,
 ];
 
+/// Most step attempts between two output times before the run is
+/// declared too stiff (a hang otherwise).
+const MAX_ATTEMPTS: usize = 1_000_000;
+
 /// Counters of an accurate run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AccurateStats {
@@ -337,7 +341,17 @@ impl<S: ForwardSystem> Accurate<S> {
                 self.t
             )));
         }
+        let mut attempts = 0usize;
         while self.t < t_end {
+            attempts += 1;
+            if attempts > MAX_ATTEMPTS {
+                return Err(IntegrateError::Setup(format!(
+                    "{MAX_ATTEMPTS} steps from t = {} did not reach t = {t_end} (the step is \
+                     {:e}): the motion is too stiff for the explicit accurate mode at rtol {:e}; \
+                     try --integrator hht",
+                    self.t, self.h, self.rtol
+                )));
+            }
             let last = self.h >= t_end - self.t;
             let h = if last { t_end - self.t } else { self.h };
             if h <= 1e-14 * self.t.abs().max(1.0) {
