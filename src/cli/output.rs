@@ -363,7 +363,10 @@ pub struct CsvSink {
     line: CsvLine,
     destination: Destination,
     rows: usize,
-    columns: usize,
+    /// The header's names after `t`.
+    names: Vec<String>,
+    /// The row's values after `t`, reused.
+    row: Vec<f64>,
     selection: super::columns::Selection,
 }
 
@@ -403,7 +406,8 @@ impl CsvSink {
             line: CsvLine::new(),
             destination,
             rows: 0,
-            columns: 1 + header_names.len(),
+            names: header_names.to_vec(),
+            row: Vec::with_capacity(header_names.len()),
             selection,
         };
         let result = sink.out.write_all(header.as_bytes());
@@ -452,17 +456,30 @@ impl CsvSink {
     ) -> Result<(), Failure> {
         self.line.clear();
         self.line.number(t);
+        let row = &mut self.row;
+        row.clear();
         for values in states {
             for &k in &self.selection.coordinates {
-                self.line.number(values.get(k).copied().unwrap_or(f64::NAN));
+                row.push(values.get(k).copied().unwrap_or(f64::NAN));
             }
         }
         for values in results {
             for &k in &self.selection.outputs {
-                self.line.number(values.get(k).copied().unwrap_or(f64::NAN));
+                row.push(values.get(k).copied().unwrap_or(f64::NAN));
             }
         }
-        self.line.numbers(extra);
+        row.extend_from_slice(extra);
+        // Never a silent NaN or ∞ in the results: the solver checks q, q̇
+        // and q̈; a named point, an output or a dynamics column evaluated
+        // from them can still overflow (a point 1e308 from its body).
+        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+            let name = self.names.get(j).map_or("?", String::as_str);
+            return Err(Failure::Analysis(format!(
+                "error: at t = {t}: column `{name}` is {} (it overflowed); the CSV holds the {} rows before it",
+                row[j], self.rows
+            )));
+        }
+        self.line.numbers(row.iter());
         self.line
             .write_to(&mut self.out)
             .map_err(|e| write_failure(&self.destination, &e))?;
@@ -491,7 +508,7 @@ impl CsvSink {
 
     /// Columns per row.
     pub fn columns(&self) -> usize {
-        self.columns
+        1 + self.names.len()
     }
 
     /// Where the rows go.

@@ -488,8 +488,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             }
             let [y, yd, ydd] = &results;
             if let Err(failure) = sink.write_with(state, [y, yd, ydd], extra) {
-                // A write error, or standard output closed: the run stops.
+                // A write error, standard output closed, or a value that
+                // overflowed: the run stops, keeping the rows written.
                 progress.finish();
+                if matches!(failure, Failure::Analysis(_)) {
+                    let _ = sink.finish();
+                }
                 return Err(failure);
             }
             skipped = Some(t);

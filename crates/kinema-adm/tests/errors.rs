@@ -126,3 +126,26 @@ fn garbage_never_panics() {
         }
     }
 }
+
+/// A negative or non-finite `mass` or `jbar` is refused at its field, as
+/// the `.kin` checker would refuse the imported inertia (fuzz run of stop
+/// 13: `adm-emitted-kin-rejected`, "an inertia is -1").
+#[test]
+fn negative_mass_or_inertia() {
+    let text = common::read("absolute_pendulum.adm");
+    for (field, bad) in [("mass", "-2"), ("jbar", "-1"), ("jbar", "-1e-300")] {
+        let needle = format!("\"{field}\"");
+        let at = text.find(&needle).unwrap_or_else(|| panic!("no {field}"));
+        let start = at + needle.len() + text[at + needle.len()..].find(':').unwrap() + 1;
+        let end = start + text[start..].find([',', '\n', '}']).unwrap();
+        let edited = format!("{} {bad}{}", &text[..start], &text[end..]);
+        let e = match Model::parse(&edited, "bad_inertia.adm") {
+            Ok(_) => panic!("{field} = {bad} was accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains(&format!("field \"{field}\": expected a finite number ≥ 0")),
+            "{e}"
+        );
+    }
+}

@@ -92,9 +92,23 @@ impl<'v> Elem<'v> {
         self.num_of(cx, key, v)
     }
 
-    fn opt_num(&self, cx: &mut Cx<'_>, key: &str) -> Option<f64> {
+    /// An optional number that must be finite and ≥ 0 (a mass, an
+    /// inertia): the model language's own rule, so that an imported model
+    /// never fails to check on it.
+    fn opt_non_negative(&self, cx: &mut Cx<'_>, key: &str) -> Option<f64> {
         let v = self.obj.get(key)?;
-        self.num_of(cx, key, v)
+        let x = self.num_of(cx, key, v)?;
+        if x.is_finite() && x >= 0.0 {
+            return Some(x);
+        }
+        cx.err(
+            v.pos,
+            format!(
+                "{}: field \"{key}\": expected a finite number ≥ 0, found {x}",
+                self.label
+            ),
+        );
+        None
     }
 
     fn array_of<const N: usize>(&self, cx: &mut Cx<'_>, key: &str, v: &Value) -> Option<[f64; N]> {
@@ -463,8 +477,8 @@ fn read_body(cx: &mut Cx<'_>, v: &Value, index: usize) -> Option<Body> {
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, true);
     let q0 = e.field(cx, "q0").and_then(|q| e.array_of::<3>(cx, "q0", q));
-    let mass = e.opt_num(cx, "mass");
-    let jbar = e.opt_num(cx, "jbar");
+    let mass = e.opt_non_negative(cx, "mass");
+    let jbar = e.opt_non_negative(cx, "jbar");
     let qd0 = e.opt_array::<3>(cx, "qd0");
     let vis = v.get("vis").and_then(|vis| read_body_vis(cx, &e, vis));
     Some(Body {

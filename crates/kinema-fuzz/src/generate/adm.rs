@@ -49,6 +49,14 @@ fn direction(rng: &mut Rng) -> String {
     }
 }
 
+/// A `mass` or `jbar`: ≥ 0, as a model needs (the reader refuses a
+/// negative one at its field: pinned by kinema-adm's tests and
+/// `corpus/adm/negative_inertia.adm`). The same draws as any JSON number,
+/// so the generator's sequence is unchanged.
+fn inertia(rng: &mut Rng) -> String {
+    json_number(rng).trim_start_matches('-').to_owned()
+}
+
 fn small_fun(rng: &mut Rng, driving: bool) -> String {
     let f = if driving && rng.chance(0.08) {
         fun::generate(rng)
@@ -137,8 +145,8 @@ pub fn generate(rng: &mut Rng) -> String {
             "    {{ \"name\": {}, \"id\": {}, \"mass\": {}, \"jbar\": {}, \"q0\": {q0}, \"qd0\": [0, 0, 0]{vis} }}{sep}",
             json_string(&name),
             i + 1,
-            json_number(rng),
-            json_number(rng)
+            inertia(rng),
+            inertia(rng)
         );
     }
     out.push_str("  ],\n  \"constraints\": [\n");
