@@ -392,3 +392,65 @@ fn slider_crank_dyn_hht_is_second_order_against_the_accurate_mode() -> TestResul
     assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
     Ok(())
 }
+
+/// `--energy` writes the kinetic and potential energy and the work of the
+/// other forces; with a damper doing work, kinetic + potential − work stays
+/// at its start value to the accurate mode's tolerance at every row, and the
+/// damper's work is negative.
+#[test]
+fn energy_columns_balance_at_every_row() -> TestResult {
+    let tmp = TempDir::new("forward_energy");
+    let model = tmp.path("pend.kin");
+    std::fs::write(
+        &model,
+        "mechanism P {
+            body bar { guess: (1, 0, 0), mass: 2, inertia: 0.3 }
+            gravity = (0, -9.81);
+            constraint px: abs_x(bar(-1, 0), 0);
+            constraint py: abs_y(bar(-1, 0), 0);
+            force damp: rsda(ground, bar, 0, 0.4, 0);
+        }",
+    )?;
+    let out = tmp.path("p.csv");
+    let o = kinema(&[
+        "run",
+        &model,
+        "--integrator",
+        "accurate",
+        "--rtol",
+        "1e-10",
+        "--energy",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 0);
+    let csv = Csv::read(&out)?;
+    let (ke, v, w) = (
+        csv.column("energy.kinetic")?,
+        csv.column("energy.potential")?,
+        csv.column("energy.work")?,
+    );
+    let start = csv.rows[0][ke] + csv.rows[0][v] - csv.rows[0][w];
+    let scale = csv.rows.iter().map(|r| r[v].abs()).fold(1.0, f64::max);
+    for row in &csv.rows {
+        let drift = (row[ke] + row[v] - row[w] - start).abs() / scale;
+        assert!(drift < 1e-7, "t = {}: drift {drift:e}", row[0]);
+    }
+    let last = csv.rows.last().ok_or("rows")?;
+    assert!(last[w] < 0.0, "the damper dissipates: work {}", last[w]);
+    // Kinematic runs refuse it.
+    let o = kinema(&[
+        "run",
+        &format!("{ROOT}/models/slider_crank.kin"),
+        "--energy",
+        "--out",
+        &tmp.path("k.csv"),
+    ]);
+    assert_status(&o, 2);
+    assert!(
+        stderr(&o).contains("--energy are for forward dynamics"),
+        "{}",
+        stderr(&o)
+    );
+    Ok(())
+}

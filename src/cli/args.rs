@@ -185,6 +185,12 @@ pub struct RunArgs {
     /// absolute) tolerance of the error control [default: 1e-8].
     #[arg(long, value_name = "X")]
     pub rtol: Option<f64>,
+    /// Forward dynamics: three more CSV columns, `energy.kinetic`,
+    /// `energy.potential` (gravity) and `energy.work` (the work of the
+    /// other forces and the drivers since the start): kinetic + potential −
+    /// work is constant when the integration is exact.
+    #[arg(long)]
+    pub energy: bool,
 }
 
 /// Forward-dynamics integrators.

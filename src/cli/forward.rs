@@ -124,9 +124,9 @@ pub fn is_forward(loaded: &Loaded) -> bool {
 /// # Errors
 /// [`Failure::Input`] naming the option.
 pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
-    if args.rtol.is_some() || args.integrator != Integrator::Hht {
+    if args.rtol.is_some() || args.integrator != Integrator::Hht || args.energy {
         return Err(Failure::usage(
-            "--integrator and --rtol are for forward dynamics (a model with inertia and NDOF > 0, \
+            "--integrator, --rtol and --energy are for forward dynamics (a model with inertia and NDOF > 0, \
              or a Dynamics ACF)",
         ));
     }
@@ -138,6 +138,9 @@ pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+/// The columns `--energy` adds after the dynamics columns.
+const ENERGY_COLUMNS: [&str; 3] = ["energy.kinetic", "energy.potential", "energy.work"];
 
 /// Runs forward dynamics of `loaded`, writing the state at each of
 /// `outputs` (increasing, from t₀ = outputs[0]). `acf_step`: the ACF's
@@ -215,6 +218,9 @@ pub fn run(
         rows,
         loaded.adm.is_some(),
     ));
+    if args.energy {
+        header.extend(ENERGY_COLUMNS.map(String::from));
+    }
     let mut outputs = Outputs::new();
     outputs.input("the model", &args.model);
     if let Some(acf) = &args.acf {
@@ -261,6 +267,8 @@ pub fn run(
     let mut row = RowBuffers::new(&system, n, rows, d.phi_q.entries.len(), d.outputs.len());
     let v0 = gravity_of.gravity_potential(hht.q()) + 0.0;
     let ke0 = hht.kinetic_energy();
+    // The row's extra columns with the energies appended (`--energy`).
+    let mut extra = Vec::new();
     for (k, &t) in outputs_t.iter().enumerate() {
         if k > 0
             && let Err(e) = hht.advance_to(t, h)
@@ -268,9 +276,16 @@ pub fn run(
             return Err(step_failure(sink, &e, loaded));
         }
         row.fill(&system, &mut hht)?;
+        extra.clear();
+        extra.extend_from_slice(&row.extra);
+        if args.energy {
+            let v = gravity_of.gravity_potential(hht.q()) + 0.0;
+            let work = hht.work() - (v0 - v);
+            extra.extend([hht.kinetic_energy(), v, work]);
+        }
         let (q, qd, qdd) = (hht.q(), hht.qd(), hht.qdd());
         let [y, yd, ydd] = &row.results;
-        sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &row.extra)?;
+        sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &extra)?;
         if let Some(samples) = &mut samples
             && (k.is_multiple_of(stride) || k + 1 == outputs_t.len())
         {
