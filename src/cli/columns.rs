@@ -28,6 +28,14 @@ impl Selection {
         }
     }
 
+    /// The selection `--columns` asks for, every column without it.
+    ///
+    /// # Errors
+    /// As [`Selection::parse`].
+    pub fn of_option(spec: Option<&str>, d: &Derivation) -> Result<Selection, Failure> {
+        spec.map_or_else(|| Ok(Selection::all(d)), |spec| Selection::parse(spec, d))
+    }
+
     /// Reads a comma-separated list: `bodies`, `points`, `outputs`, `all`;
     /// a body (its three coordinates); a point `B.name` or an output
     /// `NAME` (its columns); or one column by name (`crank.x`,

@@ -66,10 +66,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     let system = loaded.model.system();
     let rows = d.rows.len();
-    let selection = match &args.columns {
-        Some(spec) => Selection::parse(spec, d)?,
-        None => Selection::all(d),
-    };
+    let selection = Selection::of_option(args.columns.as_deref(), d)?;
     let mut header = selection.header(d);
     header.extend(super::dynamics::column_names(
         &system,

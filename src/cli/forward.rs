@@ -208,10 +208,7 @@ pub fn run(
     }
 
     let system = loaded.model.system();
-    let selection = match &args.columns {
-        Some(spec) => Selection::parse(spec, d)?,
-        None => Selection::all(d),
-    };
+    let selection = Selection::of_option(args.columns.as_deref(), d)?;
     let mut header = selection.header(d);
     header.extend(super::dynamics::column_names(
         &system,

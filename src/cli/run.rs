@@ -346,10 +346,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         outputs.input("the analysis file", acf);
     }
     let derivation = loaded.model.derivation();
-    let selection = match &args.columns {
-        Some(spec) => Selection::parse(spec, derivation)?,
-        None => Selection::all(derivation),
-    };
+    let selection = Selection::of_option(args.columns.as_deref(), derivation)?;
     let mut dynamics =
         super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some());
     let mut header = selection.header(derivation);
@@ -473,17 +470,11 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             };
             let w = Instant::now();
             if sink.wants_outputs() {
-                let [y, yd, ydd] = &mut results;
-                kinema::Outputs::outputs(
+                kinema::Outputs::outputs_of(
                     solver.system(),
                     &mut result_scratch,
-                    state.t(),
-                    state.q(),
-                    state.qd(),
-                    state.qdd(),
-                    y,
-                    yd,
-                    ydd,
+                    state,
+                    &mut results,
                 );
             }
             let [y, yd, ydd] = &results;

@@ -268,18 +268,7 @@ fn sweep_chunk(
                 return Ok((text, Some(e)));
             }
             let Some(state) = solver.state() else { break };
-            let [y, yd, ydd] = &mut results;
-            kinema::Outputs::outputs(
-                solver.system(),
-                &mut scratch,
-                state.t(),
-                state.q(),
-                state.qd(),
-                state.qdd(),
-                y,
-                yd,
-                ydd,
-            );
+            kinema::Outputs::outputs_of(solver.system(), &mut scratch, state, &mut results);
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());

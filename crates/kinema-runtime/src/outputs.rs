@@ -42,14 +42,11 @@ pub trait Outputs: System {
         (0..self.output_len()).find(|&i| self.output_name(i) == name)
     }
 
-    /// y, ẏ, ÿ at a solved state (a fresh scratch: allocates, for one-off use).
-    fn outputs_at(&self, state: &State) -> [Vec<f64>; 3] {
-        let m = self.output_len();
-        let mut out = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
-        let mut scratch = self.scratch();
-        let [y, yd, ydd] = &mut out;
+    /// y, ẏ, ÿ at a solved state into `out` (no allocation).
+    fn outputs_of(&self, scratch: &mut Self::Scratch, state: &State, out: &mut [Vec<f64>; 3]) {
+        let [y, yd, ydd] = out;
         self.outputs(
-            &mut scratch,
+            scratch,
             state.t(),
             state.q(),
             state.qd(),
@@ -58,6 +55,13 @@ pub trait Outputs: System {
             yd,
             ydd,
         );
+    }
+
+    /// y, ẏ, ÿ at a solved state (a fresh scratch: allocates, for one-off use).
+    fn outputs_at(&self, state: &State) -> [Vec<f64>; 3] {
+        let m = self.output_len();
+        let mut out = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+        self.outputs_of(&mut self.scratch(), state, &mut out);
         out
     }
 }

@@ -655,12 +655,7 @@ impl<S: ForwardSystem> Hht<S> {
     /// Kinetic energy ½ q̇ᵀ M q̇ at the current state.
     pub fn kinetic_energy(&mut self) -> f64 {
         self.system.mass(&self.q, &mut self.mass);
-        0.5 * self
-            .mass
-            .iter()
-            .zip(&self.qd)
-            .map(|(m, v)| m * v * v)
-            .sum::<f64>()
+        super::kinetic_energy(&self.mass, &self.qd)
     }
     /// Counters.
     #[must_use]

@@ -19,6 +19,11 @@ pub mod rk;
 pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
 pub use rk::{Accurate, AccurateStats};
 
+/// ½ q̇ᵀ M q̇ for a diagonal M (`mass`, one entry per coordinate).
+fn kinetic_energy(mass: &[f64], qd: &[f64]) -> f64 {
+    0.5 * mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
+}
+
 /// A constrained mechanical system with inertia, as forward dynamics needs
 /// it: n coordinates, m ≤ n rows of Φ. Every matrix is dense, row-major.
 ///

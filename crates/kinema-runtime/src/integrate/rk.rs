@@ -473,12 +473,7 @@ impl<S: ForwardSystem> Accurate<S> {
     pub fn kinetic_energy(&mut self) -> f64 {
         let n = self.n;
         self.system.mass(&self.y[..n], &mut self.mass);
-        0.5 * self
-            .mass
-            .iter()
-            .zip(&self.y[n..2 * n])
-            .map(|(m, v)| m * v * v)
-            .sum::<f64>()
+        super::kinetic_energy(&self.mass, &self.y[n..2 * n])
     }
     /// Counters.
     #[must_use]
