@@ -34,7 +34,7 @@ pub struct StepStats {
 
 /// The kinematic state at time t: q with Φ(q, t) = 0, q̇ with Φ_q q̇ = ν,
 /// q̈ with Φ_q q̈ = γ.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct State {
     pub(crate) t: f64,
     pub(crate) q: Vec<f64>,
@@ -43,6 +43,24 @@ pub struct State {
     pub(crate) stats: StepStats,
     /// Sign of det Φ_q at q (0 when unknown).
     pub(crate) det_sign: f64,
+    /// The solver's tag of the factorization of Φ_q at this q (0: none):
+    /// its LU still holds that factorization while the solver's
+    /// `factored` tag equals this one. Bookkeeping, not part of the state's
+    /// value (equality ignores it).
+    pub(crate) tag: u64,
+}
+
+/// Equal times, coordinates, rates, statistics and det sign (the
+/// factorization tag is bookkeeping).
+impl PartialEq for State {
+    fn eq(&self, other: &Self) -> bool {
+        self.t == other.t
+            && self.q == other.q
+            && self.qd == other.qd
+            && self.qdd == other.qdd
+            && self.stats == other.stats
+            && self.det_sign == other.det_sign
+    }
 }
 
 impl State {
@@ -54,6 +72,7 @@ impl State {
             qdd: vec![0.0; n],
             stats: StepStats::default(),
             det_sign: 0.0,
+            tag: 0,
         }
     }
 

@@ -453,8 +453,9 @@ impl Plan {
                 active: u8,
                 /// Factorizations done by the fallback.
                 fallbacks: u64,
-                /// minₖ |u_kk| / maxᵢⱼ |aᵢⱼ| and the sign of det A, of the last static factorization.
-                report: #rt::PivotReport,
+                /// minₖ |u_kk|, maxᵢⱼ |aᵢⱼ| and whether det A < 0, of the last static
+                /// factorization: the pivot report, formed only when asked for.
+                pivots: (f64, f64, bool),
                 fallback: #fallback,
             }
 
@@ -473,7 +474,7 @@ impl Plan {
                         fits: n == #n_lit && pattern == &<#system>::JACOBIAN_PATTERN[..],
                         active: Self::NONE,
                         fallbacks: 0,
-                        report: #rt::PivotReport { ratio: 0.0, det_sign: 1.0 },
+                        pivots: (0.0, 1.0, false),
                         fallback,
                     })
                 }
@@ -516,7 +517,13 @@ impl Plan {
 
                 fn pivot_report(&self) -> ::core::option::Option<#rt::PivotReport> {
                     match self.active {
-                        Self::STATIC => ::core::option::Option::Some(self.report),
+                        Self::STATIC => {
+                            let (min_pivot, scale, negative) = self.pivots;
+                            ::core::option::Option::Some(#rt::PivotReport {
+                                ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
+                                det_sign: if negative { -1.0 } else { 1.0 },
+                            })
+                        }
                         Self::FALLBACK => #rt::LinearSolver::pivot_report(&self.fallback),
                         _ => ::core::option::Option::None,
                     }
@@ -589,10 +596,7 @@ impl Plan {
             let f = &mut self.f;
             #store
             #memo_store
-            self.report = #rt::PivotReport {
-                ratio: if scale > 0.0 { min_pivot / scale } else { 0.0 },
-                det_sign: if negative { -1.0 } else { 1.0 },
-            };
+            self.pivots = (min_pivot, scale, negative);
             self.active = Self::STATIC;
             Ok(())
         }

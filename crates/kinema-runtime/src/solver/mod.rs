@@ -127,12 +127,15 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     bracket_b: State,
     /// Taylor prediction from the last state.
     pred: Box<[f64]>,
-    /// The q and t at which the LU and `ws.jac` hold Φ_q (t is NaN when
-    /// they hold something else), and whether that factorization was
-    /// equilibrated: inverse dynamics reuses it for the state kept.
-    factored_q: Box<[f64]>,
-    factored_t: f64,
+    /// The tag ([`State`]'s `tag`) of the state whose Φ_q the LU and
+    /// `ws.jac` hold (0 when they hold something else: every path that
+    /// factors or overwrites `ws.jac` clears it first), and whether that
+    /// factorization was equilibrated: inverse dynamics reuses it for the
+    /// state kept.
+    factored: u64,
     factored_scaled: bool,
+    /// The last tag given out (tags are never reused).
+    tags: u64,
     /// How far Newton moved q in the last attempt (see
     /// [`quiet`](Self::quiet)).
     travel: Travel,
@@ -196,9 +199,9 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             bracket_a: State::zeros(n),
             bracket_b: State::zeros(n),
             pred: vec![0.0; n].into_boxed_slice(),
-            factored_q: vec![0.0; n].into_boxed_slice(),
-            factored_t: f64::NAN,
+            factored: 0,
             factored_scaled: false,
+            tags: 0,
             travel: Travel::default(),
             assembled: false,
             changed: false,
@@ -226,7 +229,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// The system, mutably: change its parameters between steps.
     #[must_use]
     pub fn system_mut(&mut self) -> &mut S {
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.changed = true;
         &mut self.system
     }
@@ -263,7 +266,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Forgets the current state: the next [`step`](Self::step) assembles
     /// from the initial guess again.
     pub fn reset(&mut self) {
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.assembled = false;
         self.factorization = Factorization::None;
         self.branch_sign = 0.0;
@@ -381,20 +384,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// else internal sub-steps (see "Singular configurations").
     fn advance(&mut self, t0: f64, t: f64) -> Result<(), Error> {
         self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
-        // After a change of the system (a parameter set between steps) the
-        // motion may jump: the converged step is taken as it is, unless it
-        // is near singular.
-        if std::mem::take(&mut self.changed)
-            && self.attempt_from(t, self.options.predictor).is_ok()
-            && !self.next.stats.near_singular
-        {
-            return self.commit(t);
-        }
         // The step as the options ask; the refinement below always starts
-        // Newton from the Taylor prediction (following the branch).
+        // Newton from the Taylor prediction (following the branch). After a
+        // change of the system (a parameter set between steps) the motion
+        // may jump: the converged step is taken as it is, unless it is near
+        // singular.
+        let changed = std::mem::take(&mut self.changed);
         if self.attempt_from(t, self.options.predictor).is_ok()
             && !self.next.stats.near_singular
-            && (self.quiet() || self.acceptable())
+            && (changed || self.quiet() || self.acceptable())
         {
             return self.commit(t);
         }
@@ -429,6 +427,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// [`attempt`](Self::attempt), Newton starting from the prediction or,
     /// with `predict` false, from the current q.
+    #[inline]
     fn attempt_from(&mut self, t: f64, predict: bool) -> Result<(), Error> {
         if predict {
             predict_into(&self.state, t, &mut self.next.q);
@@ -465,7 +464,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             modified_newton: false,
             ..self.options
         };
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         let _ = solve_position(
             &self.system,
             &mut self.scratch,
@@ -655,7 +654,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     #[inline]
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         let q = &mut self.next.q;
         let converged = solve_position(
             &self.system,
@@ -679,10 +678,17 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved.
     fn rates(&mut self, t: f64) -> Result<(), Error> {
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         self.factor_and_rates(t)
+    }
+
+    /// A tag no state has had (see `factored`).
+    #[inline]
+    fn new_tag(&mut self) -> u64 {
+        self.tags += 1;
+        self.tags
     }
 
     /// Factors Φ_q from `ws.jac` (at time `t`); the factorization is marked
@@ -706,7 +712,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Factors Φ_q from `ws.jac` and solves q̇ and q̈ of `self.next`.
     #[inline]
     fn factor_and_rates(&mut self, t: f64) -> Result<(), Error> {
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.factor_jacobian(t)?;
         let State { q, qd, qdd, .. } = &mut self.next;
 
@@ -737,8 +743,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         .map_err(|e| velocity_overflow(system, scratch, q, qd, t, e))?;
         // The LU and `ws.jac` now hold Φ_q at this q (inverse dynamics
         // reuses them when this state is the one kept).
-        self.factored_q.copy_from_slice(q);
-        self.factored_t = t;
+        self.next.tag = self.new_tag();
+        self.factored = self.next.tag;
         self.factored_scaled = self.ws.scaling.active;
         Ok(())
     }
@@ -777,16 +783,16 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if !self.assembled {
             return Err(Error::Setup(LinalgError::NotFactored));
         }
-        let current = self.factored_t == self.state.t
-            && self.factored_scaled == self.ws.scaling.active
-            && self.factored_q[..] == self.state.q[..];
+        let current = self.factored != 0
+            && self.factored == self.state.tag
+            && self.factored_scaled == self.ws.scaling.active;
         if !current {
             let t = self.state.t;
             self.system
                 .jacobian(&mut self.scratch, &self.state.q, t, &mut self.ws.jac);
             self.factor_jacobian(t)?;
-            self.factored_q.copy_from_slice(&self.state.q);
-            self.factored_t = t;
+            self.state.tag = self.new_tag();
+            self.factored = self.state.tag;
             self.factored_scaled = self.ws.scaling.active;
         }
         self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;

@@ -121,7 +121,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             ..Default::default()
         };
         self.next.det_sign = 0.0;
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t0, &mut self.ws.jac);
         Ok(())
@@ -365,7 +365,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if !worse {
             return;
         }
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         let dependency = crate::diagnose::dependency(
@@ -457,7 +457,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         // Φ_q at the last state before the change of sign.
         let t_star = singular_at.unwrap_or(lo + 0.5 * (hi - lo));
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.system.jacobian(
             &mut self.scratch,
             &self.state.q,
@@ -502,7 +502,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 break;
             }
             q.copy_from_slice(&q_good);
-            self.factored_t = f64::NAN;
+            self.factored = 0;
             let solved = solve_position(
                 &self.system,
                 &mut self.scratch,
@@ -523,7 +523,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             }
         }
         self.factorization = Factorization::None;
-        self.factored_t = f64::NAN;
+        self.factored = 0;
         self.system
             .jacobian(&mut self.scratch, &q_good, lo, &mut self.ws.jac);
         if check_jacobian(&self.system, lo, &self.ws.jac).is_err() {
