@@ -426,38 +426,22 @@ impl Plan {
             system,
             fallback,
         } = names;
-        let n_lit = Literal::usize_unsuffixed(self.n);
         let stored = self.stored();
-        let nf_lit = Literal::usize_unsuffixed(stored.len().max(1));
         let memo = self.emit_memo();
+        let definition = self.emit_struct(names, stored.len(), &memo.fields);
         let factor = self.emit_factor(rt, &stored, &memo);
-        let Memo {
-            fields: memo_fields,
-            init: memo_init,
-            invalidate: memo_invalidate,
-            ..
-        } = memo;
-        let solve = self.emit_solve(&stored);
-        let solve_transpose = self.emit_solve_transpose(&stored);
-        let doc = self.type_doc(system, fallback);
+        let n_lit = Literal::usize_unsuffixed(self.n);
+        let nf_lit = Literal::usize_unsuffixed(stored.len().max(1));
+        let memo_init = &memo.init;
+        let solve = self.emit_solve_fn(rt, quote!(solve_in_place), self.emit_solve(&stored));
+        let solve_transpose = self.emit_solve_fn(
+            rt,
+            quote!(solve_transpose_in_place),
+            self.emit_solve_transpose(&stored),
+        );
+        let inherent = emit_inherent(rt, ty, &memo.invalidate);
         quote! {
-            #[doc = #doc]
-            #[derive(Debug)]
-            pub struct #ty {
-                /// Run-time values of L, U and 1/u_kk read by the solves.
-                f: [f64; #nf_lit],
-                #memo_fields
-                /// False when analysed for another pattern: the fallback does everything.
-                fits: bool,
-                /// Which factorization the solves use: `NONE`, `STATIC` or `FALLBACK`.
-                active: u8,
-                /// Factorizations done by the fallback.
-                fallbacks: u64,
-                /// minₖ |u_kk|, maxᵢⱼ |aᵢⱼ| and whether det A < 0, of the last static
-                /// factorization: the pivot report, formed only when asked for.
-                pivots: (f64, f64, bool),
-                fallback: #fallback,
-            }
+            #definition
 
             #[allow(
                 clippy::approx_constant,
@@ -485,35 +469,9 @@ impl Plan {
 
                 #factor
 
-                fn solve_in_place(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
-                    match self.active {
-                        Self::STATIC => {}
-                        Self::FALLBACK => return #rt::LinearSolver::solve_in_place(&mut self.fallback, rhs),
-                        _ => return Err(#rt::LinalgError::NotFactored),
-                    }
-                    let found = rhs.len();
-                    let Ok(b) = <&mut [f64; #n_lit]>::try_from(rhs) else {
-                        return Err(#rt::LinalgError::Dimension { what: "right-hand side", expected: #n_lit, found });
-                    };
-                    let f = &self.f;
-                    #solve
-                    Ok(())
-                }
+                #solve
 
-                fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
-                    match self.active {
-                        Self::STATIC => {}
-                        Self::FALLBACK => return #rt::LinearSolver::solve_transpose_in_place(&mut self.fallback, rhs),
-                        _ => return Err(#rt::LinalgError::NotFactored),
-                    }
-                    let found = rhs.len();
-                    let Ok(b) = <&mut [f64; #n_lit]>::try_from(rhs) else {
-                        return Err(#rt::LinalgError::Dimension { what: "right-hand side", expected: #n_lit, found });
-                    };
-                    let f = &self.f;
-                    #solve_transpose
-                    Ok(())
-                }
+                #solve_transpose
 
                 fn pivot_report(&self) -> ::core::option::Option<#rt::PivotReport> {
                     match self.active {
@@ -535,28 +493,67 @@ impl Plan {
             impl #rt::LinearSolverFor<&#system> for #ty {}
             impl #rt::LinearSolverFor<&mut #system> for #ty {}
 
-            impl #ty {
-                const NONE: u8 = 0;
-                const STATIC: u8 = 1;
-                const FALLBACK: u8 = 2;
+            #inherent
+        }
+    }
 
-                /// How many factorizations the runtime's solver did because the
-                /// generated pivot order did not suit the matrix (or it failed).
-                #[must_use]
-                pub fn fallback_count(&self) -> u64 {
-                    self.fallbacks
-                }
+    /// The generated type: the stored factors, the memo's fields, the
+    /// bookkeeping of which factorization is active, and the fallback.
+    fn emit_struct(
+        &self,
+        names: &Names<'_>,
+        stored: usize,
+        memo_fields: &TokenStream,
+    ) -> TokenStream {
+        let Names {
+            ty,
+            system,
+            fallback,
+            ..
+        } = names;
+        let nf_lit = Literal::usize_unsuffixed(stored.max(1));
+        let doc = self.type_doc(system, fallback);
+        quote! {
+            #[doc = #doc]
+            #[derive(Debug)]
+            pub struct #ty {
+                /// Run-time values of L, U and 1/u_kk read by the solves.
+                f: [f64; #nf_lit],
+                #memo_fields
+                /// False when analysed for another pattern: the fallback does everything.
+                fits: bool,
+                /// Which factorization the solves use: `NONE`, `STATIC` or `FALLBACK`.
+                active: u8,
+                /// Factorizations done by the fallback.
+                fallbacks: u64,
+                /// minₖ |u_kk|, maxᵢⱼ |aᵢⱼ| and whether det A < 0, of the last static
+                /// factorization: the pivot report, formed only when asked for.
+                pivots: (f64, f64, bool),
+                fallback: #fallback,
+            }
+        }
+    }
 
-                /// Factors with the runtime's solver (pivot order of its own).
-                #[cold]
-                fn factor_fallback(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
-                    self.active = Self::NONE;
-                    #memo_invalidate
-                    self.fallbacks += 1;
-                    #rt::LinearSolver::factor(&mut self.fallback, values, singular_tolerance)?;
-                    self.active = Self::FALLBACK;
-                    Ok(())
+    /// One of the `LinearSolver` solves (`method`: `solve_in_place` or
+    /// `solve_transpose_in_place`): the fallback's when it is active, else
+    /// `body` on the right-hand side as a fixed-size array `b` and the
+    /// stored factors `f`.
+    fn emit_solve_fn(&self, rt: &syn::Path, method: TokenStream, body: TokenStream) -> TokenStream {
+        let n_lit = Literal::usize_unsuffixed(self.n);
+        quote! {
+            fn #method(&mut self, rhs: &mut [f64]) -> ::core::result::Result<(), #rt::LinalgError> {
+                match self.active {
+                    Self::STATIC => {}
+                    Self::FALLBACK => return #rt::LinearSolver::#method(&mut self.fallback, rhs),
+                    _ => return Err(#rt::LinalgError::NotFactored),
                 }
+                let found = rhs.len();
+                let Ok(b) = <&mut [f64; #n_lit]>::try_from(rhs) else {
+                    return Err(#rt::LinalgError::Dimension { what: "right-hand side", expected: #n_lit, found });
+                };
+                let f = &self.f;
+                #body
+                Ok(())
             }
         }
     }
@@ -804,5 +801,39 @@ impl Plan {
             out.extend(quote!(b[#r] = y[#k];));
         }
         out
+    }
+}
+
+/// The generated type's own items: the active-factorization constants, the
+/// fallback count, and the fallback factorization (out of the hot path).
+fn emit_inherent(
+    rt: &syn::Path,
+    ty: &proc_macro2::Ident,
+    memo_invalidate: &TokenStream,
+) -> TokenStream {
+    quote! {
+        impl #ty {
+            const NONE: u8 = 0;
+            const STATIC: u8 = 1;
+            const FALLBACK: u8 = 2;
+
+            /// How many factorizations the runtime's solver did because the
+            /// generated pivot order did not suit the matrix (or it failed).
+            #[must_use]
+            pub fn fallback_count(&self) -> u64 {
+                self.fallbacks
+            }
+
+            /// Factors with the runtime's solver (pivot order of its own).
+            #[cold]
+            fn factor_fallback(&mut self, values: &[f64], singular_tolerance: f64) -> ::core::result::Result<(), #rt::LinalgError> {
+                self.active = Self::NONE;
+                #memo_invalidate
+                self.fallbacks += 1;
+                #rt::LinearSolver::factor(&mut self.fallback, values, singular_tolerance)?;
+                self.active = Self::FALLBACK;
+                Ok(())
+            }
+        }
     }
 }
