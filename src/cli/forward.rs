@@ -84,14 +84,20 @@ impl Engine {
             Engine::Accurate(e) => e.system_mut(),
         }
     }
-    /// The summary's line on the integrator.
-    fn describe(&self, h: f64, rtol: f64) -> String {
+    /// The summary's line on the integrator (`projected`: HHT projects
+    /// velocities).
+    fn describe(&self, h: f64, rtol: f64, projected: bool) -> String {
         match self {
             Engine::Hht(e) => {
                 let stats = e.stats();
                 format!(
-                    "HHT-α (α = -0.1, β = 0.3025, γ = 0.6), step ≤ {h:e}: {} steps, Newton \
+                    "HHT-α (α = -0.1, β = 0.3025, γ = 0.6){}, step ≤ {h:e}: {} steps, Newton \
                      iterations per step mean {:.2}, max {}, {} factorizations",
+                    if projected {
+                        " with velocity projection"
+                    } else {
+                        ""
+                    },
                     stats.steps,
                     if stats.steps == 0 {
                         0.0
@@ -124,10 +130,14 @@ pub fn is_forward(loaded: &Loaded) -> bool {
 /// # Errors
 /// [`Failure::Input`] naming the option.
 pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
-    if args.rtol.is_some() || args.integrator != Integrator::Hht || args.energy {
+    if args.rtol.is_some()
+        || args.integrator != Integrator::Hht
+        || args.energy
+        || args.project_velocity
+    {
         return Err(Failure::usage(
-            "--integrator, --rtol and --energy are for forward dynamics (a model with inertia and NDOF > 0, \
-             or a Dynamics ACF)",
+            "--integrator, --rtol, --project-velocity and --energy are for forward dynamics (a \
+             model with inertia and NDOF > 0, or a Dynamics ACF)",
         ));
     }
     if args.step.is_some() {
@@ -163,6 +173,12 @@ pub fn run(
         Integrator::Hht if args.rtol.is_some() => {
             return Err(Failure::usage(
                 "--rtol is the tolerance of --integrator accurate; HHT takes --step",
+            ));
+        }
+        Integrator::Accurate if args.project_velocity => {
+            return Err(Failure::usage(
+                "--project-velocity is for --integrator hht: the accurate mode projects positions \
+                 and velocities after every step already",
             ));
         }
         Integrator::Accurate if args.step.is_some() => {
@@ -245,8 +261,11 @@ pub fn run(
     let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
     let start_failure =
         |e: IntegrateError| Failure::analysis(format_args!("forward dynamics cannot start: {e}"));
-    let (hht, consistency) =
-        Hht::new(fwd, &q0, &qd0, t0, HhtOptions::default()).map_err(start_failure)?;
+    let options = HhtOptions {
+        project_velocity: args.project_velocity,
+        ..HhtOptions::default()
+    };
+    let (hht, consistency) = Hht::new(fwd, &q0, &qd0, t0, options).map_err(start_failure)?;
     let mut hht = match accurate_system {
         None => Engine::Hht(Box::new(hht)),
         Some(system) => Engine::Accurate(Box::new(
@@ -275,19 +294,28 @@ pub fn run(
         row.fill(&system, &mut hht)?;
         extra.clear();
         extra.extend_from_slice(&row.extra);
-        if args.energy {
+        let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
+        let energy = (args.energy || (samples.is_some() && sampled)).then(|| {
             let v = gravity_of.gravity_potential(hht.q()) + 0.0;
             let work = hht.work() - (v0 - v);
-            extra.extend([hht.kinetic_energy(), v, work]);
+            [hht.kinetic_energy(), v, work]
+        });
+        if args.energy
+            && let Some(e) = energy
+        {
+            extra.extend(e);
         }
         let (q, qd, qdd) = (hht.q(), hht.qd(), hht.qdd());
         let [y, yd, ydd] = &row.results;
         sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &extra)?;
         if let Some(samples) = &mut samples
-            && (k.is_multiple_of(stride) || k + 1 == outputs_t.len())
+            && sampled
         {
             samples.push_values(t, [q, qd, qdd]);
             samples.push_dynamics(&row.extra);
+            if let Some([kinetic, potential, work]) = energy {
+                samples.push_energy(kinetic, potential, work);
+            }
         }
     }
     let (out_rows, columns, destination) =
@@ -316,7 +344,11 @@ pub fn run(
         if nb == 1 { "y" } else { "ies" },
     );
     let _ = writeln!(s, "  grid: {grid}");
-    let _ = writeln!(s, "  integrator: {}", hht.describe(h, rtol));
+    let _ = writeln!(
+        s,
+        "  integrator: {}",
+        hht.describe(h, rtol, args.project_velocity)
+    );
     let _ = writeln!(
         s,
         "  start: ‖Δq‖∞ = {:.2e}, ‖Δq̇‖∞ = {:.2e} (consistency projections)",

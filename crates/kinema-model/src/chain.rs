@@ -71,3 +71,42 @@ pub fn chain_kin_dynamics(n: usize) -> String {
     }
     out
 }
+
+/// The forward-dynamics benchmark `fd_chainN` (BENCHMARKS.md, issue 17): N
+/// identical uniform links (length 1, mass 1, J = 1/12 about the middle,
+/// frames at the link middles), link 1 pinned to ground at the origin at its
+/// left end, link k's right end pinned to link k+1's left end, gravity
+/// (0, −9.81), no drivers. The guesses are the start itself: every link
+/// along +x, collinear and horizontal (released from rest by forward
+/// dynamics). N ≥ 1; 0 gives an empty, invalid mechanism.
+#[must_use]
+pub fn pendulum_chain_kin(n: usize) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "/// Pendulum chain of {n} unit links released from horizontal \
+         (benchmark `fd_chain{n}`), generated."
+    );
+    let _ = writeln!(s, "mechanism PendulumChain{n} {{");
+    for k in 1..=n {
+        let _ = writeln!(
+            s,
+            "    body b{k} {{ guess: ({:?}, 0, 0), mass: 1, inertia: 1 / 12 }}",
+            k as f64 - 0.5
+        );
+    }
+    let _ = writeln!(s, "    gravity = (0, -9.81);");
+    for k in 1..=n {
+        if k == 1 {
+            let _ = writeln!(s, "    joint pin1: revolute(b1(-0.5, 0), ground(0, 0));");
+        } else {
+            let _ = writeln!(
+                s,
+                "    joint pin{k}: revolute(b{}(0.5, 0), b{k}(-0.5, 0));",
+                k - 1
+            );
+        }
+    }
+    s.push_str("}\n");
+    s
+}

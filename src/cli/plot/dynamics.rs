@@ -1,6 +1,7 @@
 //! The dynamics panels of `--plot`: reaction forces (magnitude of each
 //! element's force on each body, the largest few) and driver efforts
-//! against time, for a model with inertia.
+//! against time, for a model with inertia; for forward dynamics, the
+//! energies and their balance.
 
 use plotters::prelude::*;
 
@@ -10,6 +11,39 @@ use super::{Area, Drawn, MAX_SERIES, PALETTE, Samples, text};
 
 /// Height of the dynamics row.
 pub(super) const HEIGHT: u32 = 340;
+
+/// Height of the energy row (forward dynamics).
+pub(super) const ENERGY_HEIGHT: u32 = 340;
+
+/// Draws the energy panel of forward dynamics: kinetic T, potential V
+/// (gravity), the work W of the other forces and drivers since the start,
+/// and the balance T + V − W, which stays at its initial value when the
+/// integration is exact; its legend gives how far it strayed.
+pub(super) fn draw_energy(area: &Area<'_>, samples: &Samples, warnings: &mut Vec<String>) -> Drawn {
+    let t = &samples.t;
+    let series = |f: &dyn Fn(&[f64; 3]) -> f64| -> Vec<(f64, f64)> {
+        t.iter()
+            .zip(&samples.energy)
+            .map(|(&ti, e)| (ti, f(e)))
+            .collect()
+    };
+    let balance = series(&|e| e[0] + e[1] - e[2]);
+    let first = balance.first().map_or(f64::NAN, |p| p.1);
+    let drift = balance.iter().fold(0.0_f64, |m, &(_, b)| {
+        if (b - first).is_nan() {
+            f64::NAN
+        } else {
+            m.max((b - first).abs())
+        }
+    });
+    let lines = [
+        ("kinetic T".to_owned(), series(&|e| e[0])),
+        ("potential V (gravity)".to_owned(), series(&|e| e[1])),
+        ("work W of the other forces".to_owned(), series(&|e| e[2])),
+        (format!("balance T + V − W (strays {drift:.2e})"), balance),
+    ];
+    panel(area, "Energy", "energy", &lines, warnings)
+}
 
 /// Draws the two panels side by side.
 pub(super) fn draw(area: &Area<'_>, samples: &Samples, warnings: &mut Vec<String>) -> Drawn {

@@ -7,7 +7,8 @@
 //! with its legend beside it and the driven coordinates on the right; below,
 //! the joint points' x and y components (columns) as position, velocity and
 //! acceleration (rows). Legends are drawn in their own strips so they never
-//! hide a curve.
+//! hide a curve. A model with inertia adds reaction forces and driver
+//! efforts; forward dynamics adds the energies and their balance.
 
 use std::error::Error;
 use std::io::Write;
@@ -92,6 +93,9 @@ pub struct Samples {
     dyn_names: Vec<String>,
     /// Their values, `dyn_names.len()` per state.
     dyn_values: Vec<f64>,
+    /// Forward dynamics: (kinetic, potential, work of the other forces)
+    /// of each state, given by [`Samples::push_energy`] (empty otherwise).
+    energy: Vec<[f64; 3]>,
 }
 
 impl Samples {
@@ -115,6 +119,13 @@ impl Samples {
         let w = self.dyn_names.len();
         self.dyn_values
             .extend((0..w).map(|k| values.get(k).copied().unwrap_or(f64::NAN)));
+    }
+
+    /// The energies of the state just pushed (forward dynamics): kinetic,
+    /// potential (gravity) and the work of the other forces and drivers
+    /// since the start; `--plot` then draws the energy panel.
+    pub fn push_energy(&mut self, kinetic: f64, potential: f64, work: f64) {
+        self.energy.push([kinetic, potential, work]);
     }
 
     /// Keeps a state.
@@ -319,7 +330,12 @@ fn render(
     } else {
         dynamics::HEIGHT
     };
-    let height = HEAD + mech_h + driven_h + POINTS + measures_h + dyn_h;
+    let energy_h = if samples.energy.is_empty() {
+        0
+    } else {
+        dynamics::ENERGY_HEIGHT
+    };
+    let height = HEAD + mech_h + driven_h + POINTS + measures_h + dyn_h + energy_h;
 
     let mut svg = String::new();
     {
@@ -358,13 +374,17 @@ fn render(
             draw_driven(&driven_area, scene, samples, false, &mut warnings)?;
         }
         let (points_area, rest) = lower.split_vertically(POINTS);
-        let (measures_area, dyn_area) = rest.split_vertically(measures_h);
+        let (measures_area, rest) = rest.split_vertically(measures_h);
+        let (dyn_area, energy_area) = rest.split_vertically(dyn_h);
         draw_points(&points_area, scene, samples, &series, &mut warnings)?;
         if !measures.is_empty() {
             outputs::draw_measures(&measures_area, measures, &mut warnings)?;
         }
         if dyn_h > 0 {
             dynamics::draw(&dyn_area, samples, &mut warnings)?;
+        }
+        if energy_h > 0 {
+            dynamics::draw_energy(&energy_area, samples, &mut warnings)?;
         }
         root.present()?;
     }
