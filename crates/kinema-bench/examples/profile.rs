@@ -4,8 +4,11 @@
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
 //! generated, tape, handwritten, dynamics (generated with inertia and
-//! inverse dynamics at every step: slider_crank, chain10); mode: same, default (predictor, full
-//! Newton), predictor-modified, modified (no predictor); repetitions).
+//! inverse dynamics at every step: slider_crank, chain10, and with
+//! `--features large-dynamics` chain1000), dynamics-kinematics (the same
+//! solvers with inertia, the kinematic step alone); mode: same, default
+//! (predictor, full Newton), predictor-modified, modified (no predictor);
+//! repetitions).
 
 use kinema::{Dynamics, InverseDynamics, LinearSolver, Options, Solver, System};
 use kinema_bench::{generated, grid, handwritten, steps, tape};
@@ -123,6 +126,32 @@ fn main() {
         ),
         ("chain10", "dynamics") => run_dynamics(
             kinema_bench::generated_dynamics::chain10::Chain10::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("slider_crank", "dynamics-kinematics") => run(
+            kinema_bench::generated_dynamics::slider_crank::SliderCrank::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain10", "dynamics-kinematics") => run(
+            kinema_bench::generated_dynamics::chain10::Chain10::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        #[cfg(feature = "large-dynamics")]
+        ("chain1000", "dynamics") => run_dynamics(
+            kinema_bench::generated_dynamics::chain1000::Chain1000::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        #[cfg(feature = "large-dynamics")]
+        ("chain1000", "dynamics-kinematics") => run(
+            kinema_bench::generated_dynamics::chain1000::Chain1000::default()
                 .solver(options)
                 .unwrap_or_else(|e| ok(e)),
             reps,

@@ -48,6 +48,29 @@ pub trait Dynamics: System {
     /// The first driving row: rows from it on are drivers, whose efforts
     /// [`InverseDynamics::efforts`] reports.
     fn driving_start(&self) -> usize;
+
+    /// Every reaction and driving effort at once, as straight-line code:
+    /// from the Jacobian's values `jac` (in [`System::jacobian_pattern`]
+    /// order), λ and the arms (the last 2 × reactions outputs of
+    /// [`dynamics`](Self::dynamics)), writes each reaction's
+    /// [F; T about its point] = −Φ_q,bᵀ λ_c (the arm's moment removed) and
+    /// each driving row's effort −λ, with the operations of
+    /// [`Solver::inverse_dynamics`]'s sum over the pattern (terms that are
+    /// structurally zero left out: the same values up to the sign of a
+    /// zero). Returns the sum of every reaction component — finite only if
+    /// each is, so one test covers them all — or `None`, having written
+    /// nothing, when the system does not provide it (the default) or a
+    /// length is wrong: the runtime then sums over the pattern.
+    fn reactions_and_efforts(
+        &self,
+        _jac: &[f64],
+        _lambda: &[f64],
+        _arms: &[f64],
+        _reactions: &mut [[f64; 3]],
+        _efforts: &mut [f64],
+    ) -> Option<f64> {
+        None
+    }
 }
 
 /// The results of inverse dynamics at one state, and the buffers that make
@@ -61,7 +84,6 @@ pub struct InverseDynamics {
     /// Every reaction's Jacobian entries (in its rows and its body's
     /// columns), in one flat list: one pass computes all reactions.
     entries: Vec<ReactionEntry>,
-    driving_start: usize,
 }
 
 /// One term of a reaction: reaction `reaction`'s component `coord` (x, y or
@@ -107,7 +129,6 @@ impl InverseDynamics {
             efforts: vec![0.0; n - driving_start],
             values: vec![0.0; system.dynamics_len()],
             entries,
-            driving_start,
         }
     }
 
@@ -172,7 +193,9 @@ impl<S: Dynamics, L: LinearSolver> Solver<S, L> {
         // so λ, non-finite (NaN and ∞ survive every operation of a solve):
         // only λ is checked, the culprit named on the error path.
         let (system, jac) = self.solve_transposed_at_state(&mut out.lambda)?;
-        if !scale_and_finite(&out.lambda).1 {
+        // A finite sum: every λ is finite; the exact test only otherwise.
+        let lambda_sum: f64 = out.lambda.iter().sum();
+        if !lambda_sum.is_finite() && !scale_and_finite(&out.lambda).1 {
             return Err(if scale_and_finite(&out.values).1 {
                 let i = out.lambda.iter().position(|v| !v.is_finite()).unwrap_or(0);
                 Error::NonFinite {
@@ -184,24 +207,59 @@ impl<S: Dynamics, L: LinearSolver> Solver<S, L> {
                 non_finite_value(system, t, n, &out.values)
             });
         }
-        // [F; T_origin] = −Φ_q,bᵀ λ_c, all reactions in one pass.
-        out.reactions.fill([0.0; 3]);
-        for e in &out.entries {
-            out.reactions[e.reaction as usize][usize::from(e.coord)] -=
-                jac[e.k as usize] * out.lambda[e.row as usize];
-        }
-        // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).
-        for (r, arm) in out.reactions.iter_mut().zip(arms.chunks_exact(2)) {
-            r[2] -= -arm[1] * r[0] + arm[0] * r[1];
-        }
+        let sum = system.reactions_and_efforts(
+            jac,
+            &out.lambda,
+            arms,
+            &mut out.reactions,
+            &mut out.efforts,
+        );
+        let finite = match sum {
+            // A finite sum: every component is finite.
+            Some(s) if s.is_finite() => true,
+            Some(_) => scale_and_finite(out.reactions.as_flattened()).1,
+            None => {
+                sum_reactions(
+                    &out.entries,
+                    &out.lambda,
+                    (jac, arms),
+                    &mut out.reactions,
+                    &mut out.efforts,
+                );
+                scale_and_finite(out.reactions.as_flattened()).1
+            }
+        };
         // λ is finite, so a non-finite reaction comes from an arm.
-        if !scale_and_finite(out.reactions.as_flattened()).1 {
+        if !finite {
             return Err(non_finite_value(system, t, n, &out.values));
         }
-        for (e, &l) in out.efforts.iter_mut().zip(&out.lambda[out.driving_start..]) {
-            *e = -l;
-        }
         Ok(())
+    }
+}
+
+/// The reactions and efforts by a sum over the Jacobian's pattern (systems
+/// without [`Dynamics::reactions_and_efforts`], such as tapes).
+fn sum_reactions(
+    entries: &[ReactionEntry],
+    lambda: &[f64],
+    (jac, arms): (&[f64], &[f64]),
+    reactions: &mut [[f64; 3]],
+    efforts: &mut [f64],
+) {
+    // [F; T_origin] = −Φ_q,bᵀ λ_c, all reactions in one pass.
+    reactions.fill([0.0; 3]);
+    for e in entries {
+        reactions[e.reaction as usize][usize::from(e.coord)] -=
+            jac[e.k as usize] * lambda[e.row as usize];
+    }
+    // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).
+    for (r, arm) in reactions.iter_mut().zip(arms.chunks_exact(2)) {
+        r[2] -= -arm[1] * r[0] + arm[0] * r[1];
+    }
+    // The driving rows are the last efforts.len() rows.
+    let driving = &lambda[lambda.len() - efforts.len()..];
+    for (e, &l) in efforts.iter_mut().zip(driving) {
+        *e = -l;
     }
 }
 
