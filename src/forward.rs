@@ -5,7 +5,7 @@
 
 use kinema_expr::{ExprId, SymId, Tape, TapeInputs};
 use kinema_model::Derivation;
-use kinema_runtime::ForwardSystem;
+use kinema_runtime::{ForwardStructure, ForwardSystem};
 
 use crate::Model;
 
@@ -262,6 +262,24 @@ impl ForwardSystem for TapeForward {
     }
     fn applied_qd(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]) {
         self.dense(2, q, qd, t, out);
+    }
+    fn structure(&self) -> Option<ForwardStructure> {
+        let n = self.n;
+        if n == 0 {
+            return None;
+        }
+        let entry =
+            |slot: usize| Some((u32::try_from(slot / n).ok()?, u32::try_from(slot % n).ok()?));
+        let entries = |parts: &[&Part]| -> Option<Vec<(u32, u32)>> {
+            parts
+                .iter()
+                .flat_map(|p| p.slots.iter().map(|&(_, slot)| entry(slot)))
+                .collect()
+        };
+        Some(ForwardStructure {
+            jacobian: entries(&[&self.jac])?,
+            block: entries(&[&self.applied_q, &self.applied_qd, &self.hessian])?,
+        })
     }
     fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]) {
         let inputs = TapeInputs {

@@ -35,6 +35,7 @@
 mod cache;
 mod dynamics;
 mod emit;
+mod forward;
 mod lu;
 mod macro_input;
 mod outputs;
@@ -81,12 +82,13 @@ impl Default for Config {
 #[must_use]
 pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let d = derivation;
-    if d.rows.len() != d.nc() {
-        // A model with inertia may have free degrees of freedom; generated
-        // solvers are kinematic (NDOF = 0).
+    // A model with inertia may have free degrees of freedom: its generated
+    // code is forward dynamics alone (no kinematic solver, which needs
+    // NDOF = 0).
+    let forward_only = d.rows.len() != d.nc();
+    if forward_only && d.dynamics.is_none() {
         let message = format!(
-            "mechanism `{}` has NDOF = {}: generated solvers need NDOF = 0 (the equilibrium of a \
-             model with free degrees of freedom is `kinema run --equilibrium`)",
+            "mechanism `{}` has NDOF = {}: generated solvers need NDOF = 0",
             d.name,
             d.dof.ndof()
         );
@@ -111,14 +113,39 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     } else {
         cache.items(&d.arena, &cache_name, &params)
     };
-    let (solver, lu_items) = solver_items(d, &name, options);
-    let item = struct_item(d, &name, &params);
-    let inherent = inherent_items(d, &name, &solver);
     let scratch = if cache.is_empty() {
         quote!(())
     } else {
         quote!(#cache_name)
     };
+    // Forward dynamics for models with free degrees of freedom (a fully
+    // driven model's motion is its kinematics).
+    let forward = if forward_only {
+        forward::forward_items(
+            d,
+            &forward::Names {
+                name: &name,
+                params: &params,
+                scratch: &scratch,
+                rt: &options.runtime,
+            },
+            &cache,
+        )
+    } else {
+        quote!()
+    };
+    let item = struct_item(d, &name, &params);
+    if forward_only {
+        let inherent = inherent_items(d, &name, &quote!());
+        return quote! {
+            #item
+            #inherent
+            #forward
+            #cache_items
+        };
+    }
+    let (solver, lu_items) = solver_items(d, &name, options);
+    let inherent = inherent_items(d, &name, &solver);
     let system = system_impl(d, (&name, &scratch), &params, &cache, &options.runtime);
     let outputs = outputs::items(d, &name, &params, &options.runtime);
     let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
@@ -128,6 +155,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
         #system
         #outputs
         #dynamics
+        #forward
         #cache_items
         #lu_items
     }
@@ -186,6 +214,7 @@ fn inherent_items(d: &Derivation, name: &Ident, solver: &TokenStream) -> TokenSt
     let nnz_lit = Literal::usize_unsuffixed(d.phi_q.entries.len());
     let coordinate_names = d.coordinates.iter().map(|c| c.name.as_str());
     let equation_names = d.rows.iter().map(|r| r.name.as_str());
+    let nr_lit = Literal::usize_unsuffixed(d.rows.len());
     let body_names = d.bodies.iter().map(String::as_str);
     let nb = Literal::usize_unsuffixed(d.bodies.len());
     let pattern = d.phi_q.entries.iter().map(|e| {
@@ -196,7 +225,11 @@ fn inherent_items(d: &Derivation, name: &Ident, solver: &TokenStream) -> TokenSt
         quote!((#r, #c))
     });
     let derivation_text = d.render();
-    let nc_doc = format!(" Number of generalized coordinates (and equations): {nc}.");
+    let nc_doc = if d.rows.len() == nc {
+        format!(" Number of generalized coordinates (and equations): {nc}.")
+    } else {
+        format!(" Number of generalized coordinates: {nc}.")
+    };
     quote! {
         // Literals are the exact values the derivation computed; some of them
         // happen to be close to named constants.
@@ -207,7 +240,7 @@ fn inherent_items(d: &Derivation, name: &Ident, solver: &TokenStream) -> TokenSt
             /// Names of the coordinates, `body.x`, `body.y`, `body.phi` per body.
             pub const COORDINATE_NAMES: [&'static str; #nc_lit] = [#(#coordinate_names),*];
             /// Names of the equations: kinematic constraints, then drivers.
-            pub const EQUATION_NAMES: [&'static str; #nc_lit] = [#(#equation_names),*];
+            pub const EQUATION_NAMES: [&'static str; #nr_lit] = [#(#equation_names),*];
             /// Names of the bodies; body k owns coordinates 3k, 3k + 1, 3k + 2.
             pub const BODY_NAMES: [&'static str; #nb] = [#(#body_names),*];
             /// (row, column) of each structural nonzero of Φ_q.

@@ -24,7 +24,8 @@
 //! [M Φ_qᵀ; Φ_q 0][q̈; λ] = [Q_A; γ].
 
 use super::dense::Lu;
-use super::{ForwardSystem, IntegrateError};
+use super::{ForwardStructure, ForwardSystem, IntegrateError};
+use crate::linalg::{LinalgError, LinearSolver, SparseLu};
 
 /// HHT-α's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,6 +51,13 @@ pub struct HhtOptions {
     /// the method (no longer the textbook HHT whose order the tests
     /// measure).
     pub project_velocity: bool,
+    /// Factor Newton's matrix with the sparse LU on its fixed pattern
+    /// (the runtime's [`SparseLu`]: COLAMD ordering, partial pivoting, the
+    /// elimination recorded and replayed) when the system gives its
+    /// [`structure`](ForwardSystem::structure) and n + m is at least this;
+    /// below it (default 64: the course's models) or without a structure,
+    /// the dense LU. `usize::MAX` always dense, 0 always sparse.
+    pub sparse_from: usize,
 }
 
 impl Default for HhtOptions {
@@ -60,6 +68,7 @@ impl Default for HhtOptions {
             max_iterations: 25,
             modified: true,
             project_velocity: false,
+            sparse_from: 64,
         }
     }
 }
@@ -127,8 +136,82 @@ pub struct Hht<S> {
     hess: Vec<f64>,
     rhs: Vec<f64>,
     lu: Lu,
+    /// Newton's matrix on its sparse pattern, when used.
+    kkt: Option<SparseKkt>,
+    /// Whether the last factorization of Newton's matrix is the dense one.
+    dense_active: bool,
     small: Lu,
     ys: Vec<f64>,
+}
+
+/// Where an entry of Newton's matrix comes from (dense row-major indices
+/// into the integrator's buffers).
+#[derive(Clone, Copy, Debug)]
+enum Source {
+    /// The n × n block at k = i n + j; `diagonal`: M's entry i is added.
+    Block { k: u32, diagonal: Option<u32> },
+    /// Φ_q at k = r n + c (row n + r, column c).
+    Jacobian(u32),
+    /// (1 + α) Φ_q at k = r n + c (row c, column n + r).
+    Transposed(u32),
+}
+
+/// Newton's matrix on its fixed sparsity pattern: the values gathered from
+/// the dense buffers in pattern order, factored by [`SparseLu`].
+#[derive(Debug)]
+struct SparseKkt {
+    lu: SparseLu,
+    sources: Vec<Source>,
+    values: Vec<f64>,
+}
+
+impl SparseKkt {
+    /// The pattern [M + block, Φ_qᵀ; Φ_q, 0] of `structure` (allocates;
+    /// once), or `None` when the structure does not fit n and m.
+    fn new(structure: &ForwardStructure, n: usize, m: usize) -> Option<SparseKkt> {
+        let inside = |&(r, c): &(u32, u32), rows: usize| (r as usize) < rows && (c as usize) < n;
+        if !structure.jacobian.iter().all(|e| inside(e, m))
+            || !structure.block.iter().all(|e| inside(e, n))
+        {
+            return None;
+        }
+        let mut entries = std::collections::BTreeMap::new();
+        for i in 0..n {
+            entries.insert((i, i), ());
+        }
+        for &(r, c) in &structure.block {
+            entries.insert((r as usize, c as usize), ());
+        }
+        let block: Vec<(usize, usize)> = entries.into_keys().collect();
+        let mut pattern = Vec::with_capacity(block.len() + 2 * structure.jacobian.len());
+        let mut sources = Vec::with_capacity(pattern.capacity());
+        let index = |v: usize| u32::try_from(v).ok();
+        for (i, j) in block {
+            pattern.push((index(i)?, index(j)?));
+            let diagonal = if i == j { Some(index(i)?) } else { None };
+            sources.push(Source::Block {
+                k: index(i * n + j)?,
+                diagonal,
+            });
+        }
+        let mut jacobian = structure.jacobian.clone();
+        jacobian.sort_unstable();
+        jacobian.dedup();
+        for &(r, c) in &jacobian {
+            let k = index(r as usize * n + c as usize)?;
+            let row = index(n + r as usize)?;
+            pattern.push((row, c));
+            sources.push(Source::Jacobian(k));
+            pattern.push((c, row));
+            sources.push(Source::Transposed(k));
+        }
+        let lu = SparseLu::analyze(n + m, &pattern).ok()?;
+        Some(SparseKkt {
+            lu,
+            values: vec![0.0; sources.len()],
+            sources,
+        })
+    }
 }
 
 fn amax(v: &[f64]) -> f64 {
@@ -199,9 +282,17 @@ impl<S: ForwardSystem> Hht<S> {
             hess: vec![0.0; n * n],
             rhs: vec![0.0; n + m],
             lu: Lu::new(n + m),
+            kkt: None,
+            dense_active: true,
             small: Lu::new(m),
             ys: vec![0.0; m],
         };
+        if n + m >= options.sparse_from {
+            hht.kkt = hht
+                .system
+                .structure()
+                .and_then(|s| SparseKkt::new(&s, n, m));
+        }
         let consistency = hht.make_consistent()?;
         hht.index1()?;
         Ok((hht, consistency))
@@ -428,89 +519,36 @@ impl<S: ForwardSystem> Hht<S> {
                 "the step must be positive and finite, not {h}"
             )));
         }
-        let (n, m) = (self.n, self.m);
-        let (alpha, beta, gamma) = (self.alpha, self.beta, self.gamma);
+        let n = self.n;
         let t1 = self.t + h;
-        let bh2 = beta * h * h;
-        let gh = gamma * h;
+        let bh2 = self.beta * h * h;
         self.qddn.copy_from_slice(&self.qdd);
         self.lambdan.copy_from_slice(&self.lambda);
-        let w = n + m;
         let mut iterations = 0;
-        let mut converged = false;
         let mut worst = (0usize, f64::INFINITY);
         let mut factorizations = 0;
         let mut refactor = true;
         let mut last_correction = f64::INFINITY;
-        while iterations < self.options.max_iterations {
+        loop {
+            if iterations == self.options.max_iterations {
+                return Err(self.no_convergence(worst, iterations));
+            }
             iterations += 1;
-            for i in 0..n {
-                let (q, v, a, an) = (self.q[i], self.qd[i], self.qdd[i], self.qddn[i]);
-                self.qn[i] = q + h * v + 0.5 * h * h * ((1.0 - 2.0 * beta) * a + 2.0 * beta * an);
-                self.qdn[i] = v + h * ((1.0 - gamma) * a + gamma * an);
-            }
-            let s = &mut self.system;
-            s.mass(&self.qn, &mut self.mass);
-            s.applied(&self.qn, &self.qdn, t1, &mut self.qa);
-            s.phi(&self.qn, t1, &mut self.phi);
-            s.jacobian(&self.qn, t1, &mut self.jac);
+            self.predict(h);
+            self.evaluate(t1, refactor)?;
+            worst = self.residual(bh2);
             if refactor {
-                s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
-                s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
-                s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
-            }
-            if let Some(what) = self.first_non_finite() {
-                return Err(IntegrateError::NonFinite { t: t1, what });
-            }
-            // Residual r = [M q̈ + (1+α)(Φ_qᵀλ − Q) − α f; Φ/(βh²)].
-            for i in 0..n {
-                self.rhs[i] =
-                    self.mass[i] * self.qddn[i] - (1.0 + alpha) * self.qa[i] - alpha * self.f[i];
-            }
-            for (r, &l) in self.lambdan.iter().enumerate() {
-                let row = &self.jac[r * n..(r + 1) * n];
-                for (x, &a) in self.rhs[..n].iter_mut().zip(row) {
-                    *x += (1.0 + alpha) * a * l;
-                }
-            }
-            for (x, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
-                *x = p / bh2;
-            }
-            worst = self.rhs.iter().enumerate().fold((0, 0.0), |b, (i, v)| {
-                if v.abs() > b.1 { (i, v.abs()) } else { b }
-            });
-            if refactor {
-                // Jacobian.
-                let a = self.lu.matrix_mut();
-                for i in 0..n {
-                    for j in 0..n {
-                        let k = i * n + j;
-                        let d = if i == j { self.mass[i] } else { 0.0 };
-                        a[i * w + j] = d
-                            + (1.0 + alpha)
-                                * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh);
-                    }
-                }
-                for r in 0..m {
-                    for c in 0..n {
-                        let v = self.jac[r * n + c];
-                        a[(n + r) * w + c] = v;
-                        a[c * w + n + r] = (1.0 + alpha) * v;
-                    }
-                    for c in 0..m {
-                        a[(n + r) * w + n + c] = 0.0;
-                    }
-                }
-                if let Err(k) = self.lu.factor() {
-                    return Err(IntegrateError::Singular {
-                        t: self.t,
-                        what: "HHT's Newton matrix",
-                        at: self.unknown_name(k),
-                    });
-                }
+                self.factor_newton(h)?;
                 factorizations += 1;
             }
-            self.lu.solve(&mut self.rhs);
+            match &mut self.kkt {
+                Some(kkt) if !self.dense_active => {
+                    if kkt.lu.solve_in_place(&mut self.rhs).is_err() {
+                        self.rhs.fill(f64::NAN);
+                    }
+                }
+                _ => self.lu.solve(&mut self.rhs),
+            }
             let (dq, dl) = self.rhs.split_at(n);
             for (x, d) in self.qddn.iter_mut().zip(dq) {
                 *x -= d;
@@ -530,33 +568,155 @@ impl<S: ForwardSystem> Hht<S> {
             if bh2 * correction <= tol * (1.0 + amax(&self.q))
                 && amax(dl) <= tol.sqrt() * (1.0 + amax(&self.lambdan))
             {
-                converged = true;
                 break;
             }
         }
-        if !converged {
-            let (i, residual) = worst;
-            let equation = if i < n {
-                format!(
-                    "the equation of motion of {}",
-                    self.system.coordinate_name(i)
-                )
-            } else {
-                format!("constraint `{}`", self.system.equation_name(i - n))
-            };
-            return Err(IntegrateError::NoConvergence {
-                t: self.t,
-                iterations,
-                equation,
-                residual,
-            });
-        }
-        // Accept: the state at t + h with the final q̈, λ.
-        for i in 0..n {
+        self.accept(h, t1)?;
+        self.stats.steps += 1;
+        self.stats.iterations += iterations;
+        self.stats.factorizations += factorizations;
+        self.stats.max_iterations = self.stats.max_iterations.max(iterations);
+        Ok(())
+    }
+
+    /// q₊ and q̇₊ (in `qn`, `qdn`) from the state and the iterate q̈₊.
+    fn predict(&mut self, h: f64) {
+        let (beta, gamma) = (self.beta, self.gamma);
+        for i in 0..self.n {
             let (q, v, a, an) = (self.q[i], self.qd[i], self.qdd[i], self.qddn[i]);
             self.qn[i] = q + h * v + 0.5 * h * h * ((1.0 - 2.0 * beta) * a + 2.0 * beta * an);
             self.qdn[i] = v + h * ((1.0 - gamma) * a + gamma * an);
         }
+    }
+
+    /// M, Q_A, Φ, Φ_q at the iterate, and (to refactor) the derivatives
+    /// the Newton matrix needs; a non-finite value is an error naming it.
+    fn evaluate(&mut self, t1: f64, refactor: bool) -> Result<(), IntegrateError> {
+        let s = &mut self.system;
+        s.mass(&self.qn, &mut self.mass);
+        s.applied(&self.qn, &self.qdn, t1, &mut self.qa);
+        s.phi(&self.qn, t1, &mut self.phi);
+        s.jacobian(&self.qn, t1, &mut self.jac);
+        if refactor {
+            s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
+            s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
+            s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
+        }
+        match self.first_non_finite() {
+            Some(what) => Err(IntegrateError::NonFinite { t: t1, what }),
+            None => Ok(()),
+        }
+    }
+
+    /// The residual r = [M q̈ + (1+α)(Φ_qᵀλ − Q) − α f; Φ/(βh²)] into
+    /// `rhs`; returns its largest entry (index, |value|).
+    fn residual(&mut self, bh2: f64) -> (usize, f64) {
+        let (n, alpha) = (self.n, self.alpha);
+        for i in 0..n {
+            self.rhs[i] =
+                self.mass[i] * self.qddn[i] - (1.0 + alpha) * self.qa[i] - alpha * self.f[i];
+        }
+        for (r, &l) in self.lambdan.iter().enumerate() {
+            let row = &self.jac[r * n..(r + 1) * n];
+            for (x, &a) in self.rhs[..n].iter_mut().zip(row) {
+                *x += (1.0 + alpha) * a * l;
+            }
+        }
+        for (x, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
+            *x = p / bh2;
+        }
+        self.rhs.iter().enumerate().fold(
+            (0, 0.0),
+            |b, (i, v)| {
+                if v.abs() > b.1 { (i, v.abs()) } else { b }
+            },
+        )
+    }
+
+    /// Assembles and factors Newton's matrix (module documentation).
+    fn factor_newton(&mut self, h: f64) -> Result<(), IntegrateError> {
+        let (n, m, alpha) = (self.n, self.m, self.alpha);
+        let (bh2, gh) = (self.beta * h * h, self.gamma * h);
+        if let Some(kkt) = &mut self.kkt {
+            for (v, source) in kkt.values.iter_mut().zip(&kkt.sources) {
+                *v = match *source {
+                    Source::Block { k, diagonal } => {
+                        let k = k as usize;
+                        let d = diagonal.map_or(0.0, |i| self.mass[i as usize]);
+                        d + (1.0 + alpha) * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh)
+                    }
+                    Source::Jacobian(k) => self.jac[k as usize],
+                    Source::Transposed(k) => (1.0 + alpha) * self.jac[k as usize],
+                };
+            }
+            match kkt.lu.factor(&kkt.values, 1e-14) {
+                Ok(()) => {
+                    self.dense_active = false;
+                    return Ok(());
+                }
+                // The dense LU below decides (and names the unknown
+                // without a pivot), this iteration solving with it.
+                Err(LinalgError::Singular { .. }) => {}
+                Err(e) => {
+                    return Err(IntegrateError::Setup(format!("HHT's Newton matrix: {e}")));
+                }
+            }
+        }
+        self.dense_active = true;
+        let w = n + m;
+        let a = self.lu.matrix_mut();
+        for i in 0..n {
+            for j in 0..n {
+                let k = i * n + j;
+                let d = if i == j { self.mass[i] } else { 0.0 };
+                a[i * w + j] =
+                    d + (1.0 + alpha) * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh);
+            }
+        }
+        for r in 0..m {
+            for c in 0..n {
+                let v = self.jac[r * n + c];
+                a[(n + r) * w + c] = v;
+                a[c * w + n + r] = (1.0 + alpha) * v;
+            }
+            for c in 0..m {
+                a[(n + r) * w + n + c] = 0.0;
+            }
+        }
+        self.lu.factor().map_err(|k| IntegrateError::Singular {
+            t: self.t,
+            what: "HHT's Newton matrix",
+            at: self.unknown_name(k),
+        })
+    }
+
+    /// The error for a step that did not converge, naming the equation
+    /// with the largest residual.
+    #[cold]
+    fn no_convergence(&self, worst: (usize, f64), iterations: usize) -> IntegrateError {
+        let n = self.n;
+        let (i, residual) = worst;
+        let equation = if i < n {
+            format!(
+                "the equation of motion of {}",
+                self.system.coordinate_name(i)
+            )
+        } else {
+            format!("constraint `{}`", self.system.equation_name(i - n))
+        };
+        IntegrateError::NoConvergence {
+            t: self.t,
+            iterations,
+            equation,
+            residual,
+        }
+    }
+
+    /// Accepts the step: the state at t + h with the final q̈, λ; the
+    /// optional velocity projection; the forces and the work.
+    fn accept(&mut self, h: f64, t1: f64) -> Result<(), IntegrateError> {
+        let (n, m) = (self.n, self.m);
+        self.predict(h);
         std::mem::swap(&mut self.q, &mut self.qn);
         std::mem::swap(&mut self.qd, &mut self.qdn);
         std::mem::swap(&mut self.qdd, &mut self.qddn);
@@ -580,10 +740,6 @@ impl<S: ForwardSystem> Hht<S> {
         self.system.applied(&self.q, &self.qd, t1, &mut self.qa);
         self.store_force_and_power();
         self.work += 0.5 * h * (p0 + self.power);
-        self.stats.steps += 1;
-        self.stats.iterations += iterations;
-        self.stats.factorizations += factorizations;
-        self.stats.max_iterations = self.stats.max_iterations.max(iterations);
         Ok(())
     }
 

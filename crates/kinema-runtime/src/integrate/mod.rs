@@ -57,6 +57,26 @@ pub trait ForwardSystem {
     fn applied_qd(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]);
     /// ∂(Φ_qᵀλ)/∂q (n × n) at `lambda` (m).
     fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]);
+
+    /// Where the matrices can be nonzero, for a sparse factorization of
+    /// HHT's Newton matrix ([`HhtOptions::sparse_from`]); `None` (the
+    /// default): dense. Called once, at the integrator's construction (it
+    /// may allocate).
+    fn structure(&self) -> Option<ForwardStructure> {
+        None
+    }
+}
+
+/// The structural nonzeros of a [`ForwardSystem`]'s matrices; entries
+/// outside them must be zero at every state.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ForwardStructure {
+    /// (row, column) of Φ_q's nonzeros (m × n).
+    pub jacobian: Vec<(u32, u32)>,
+    /// (row, column) of the n × n block's nonzeros off the diagonal of M:
+    /// every entry where ∂Q_A/∂q, ∂Q_A/∂q̇ or ∂(Φ_qᵀλ)/∂q (any λ) can be
+    /// nonzero. Repeats are allowed.
+    pub block: Vec<(u32, u32)>,
 }
 
 /// Why forward dynamics stopped.
