@@ -73,6 +73,18 @@ fn main() {
             }
         }
     }
+    // Forward dynamics (benches/forward.rs): the lead's benchmark
+    // mechanisms (own copies in tests/forward_backends until the models
+    // directory has them).
+    let forward = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/forward_backends");
+    for name in ["fd_slider_crank", "fd_chain10", "fd_chain100"] {
+        let file = forward.join(format!("{name}.kin"));
+        if let Err(e) = kinema_codegen::build::generate(&file, format!("{name}.rs")) {
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+        println!("cargo::rerun-if-changed=../../tests/forward_backends/{name}.kin");
+    }
     println!("cargo::rerun-if-changed=../../tests/dynamics/slider_crank.kin");
     println!("cargo::rerun-if-changed=build.rs");
 }

@@ -63,6 +63,56 @@ pub mod generated_dynamics {
     }
 }
 
+/// Forward dynamics generated at build time (`{Name}Forward`), for
+/// benches/forward.rs: the lead's forward-dynamics benchmark mechanisms
+/// (BENCHMARKS.md).
+#[allow(missing_docs, clippy::all)]
+pub mod generated_forward {
+    /// fd_slider_crank: the benchmark slider-crank without its driver.
+    pub mod fd_slider_crank {
+        include!(concat!(env!("OUT_DIR"), "/fd_slider_crank.rs"));
+    }
+    /// fd_chain10: ten pendulum links.
+    pub mod fd_chain10 {
+        include!(concat!(env!("OUT_DIR"), "/fd_chain10.rs"));
+    }
+    /// fd_chain100: a hundred pendulum links.
+    pub mod fd_chain100 {
+        include!(concat!(env!("OUT_DIR"), "/fd_chain100.rs"));
+    }
+}
+
+/// The model files of the forward-dynamics benchmark mechanisms
+/// (`fd_slider_crank`, `fd_chain10`, `fd_chain100`), relative to this
+/// crate.
+pub const FORWARD_MODELS: [(&str, &str); 3] = [
+    (
+        "fd_slider_crank",
+        "../../tests/forward_backends/fd_slider_crank.kin",
+    ),
+    ("fd_chain10", "../../tests/forward_backends/fd_chain10.kin"),
+    (
+        "fd_chain100",
+        "../../tests/forward_backends/fd_chain100.kin",
+    ),
+];
+
+/// The model of a forward-dynamics benchmark mechanism (see
+/// [`FORWARD_MODELS`]), for the tape back end.
+///
+/// # Panics
+/// On an unknown name, a missing file or a model that does not derive
+/// (benchmark set-up only).
+#[must_use]
+pub fn forward_model(name: &str) -> kinema::Model {
+    let Some((_, file)) = FORWARD_MODELS.iter().find(|m| m.0 == name) else {
+        panic!("unknown forward model {name}")
+    };
+    let path = format!("{}/{file}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    kinema::Model::from_source(&text, name).unwrap_or_else(|e| panic!("{e}"))
+}
+
 pub use kinema_runtime::handwritten;
 
 /// The time grid of the benchmarks: t_k = k/1000, k = 0..=1000.
