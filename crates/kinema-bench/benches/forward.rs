@@ -3,7 +3,9 @@
 //! with α = −0.1 and h = 1 ms from rest at t = 0, generated (`{Name}Forward`
 //! from the build script) and tape (`Model::forward_system`). Time per
 //! step, over the first `steps` steps of the run (1000, i.e. t ∈ [0, 1],
-//! except the chain N = 100: 20).
+//! except the chain N = 100: 20). HHT factors Newton's matrix sparse from
+//! n + m ≥ 64 (the chain N = 100); `generated-dense` there is the dense
+//! factorization, for comparison (3 steps).
 //!
 //! `cargo bench -p kinema-bench --bench forward`
 
@@ -21,7 +23,7 @@ use kinema_bench::{forward_model, generated_forward};
 fn hht<S: ForwardSystem + Clone>(
     group: &mut BenchmarkGroup<'_, WallTime>,
     name: &str,
-    system: &S,
+    (system, options): (&S, HhtOptions),
     q0: &[f64],
     steps: u32,
 ) {
@@ -30,7 +32,7 @@ fn hht<S: ForwardSystem + Clone>(
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             for _ in 0..iters {
-                let (mut hht, _) = Hht::new(system.clone(), q0, &qd0, 0.0, HhtOptions::default())
+                let (mut hht, _) = Hht::new(system.clone(), q0, &qd0, 0.0, options)
                     .unwrap_or_else(|e| panic!("{e}"));
                 let start = Instant::now();
                 for _ in 0..steps {
@@ -53,8 +55,18 @@ fn pair<G: ForwardSystem + Clone>(c: &mut Criterion, name: &str, generated: &G, 
         .unwrap_or_else(|| panic!("{name} has no inertia"));
     let mut group = c.benchmark_group(format!("forward/{name}"));
     group.sample_size(if steps < 1000 { 10 } else { 20 });
-    hht(&mut group, "generated", generated, &q0, steps);
-    hht(&mut group, "tape", &tape, &q0, steps);
+    let options = HhtOptions::default();
+    hht(&mut group, "generated", (generated, options), &q0, steps);
+    hht(&mut group, "tape", (&tape, options), &q0, steps);
+    if q0.len() >= 100 {
+        // The dense Newton matrix, for comparison (a few steps: each
+        // factors a dense (n + m)² matrix).
+        let dense = HhtOptions {
+            sparse_from: usize::MAX,
+            ..options
+        };
+        hht(&mut group, "generated-dense", (generated, dense), &q0, 3);
+    }
     group.finish();
 }
 

@@ -163,6 +163,9 @@ struct SparseKkt {
     lu: SparseLu,
     sources: Vec<Source>,
     values: Vec<f64>,
+    /// Φ_q's structural nonzeros (row, column), sorted: Φ_qᵀλ over them
+    /// adds in the dense loop's order.
+    jacobian: Vec<(u32, u32)>,
 }
 
 impl SparseKkt {
@@ -210,6 +213,7 @@ impl SparseKkt {
             lu,
             values: vec![0.0; sources.len()],
             sources,
+            jacobian,
         })
     }
 }
@@ -497,9 +501,19 @@ impl<S: ForwardSystem> Hht<S> {
         for v in &mut self.f {
             *v = -*v;
         }
-        for (r, &l) in self.lambda.iter().enumerate() {
-            for (fc, &a) in self.f.iter_mut().zip(&self.jac[r * n..(r + 1) * n]) {
-                *fc += a * l;
+        match &self.kkt {
+            Some(kkt) => {
+                for &(r, c) in &kkt.jacobian {
+                    let (r, c) = (r as usize, c as usize);
+                    self.f[c] += self.jac[r * n + c] * self.lambda[r];
+                }
+            }
+            None => {
+                for (r, &l) in self.lambda.iter().enumerate() {
+                    for (fc, &a) in self.f.iter_mut().zip(&self.jac[r * n..(r + 1) * n]) {
+                        *fc += a * l;
+                    }
+                }
             }
         }
         self.system.nu(&self.q, self.t, &mut self.nu);
@@ -558,8 +572,14 @@ impl<S: ForwardSystem> Hht<S> {
             }
             let tol = self.options.tolerance;
             if !finite(&self.rhs) {
-                return Err(self.non_finite("a Newton correction"));
+                // A matrix value the sparse path did not scan, or the
+                // correction itself.
+                return Err(match self.first_non_finite() {
+                    Some(what) => IntegrateError::NonFinite { t: t1, what },
+                    None => self.non_finite("a Newton correction"),
+                });
             }
+            let (dq, dl) = self.rhs.split_at(n);
             let correction = amax(dq);
             // Modified Newton keeps the factors while they halve the
             // correction; full Newton refactors every iteration.
@@ -602,7 +622,13 @@ impl<S: ForwardSystem> Hht<S> {
             s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
             s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
         }
-        match self.first_non_finite() {
+        // With the sparse Newton matrix, the dense matrices are checked
+        // where they are read: their gathered values (factor_newton) and
+        // the residual and correction (step); a full scan here would cost
+        // more than the sparse factorization.
+        let checked =
+            self.kkt.is_none() || !(finite(&self.mass) && finite(&self.qa) && finite(&self.phi));
+        match checked.then(|| self.first_non_finite()).flatten() {
             Some(what) => Err(IntegrateError::NonFinite { t: t1, what }),
             None => Ok(()),
         }
@@ -616,10 +642,20 @@ impl<S: ForwardSystem> Hht<S> {
             self.rhs[i] =
                 self.mass[i] * self.qddn[i] - (1.0 + alpha) * self.qa[i] - alpha * self.f[i];
         }
-        for (r, &l) in self.lambdan.iter().enumerate() {
-            let row = &self.jac[r * n..(r + 1) * n];
-            for (x, &a) in self.rhs[..n].iter_mut().zip(row) {
-                *x += (1.0 + alpha) * a * l;
+        match &self.kkt {
+            Some(kkt) => {
+                for &(r, c) in &kkt.jacobian {
+                    let (r, c) = (r as usize, c as usize);
+                    self.rhs[c] += (1.0 + alpha) * self.jac[r * n + c] * self.lambdan[r];
+                }
+            }
+            None => {
+                for (r, &l) in self.lambdan.iter().enumerate() {
+                    let row = &self.jac[r * n..(r + 1) * n];
+                    for (x, &a) in self.rhs[..n].iter_mut().zip(row) {
+                        *x += (1.0 + alpha) * a * l;
+                    }
+                }
             }
         }
         for (x, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
@@ -648,6 +684,12 @@ impl<S: ForwardSystem> Hht<S> {
                     Source::Jacobian(k) => self.jac[k as usize],
                     Source::Transposed(k) => (1.0 + alpha) * self.jac[k as usize],
                 };
+            }
+            if !finite(&kkt.values) {
+                let what = self
+                    .first_non_finite()
+                    .unwrap_or_else(|| "HHT's Newton matrix".to_owned());
+                return Err(IntegrateError::NonFinite { t: self.t, what });
             }
             match kkt.lu.factor(&kkt.values, 1e-14) {
                 Ok(()) => {
