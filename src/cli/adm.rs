@@ -15,6 +15,8 @@ use super::{Failure, print_stdout};
 pub struct AdmInput {
     /// The model as read.
     pub model: Model,
+    /// The ADM file's text: messages about the model point into it.
+    pub source: String,
     /// Its identifiers in the emitted `.kin` (bodies, constraints).
     pub names: Names,
     /// kinema row name → the ADM constraint it comes from.
@@ -32,7 +34,7 @@ impl AdmInput {
     /// [`Failure::Input`]: the reader's located errors, or the refusal of a
     /// Dynamics analysis or of NDOF ≠ 0, with the counts.
     pub fn read_checked(path: &Path, analysis: Option<&Analysis>) -> Result<AdmInput, Failure> {
-        let model = read_model(path)?;
+        let (model, source) = read_model(path)?;
         if let Some(analysis) = analysis {
             kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
         }
@@ -46,6 +48,7 @@ impl AdmInput {
         let ignored = kinema_adm::ignored_by_kinematics(&model);
         Ok(AdmInput {
             model,
+            source,
             names,
             rows,
             ignored,
@@ -100,12 +103,16 @@ impl AdmInput {
     }
 }
 
-/// Reads an ADM file.
+/// Reads an ADM file: the model and the file's text.
 ///
 /// # Errors
 /// [`Failure::Input`] with every located error.
-pub fn read_model(path: &Path) -> Result<Model, Failure> {
-    Model::read(path).map_err(|e| {
+pub fn read_model(path: &Path) -> Result<(Model, String), Failure> {
+    let name = path.display().to_string();
+    let read = kinema_adm::read_text(path)
+        .map_err(|e| kinema_adm::Error::from(Diagnostic::whole_file(&name, e.to_string())))
+        .and_then(|text| Model::parse(&text, &name).map(|m| (m, text)));
+    read.map_err(|e| {
         let file = path.display();
         let mut out = String::new();
         for d in e.diagnostics() {
@@ -171,7 +178,7 @@ pub fn render(d: &Diagnostic, severity: &str) -> String {
 /// # Errors
 /// [`Failure::Input`] for an unreadable or invalid ADM file.
 pub fn import(path: &Path) -> Result<(), Failure> {
-    let model = read_model(path)?;
+    let (model, _) = read_model(path)?;
     for w in &model.warnings {
         super::print_stderr(&render(w, "warning"));
     }

@@ -1,5 +1,6 @@
-//! Reading a model file — `.kin` text, or a simEngine2D `.adm` imported
-//! through `kinema_adm::to_kin` — into a checked and derived model.
+//! Reading a model file — `.kin` text, or a simEngine2D `.adm` whose model
+//! `kinema_adm::build` makes directly (no `.kin` text in between; messages
+//! point into the ADM file) — into a checked and derived model.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -115,21 +116,21 @@ pub fn load_with(
             let default = Analysis::default();
             let adm =
                 AdmInput::read_checked(path, kinematic.then(|| analysis.unwrap_or(&default)))?;
-            (kinema_adm::to_kin(&adm.model), Some(adm))
+            (adm.source.clone(), Some(adm))
         }
     };
-    // Messages about emitted text name the ADM file and say it was imported.
-    let shown = if adm.is_some() {
-        format!("{file} (imported as .kin)")
-    } else {
-        file.clone()
+    // An ADM model's spans are in its file's text, like a .kin file's.
+    let parsed = match &adm {
+        Some(adm) => Ok(kinema_adm::build(&adm.model)),
+        None => kinema_model::ParsedModel::parse_str(&source),
     };
-    let checked = kinema_model::ParsedModel::parse_str(&source)
+    let shown = &file;
+    let checked = parsed
         .and_then(|m| m.check())
-        .map_err(|d| Failure::Input(d.render(&source, &shown)))?;
-    let warnings = checked.warnings.render_each(&source, &shown);
+        .map_err(|d| Failure::Input(d.render(&source, shown)))?;
+    let warnings = checked.warnings.render_each(&source, shown);
     let derivation =
-        Derivation::new(&checked).map_err(|d| Failure::Input(d.render(&source, &shown)))?;
+        Derivation::new(&checked).map_err(|d| Failure::Input(d.render(&source, shown)))?;
     let model = kinema::Model::from_derivation(derivation);
     Ok(Loaded {
         file,

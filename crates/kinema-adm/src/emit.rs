@@ -25,94 +25,19 @@ use crate::adm::{Constraint, ConstraintKind, Model, Vec2};
 use crate::check::ignored_by_kinematics;
 use crate::fun::format_number;
 
-/// Words an identifier must not be: Rust keywords (the language is parsed as
-/// Rust tokens), the model language's keywords and built-in names; and the
-/// names of its functions (kinema-expr's table, see [`reserved`]).
-const RESERVED: &[&str] = &[
-    // Rust keywords, strict and reserved.
-    "as",
-    "async",
-    "await",
-    "break",
-    "const",
-    "continue",
-    "crate",
-    "dyn",
-    "else",
-    "enum",
-    "extern",
-    "false",
-    "fn",
-    "for",
-    "if",
-    "impl",
-    "in",
-    "let",
-    "loop",
-    "match",
-    "mod",
-    "move",
-    "mut",
-    "pub",
-    "ref",
-    "return",
-    "self",
-    "Self",
-    "static",
-    "struct",
-    "super",
-    "trait",
-    "true",
-    "type",
-    "unsafe",
-    "use",
-    "where",
-    "while",
-    "abstract",
-    "become",
-    "box",
-    "do",
-    "final",
-    "macro",
-    "override",
-    "priv",
-    "typeof",
-    "unsized",
-    "virtual",
-    "yield",
-    "try",
-    "gen",
-    "union",
-    // The model language.
-    "mechanism",
-    "param",
-    "body",
-    "point",
-    "joint",
-    "constraint",
-    "driver",
-    "guess",
-    "ground",
-    "t",
-    "pi",
-    "revolute",
-    "translational",
-    "abs_x",
-    "abs_y",
-    "abs_angle",
-];
-
-/// True for a word an identifier must not be.
+/// True for a word an identifier must not be: a name kinema's checker
+/// refuses for a body (`pi`, `t`, `ground`, a function's name). Bodies
+/// and equations share one name space here, so the body rule covers both.
 fn reserved(s: &str) -> bool {
-    RESERVED.contains(&s) || kinema_expr::function(s).is_some()
+    !kinema_model::check::may_declare(s, true)
 }
 
 /// The identifiers used for a model in kinema's language.
 ///
 /// Names are kept as far as possible: characters other than ASCII letters,
 /// digits and `_` become `_` (runs collapsed, ends trimmed: "Long Rod" →
-/// `Long_Rod`), a leading digit gets a prefix, reserved words get a trailing
-/// `_` (`driver` → `driver_`), and clashes get `_2`, `_3`, … Bodies and
+/// `Long_Rod`), a leading digit gets a prefix, names kinema reserves get a trailing
+/// `_` (`ground` → `ground_`, `sin` → `sin_`), and clashes get `_2`, `_3`, … Bodies and
 /// equations share one namespace.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Names {
@@ -268,13 +193,14 @@ fn camel_identifier(name: &str) -> String {
 
 /// Text for a comment: control characters (a newline in a JSON string)
 /// become spaces so the comment stays on its line.
-fn comment_text(s: &str) -> String {
+pub(crate) fn comment_text(s: &str) -> String {
     s.chars()
         .map(|c| if c.is_control() { ' ' } else { c })
         .collect()
 }
 
-fn pair(v: Vec2) -> String {
+/// `(x, y)` in kinema's syntax.
+pub(crate) fn pair(v: Vec2) -> String {
     format!("({}, {})", format_number(v[0]), format_number(v[1]))
 }
 
@@ -315,20 +241,113 @@ pub(crate) fn normalised(v: Vec2) -> Option<Vec2> {
     u.iter().all(|x| x.is_finite()).then_some(u)
 }
 
-/// A sum of terms, each with a sign: numbers are folded into the sign
-/// (`x + -1.5` prints as `x - 1.5`); zero numbers are left out.
-enum Term {
-    Text(bool, String),
-    Num(f64),
+/// A term of the rack-pinion's angle α = φ_rack + θ1 − φ_pinion − θ2 +
+/// 3π/2, shared by the printer and [`crate::build`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum SumTerm {
+    /// ± the angle of a body (index) written in field `key`.
+    Phi(bool, usize, &'static str),
+    /// A number from field `key`; its sign is the term's (zero: no term).
+    Num(f64, &'static str),
+    /// `3 * pi / 2`.
+    ThreePiOverTwo,
 }
 
-fn sum(terms: &[Term]) -> String {
+/// A RackPinion element's numbers (SIMENGINE2D.md): u = sQ1 − sP1 along
+/// the pitch line, L = |u| (finite: the reader refuses a pitch line whose
+/// length overflows), and the terms of its angle.
+pub(crate) struct RackPinion<'a> {
+    pub(crate) bodies: &'a [String],
+    pub(crate) rack: usize,
+    pub(crate) pinion: usize,
+    pub(crate) sp1: Vec2,
+    pub(crate) sq1: Vec2,
+    pub(crate) sp2: Vec2,
+    pub(crate) u: Vec2,
+    pub(crate) length: f64,
+    pub(crate) r2: f64,
+    theta: [f64; 2],
+    pub(crate) fun: &'a Option<String>,
+}
+
+impl<'a> RackPinion<'a> {
+    /// The numbers of a `RackPinion` kind (`None` for another kind).
+    pub(crate) fn of(kind: &'a ConstraintKind, bodies: &'a [String]) -> Option<RackPinion<'a>> {
+        let ConstraintKind::RackPinion {
+            body1,
+            body2,
+            sp1,
+            sq1,
+            sp2,
+            r2,
+            theta1,
+            theta2,
+            fun,
+        } = kind
+        else {
+            return None;
+        };
+        let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
+        Some(RackPinion {
+            bodies,
+            rack: *body1,
+            pinion: *body2,
+            sp1: *sp1,
+            sq1: *sq1,
+            sp2: *sp2,
+            u,
+            length: length(u),
+            r2: *r2,
+            theta: [*theta1, *theta2],
+            fun,
+        })
+    }
+
+    /// α = φ_rack + θ1 − φ_pinion − θ2 + 3π/2, term by term; a zero θ is
+    /// no term.
+    pub(crate) fn angle_terms(&self) -> Vec<SumTerm> {
+        [
+            SumTerm::Phi(false, self.rack, "body1"),
+            SumTerm::Num(self.theta[0], "theta1"),
+            SumTerm::Phi(true, self.pinion, "body2"),
+            SumTerm::Num(-self.theta[1], "theta2"),
+            SumTerm::ThreePiOverTwo,
+        ]
+        .into_iter()
+        .filter(|t| !matches!(t, SumTerm::Num(x, _) if *x == 0.0))
+        .collect()
+    }
+
+    /// What the first row's doc comment says after the element's head.
+    pub(crate) fn first_doc(&self) -> String {
+        let name = |i: usize| self.bodies.get(i).map_or("ground", String::as_str);
+        format!(
+            "(body1 {} is the rack, body2 {} the pinion), row 1 of 2: rolling, scaled by L = |sQ1 - sP1|",
+            name(self.rack),
+            name(self.pinion)
+        )
+    }
+
+    /// The second row's doc comment.
+    pub(crate) fn second_doc(&self, id: usize, name: &str) -> String {
+        format!(
+            "constraint {id} \"{name}\": RackPinion, row 2 of 2: pinion centre at distance R2 left of the pitch line"
+        )
+    }
+}
+
+/// The printed sum of signed terms: numbers are folded into the sign
+/// (`x + -1.5` prints as `x - 1.5`).
+fn sum(terms: &[SumTerm], bodies: &[String]) -> String {
     let mut out = String::new();
     for term in terms {
-        let (negative, text) = match term {
-            Term::Num(x) if *x == 0.0 => continue,
-            Term::Num(x) => (*x < 0.0, format_number(x.abs())),
-            Term::Text(neg, t) => (*neg, t.clone()),
+        let (negative, text) = match *term {
+            SumTerm::Num(x, _) => (x < 0.0, format_number(x.abs())),
+            SumTerm::Phi(neg, b, _) => (
+                neg,
+                format!("{}.phi", bodies.get(b).map_or("ground", String::as_str)),
+            ),
+            SumTerm::ThreePiOverTwo => (false, "3 * pi / 2".to_string()),
         };
         match (out.is_empty(), negative) {
             (true, false) => {}
@@ -342,6 +361,17 @@ fn sum(terms: &[Term]) -> String {
         out.push('0');
     }
     out
+}
+
+/// The doc comment's note on a joint's `fun`, which the engine ignores.
+pub(crate) fn ignored_fun(fun: Option<&str>) -> String {
+    match fun {
+        None | Some("NONE") => String::new(),
+        Some(f) => format!(
+            " (its fun \"{}\" is ignored, as by the engine)",
+            comment_text(f)
+        ),
+    }
 }
 
 /// Prints `model` in kinema's language. The text parses with kinema's model
@@ -457,13 +487,7 @@ fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: 
         comment_text(&c.name),
         c.kind.type_name()
     );
-    let ignored_fun = |fun: &Option<String>| match fun.as_deref() {
-        None | Some("NONE") => String::new(),
-        Some(f) => format!(
-            " (its fun \"{}\" is ignored, as by the engine)",
-            comment_text(f)
-        ),
-    };
+    let ignored_fun = |fun: &Option<String>| ignored_fun(fun.as_deref());
     match &c.kind {
         ConstraintKind::AbsoluteX { body1, sp1, fun }
         | ConstraintKind::AbsoluteY { body1, sp1, fun } => {
@@ -539,60 +563,64 @@ fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: 
                 pair(normalised(*vp2).unwrap_or(*vp2))
             );
         }
-        ConstraintKind::RackPinion {
-            body1,
-            body2,
-            sp1,
-            sq1,
-            sp2,
-            r2,
-            theta1,
-            theta2,
-            fun,
-        } => {
-            let (rack, pinion) = (body(*body1), body(*body2));
-            let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
-            // Finite: the reader refuses a pitch line whose length overflows.
-            let l = length(u);
-            let a = format!("rot({rack}.phi, {})", pair(u));
-            let alpha = sum(&[
-                Term::Text(false, format!("{rack}.phi")),
-                Term::Num(*theta1),
-                Term::Text(true, format!("{pinion}.phi")),
-                Term::Num(-*theta2),
-                Term::Text(false, "3 * pi / 2".to_string()),
-            ]);
-            let scale = format!("{} * {}", format_number(l), format_number(*r2));
-            let second = idents.get(1).map_or("c_2", String::as_str);
-            let _ = writeln!(
-                out,
-                "{head} (body1 {rack} is the rack, body2 {pinion} the pinion), row 1 of 2: rolling, scaled by L = |sQ1 - sP1|{}",
-                ignored_fun(fun)
-            );
-            let _ = writeln!(out, "    constraint {name}:");
-            let _ = writeln!(
-                out,
-                "        dot({} - {}, {a})",
-                point(*body2, *sp2),
-                point(*body1, *sq1)
-            );
-            let _ = writeln!(out, "            == {scale} * ({alpha});");
-            let _ = writeln!(
-                out,
-                "    /// constraint {} \"{}\": RackPinion, row 2 of 2: pinion centre at distance R2 left of the pitch line",
-                c.id,
-                comment_text(&c.name)
-            );
-            let _ = writeln!(out, "    constraint {second}:");
-            let _ = writeln!(
-                out,
-                "        dot({} - {}, perp({a}))",
-                point(*body2, *sp2),
-                point(*body1, *sp1)
-            );
-            let _ = writeln!(out, "            == {scale};");
+        ConstraintKind::RackPinion { .. } => {
+            if let Some(rp) = RackPinion::of(&c.kind, bodies) {
+                emit_rack_pinion(out, &rp, &head, idents, c);
+            }
         }
     }
+}
+
+/// The two rows of a RackPinion (see [`crate::build`]'s
+/// `rack_pinion_rows` for the formulas).
+fn emit_rack_pinion(
+    out: &mut String,
+    rp: &RackPinion<'_>,
+    head: &str,
+    idents: &[String],
+    c: &Constraint,
+) {
+    let body = |i: usize| rp.bodies.get(i).map_or("ground", String::as_str);
+    let point = |i: usize, s: Vec2| {
+        format!(
+            "{}({}, {})",
+            body(i),
+            format_number(s[0]),
+            format_number(s[1])
+        )
+    };
+    let name = idents.first().map_or("c", String::as_str);
+    let second = idents.get(1).map_or("c_2", String::as_str);
+    let a = format!("rot({}.phi, {})", body(rp.rack), pair(rp.u));
+    let alpha = sum(&rp.angle_terms(), rp.bodies);
+    let scale = format!("{} * {}", format_number(rp.length), format_number(rp.r2));
+    let _ = writeln!(
+        out,
+        "{head} {}{}",
+        rp.first_doc(),
+        ignored_fun(rp.fun.as_deref())
+    );
+    let _ = writeln!(out, "    constraint {name}:");
+    let _ = writeln!(
+        out,
+        "        dot({} - {}, {a})",
+        point(rp.pinion, rp.sp2),
+        point(rp.rack, rp.sq1)
+    );
+    let _ = writeln!(out, "            == {scale} * ({alpha});");
+    let _ = writeln!(
+        out,
+        "    /// {}",
+        rp.second_doc(c.id, &comment_text(&c.name))
+    );
+    let _ = writeln!(out, "    constraint {second}:");
+    let _ = writeln!(
+        out,
+        "        dot({} - {}, perp({a}))",
+        point(rp.pinion, rp.sp2),
+        point(rp.rack, rp.sp1)
+    );
+    let _ = writeln!(out, "            == {scale};");
 }
 
 #[cfg(test)]
@@ -607,7 +635,12 @@ mod tests {
             "Revolute_Crank_Collar"
         );
         assert_eq!(identifier("absX_crank", "c", 1), "absX_crank");
-        assert_eq!(identifier("driver", "c", 3), "driver_");
+        // Rust's and the language's keywords are names (issue 15, item 4);
+        // only what kinema's checker refuses gets a `_`.
+        assert_eq!(identifier("driver", "c", 3), "driver");
+        assert_eq!(identifier("type", "body", 3), "type");
+        assert_eq!(identifier("sin", "body", 3), "sin_");
+        assert_eq!(identifier("t", "c", 3), "t_");
         assert_eq!(identifier("ground", "body", 1), "ground_");
         assert_eq!(identifier("  ", "body", 4), "body_4");
         assert_eq!(identifier("1st pin", "c", 2), "c_1st_pin");
@@ -673,17 +706,24 @@ mod tests {
 
     #[test]
     fn sums_fold_signs() {
+        let bodies = ["a".to_string(), "b".to_string()];
         assert_eq!(
-            sum(&[
-                Term::Text(false, "a".into()),
-                Term::Num(-1.5),
-                Term::Text(true, "b".into()),
-                Term::Num(0.0),
-                Term::Num(2.0),
-            ]),
-            "a - 1.5 - b + 2"
+            sum(
+                &[
+                    SumTerm::Phi(false, 0, "body1"),
+                    SumTerm::Num(-1.5, "theta1"),
+                    SumTerm::Phi(true, 1, "body2"),
+                    SumTerm::Num(2.0, "theta2"),
+                ],
+                &bodies
+            ),
+            "a.phi - 1.5 - b.phi + 2"
         );
-        assert_eq!(sum(&[Term::Num(0.0)]), "0");
-        assert_eq!(sum(&[Term::Text(true, "b".into())]), "-b");
+        assert_eq!(sum(&[], &bodies), "0");
+        assert_eq!(sum(&[SumTerm::Phi(true, 1, "body2")], &bodies), "-b.phi");
+        assert_eq!(
+            sum(&[SumTerm::Phi(false, 5, "body1")], &bodies),
+            "ground.phi"
+        );
     }
 }

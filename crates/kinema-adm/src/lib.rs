@@ -1,9 +1,8 @@
-//! Reads simEngine2D model files (ADM) and analysis files (ACF), and prints
-//! the model in kinema's model language.
+//! Reads simEngine2D model files (ADM) and analysis files (ACF), builds the
+//! model kinema checks, and prints it in kinema's model language.
 //!
 //! simEngine2D is the MATLAB engine of the ME451 course; its files and their
-//! meaning are described in `SIMENGINE2D.md`. This crate depends on nothing
-//! else in kinema: it reads text and writes text. The command line uses it
+//! meaning are described in `SIMENGINE2D.md`. The command line uses it
 //! for `kinema run model.adm [--acf analysis.acf]` and `kinema import
 //! model.adm`:
 //!
@@ -16,7 +15,10 @@
 //! 3. [`check_kinematic`] refuses a Dynamics analysis or a model with
 //!    NDOF ≠ 0, with the counts; [`ignored_by_kinematics`] lists the force
 //!    elements and keys a kinematic run ignores.
-//! 4. [`to_kin`] prints the equivalent `.kin` model, and [`Names`] gives its
+//! 4. [`build()`] makes the model's syntax tree for kinema-model's checker
+//!    directly, every name and expression at the place in the ADM file it
+//!    comes from, so messages point there (`kinema run`); [`to_kin`] prints
+//!    the same model as `.kin` text (`kinema import`). [`Names`] gives its
 //!    identifiers (bodies in order: the order of q; equations in order: the
 //!    order of Φ's rows).
 //!
@@ -47,6 +49,7 @@
 
 pub mod acf;
 pub mod adm;
+pub mod build;
 pub mod check;
 mod defined;
 pub mod dynamics;
@@ -56,7 +59,10 @@ pub mod fun;
 pub mod json;
 
 pub use acf::{Analysis, Simulation, TimesError};
-pub use adm::{Body, BodyVis, Constraint, ConstraintKind, Force, ForceKind, Model, Rect, SceneVis};
+pub use adm::{
+    Body, BodyVis, Constraint, ConstraintKind, Fields, Force, ForceKind, Model, Rect, SceneVis,
+};
+pub use build::build;
 pub use check::{Counts, Refusal, check_kinematic, ignored_by_kinematics};
 pub use emit::{Names, RowOrigin, to_kin};
 pub use error::{Diagnostic, Error, MAX_FILE_BYTES, Pos, ReadError, read_text};

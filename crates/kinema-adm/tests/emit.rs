@@ -98,7 +98,7 @@ fn names_are_identifiers_and_unique() {
     assert_eq!(
         names.constraints,
         [
-            vec!["driver_"],
+            vec!["driver"],
             vec!["Long_Rod_3"],
             vec!["g_1", "g_2"],
             vec!["g_1_2"]
@@ -112,7 +112,7 @@ fn names_are_identifiers_and_unique() {
     assert_eq!(
         rows,
         [
-            ("driver_".into(), 0),
+            ("driver".into(), 0),
             ("Long_Rod_3".into(), 1),
             ("g_1".into(), 2),
             ("g_2".into(), 2),

@@ -190,7 +190,7 @@ fn details_of_the_real_files() {
         "{kin}"
     );
     let rod = Model::read(&dir.join("rodDYN.adm")).unwrap();
-    assert!(to_kin(&rod).contains("driver driver_: abs_angle(pend, t + pi / 6);"));
+    assert!(to_kin(&rod).contains("driver driver: abs_angle(pend, t + pi / 6);"));
 
     // A dynamics model's forces are imported, but for its PointForceFile.
     let p2 = Model::read(&dir.join("project2.adm")).unwrap();

@@ -19,7 +19,7 @@
 
 use kinema_expr::{Arena, ExprId};
 use syn::parse::ParseStream;
-use syn::{Ident, Token, braced, parenthesized};
+use syn::{Token, braced, parenthesized};
 
 use crate::algebra::{Vec2, VecAlgebra};
 use crate::check::{BodyRef, CheckedModel, Comp, LibArg, LibKind};
@@ -32,7 +32,7 @@ pub struct CoordDecl {
     /// Doc comments.
     pub docs: Vec<String>,
     /// The coordinate's name.
-    pub name: Ident,
+    pub name: crate::syntax::Name,
     /// The initial guess (a constant expression of params), if written.
     pub guess: Option<Expr>,
 }
@@ -43,11 +43,11 @@ pub struct CurveDecl {
     /// Doc comments.
     pub docs: Vec<String>,
     /// The body the curve is fixed in.
-    pub body: Ident,
+    pub body: crate::syntax::Name,
     /// The curve's name.
-    pub name: Ident,
+    pub name: crate::syntax::Name,
     /// The curve's parameter, a name bound in `value` only.
-    pub param: Ident,
+    pub param: crate::syntax::Name,
     /// Its local coordinates: a vector expression of params and `param`.
     pub value: Expr,
 }

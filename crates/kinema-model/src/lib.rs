@@ -190,6 +190,15 @@ impl ParsedModel {
         syntax::parse_tokens(tokens).map(|syntax| ParsedModel { syntax })
     }
 
+    /// A syntax tree built by another front end (the simEngine2D
+    /// importer builds one from its JSON, each span at the place in its
+    /// file that the item comes from). The checker treats it as parsed
+    /// text.
+    #[must_use]
+    pub fn from_syntax(syntax: syntax::Mechanism) -> ParsedModel {
+        ParsedModel { syntax }
+    }
+
     /// The syntax tree.
     #[must_use]
     pub fn syntax(&self) -> &syntax::Mechanism {

@@ -34,7 +34,7 @@ pub struct OutputDecl {
     /// The `output` keyword's span.
     pub keyword: Span,
     /// The output's name.
-    pub name: syn::Ident,
+    pub name: crate::syntax::Name,
     /// The measured expression (scalar or vector).
     pub value: Expr,
 }

@@ -62,13 +62,75 @@ use lexing::{lex_error, nesting_error};
 /// stack.
 pub const MAX_NESTING: usize = 128;
 
+/// A name as written (a param, body, point, equation, function, field…):
+/// its text, a raw identifier's `r#` removed, and where it is.
+///
+/// Parsed names carry their token's span; a tree built by another front
+/// end (the simEngine2D importer) gives each name the place in its own
+/// file that the name comes from ([`Span::at`]), so that every message
+/// points there.
+#[derive(Clone, Debug)]
+pub struct Name {
+    text: String,
+    span: Span,
+}
+
+impl Name {
+    /// The name `text` at `span`.
+    #[must_use]
+    pub fn new(text: impl Into<String>, span: Span) -> Name {
+        Name {
+            text: text.into(),
+            span,
+        }
+    }
+
+    /// The name's text.
+    #[must_use]
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    /// Where the name is written.
+    #[must_use]
+    pub fn span(&self) -> Span {
+        self.span
+    }
+}
+
+impl From<Ident> for Name {
+    /// A parsed identifier, `r#` removed.
+    fn from(ident: Ident) -> Name {
+        let ident = ident.unraw();
+        Name::new(ident.to_string(), Span::new(ident.span()))
+    }
+}
+
+impl std::fmt::Display for Name {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+impl PartialEq<str> for Name {
+    fn eq(&self, other: &str) -> bool {
+        self.text == other
+    }
+}
+
+impl PartialEq<&str> for Name {
+    fn eq(&self, other: &&str) -> bool {
+        self.text == *other
+    }
+}
+
 /// A mechanism as written: the root of the syntax tree.
 #[derive(Clone, Debug)]
 pub struct Mechanism {
     /// Doc comments before `mechanism`.
     pub docs: Vec<String>,
     /// The mechanism's name.
-    pub name: Ident,
+    pub name: Name,
     /// Declarations in source order.
     pub items: Vec<Item>,
     /// Errors recovered from while parsing items (parsing goes on after a bad
@@ -107,7 +169,7 @@ pub struct ParamDecl {
     /// The `param` keyword's span.
     pub keyword: Span,
     /// The parameter's name.
-    pub name: Ident,
+    pub name: Name,
     /// Its default value (a constant expression), if written.
     pub value: Option<Expr>,
 }
@@ -118,7 +180,7 @@ pub struct BodyDecl {
     /// Doc comments.
     pub docs: Vec<String>,
     /// The body's name.
-    pub name: Ident,
+    pub name: Name,
     /// The initial guess `(x, y, phi)`, if written.
     pub guess: Option<[Expr; 3]>,
     /// Its mass (`mass: m`), if written: dynamics.
@@ -134,9 +196,9 @@ pub struct PointDecl {
     /// Doc comments.
     pub docs: Vec<String>,
     /// The body the point is fixed in.
-    pub body: Ident,
+    pub body: Name,
     /// The point's name.
-    pub name: Ident,
+    pub name: Name,
     /// Its local coordinates (a vector expression).
     pub value: Expr,
 }
@@ -174,7 +236,7 @@ pub struct EquationDecl {
     /// The keyword's span.
     pub keyword_span: Span,
     /// The equation's name.
-    pub name: Ident,
+    pub name: Name,
     /// Left-hand side, or the library call.
     pub lhs: Expr,
     /// Right-hand side after `==`, if any.
@@ -206,11 +268,11 @@ pub enum ExprKind {
         suffix: String,
     },
     /// A name: param, body, `pi`, `t`, `ground`.
-    Ident(Ident),
+    Ident(Name),
     /// `base.field`
-    Field(u32, Ident),
+    Field(u32, Name),
     /// `name(args…)`
-    Call(Ident, Vec<u32>),
+    Call(Name, Vec<u32>),
     /// `(a, b, …)` with at least two elements.
     Tuple(Vec<u32>),
     /// `-a`
@@ -365,7 +427,7 @@ fn parse_postfix(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
             input,
             "a field name after `.` (`x`, `y`, `phi` or a point name)",
         )?;
-        let span = b.span(e).to(Span::new(field.span()));
+        let span = b.span(e).to(field.span());
         if let ExprKind::Num { value, suffix } = &b.nodes[e as usize].kind
             && suffix.is_empty()
         {
@@ -378,7 +440,7 @@ fn parse_postfix(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
 
 /// The error for a field after a number: `1.e5` lexes as the field `e5` of
 /// the integer `1` (as in Rust), which the user meant as a number.
-fn exponent_error(input: ParseStream<'_>, value: f64, field: &Ident, span: Span) -> syn::Error {
+fn exponent_error(input: ParseStream<'_>, value: f64, field: &Name, span: Span) -> syn::Error {
     let name = field.to_string();
     let digits = name
         .strip_prefix(['e', 'E'])
@@ -489,9 +551,9 @@ fn is_name(input: ParseStream<'_>) -> bool {
 /// A name: any identifier, Rust keywords included (`body box`, `param
 /// type`, `point B.ref`); `r#type` is the name `type`. Generated code spells
 /// a name that is a Rust keyword as a raw identifier. `_` is not a name.
-pub(crate) fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Ident> {
+pub(crate) fn name(input: ParseStream<'_>, what: &str) -> syn::Result<Name> {
     if is_name(input) {
-        return Ok(Ident::parse_any(input)?.unraw());
+        return Ok(Name::from(Ident::parse_any(input)?));
     }
     Err(expected(input, what))
 }
@@ -539,10 +601,10 @@ fn parse_primary(input: ParseStream<'_>, b: &mut ExprBuilder, depth: usize) -> s
             let content;
             let paren = parenthesized!(content in input);
             let args = parse_args(&content, b, depth + 1)?;
-            let span = Span::new(name.span()).to(Span::new(paren.span.close()));
+            let span = name.span().to(Span::new(paren.span.close()));
             Ok(b.push(ExprKind::Call(name, args), span))
         } else {
-            let span = Span::new(name.span());
+            let span = name.span();
             Ok(b.push(ExprKind::Ident(name), span))
         }
     } else if lookahead.peek(syn::token::Paren) {

@@ -31,6 +31,63 @@ mod read;
 /// A 2-vector `[x, y]`.
 pub type Vec2 = [f64; 2];
 
+/// Where the fields of an ADM object are in its file: the position of each
+/// key's value, so that a model built from the object (kinema-adm's
+/// `build`) points every message at the JSON value it comes from.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Fields {
+    at: Vec<FieldPos>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct FieldPos {
+    key: String,
+    /// The value's first character.
+    pos: Pos,
+    /// A string without escapes: its first character after the quote.
+    text: Option<Pos>,
+}
+
+impl Fields {
+    /// The members of `object` (none for another kind of value).
+    pub(crate) fn of(object: &json::Value) -> Fields {
+        let at = object
+            .as_object()
+            .unwrap_or_default()
+            .iter()
+            .map(|m| FieldPos {
+                key: m.key.clone(),
+                pos: m.value.pos,
+                text: m
+                    .value
+                    .as_str()
+                    .filter(|s| s.verbatim)
+                    .map(|_| m.value.pos.advance('"')),
+            })
+            .collect();
+        Fields { at }
+    }
+
+    /// Where the value of `key` starts (`None` when the object has no such
+    /// key: a default was used).
+    #[must_use]
+    pub fn get(&self, key: &str) -> Option<Pos> {
+        self.at.iter().find(|f| f.key == key).map(|f| f.pos)
+    }
+
+    /// Where character `k` of the string value `text` of `key` is: exact
+    /// for a string written without escapes, otherwise where the value
+    /// starts.
+    #[must_use]
+    pub fn in_string(&self, key: &str, text: &str, k: usize) -> Option<Pos> {
+        let f = self.at.iter().find(|f| f.key == key)?;
+        Some(match f.text {
+            Some(start) => text.chars().take(k).fold(start, Pos::advance),
+            None => f.pos,
+        })
+    }
+}
+
 /// A simEngine2D model read from an ADM file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
@@ -52,6 +109,8 @@ pub struct Model {
     pub ignored_keys: Vec<String>,
     /// Warnings: things the engine accepted that look like mistakes.
     pub warnings: Vec<Diagnostic>,
+    /// Where the top-level fields are.
+    pub fields: Fields,
 }
 
 /// The model-level `vis` object: drawing limits and background colour.
@@ -74,6 +133,8 @@ pub struct Body {
     pub id: usize,
     /// Where the body's object starts in the file.
     pub pos: Pos,
+    /// Where its fields are.
+    pub fields: Fields,
     /// `mass` (dynamics only).
     pub mass: Option<f64>,
     /// `jbar`, polar moment of inertia about the centroid (dynamics only).
@@ -115,6 +176,8 @@ pub struct Constraint {
     pub id: usize,
     /// Where the constraint's object starts in the file.
     pub pos: Pos,
+    /// Where its fields are.
+    pub fields: Fields,
     /// The element and its fields.
     pub kind: ConstraintKind,
 }
@@ -251,6 +314,8 @@ pub struct Force {
     pub id: usize,
     /// Where the element's object starts in the file.
     pub pos: Pos,
+    /// Where its fields are.
+    pub fields: Fields,
     /// The element and its fields.
     pub kind: ForceKind,
 }

@@ -339,6 +339,7 @@ fn read_model(cx: &mut Cx<'_>, root: &Value, file: &str) -> Model {
         forces: Vec::new(),
         ignored_keys: Vec::new(),
         warnings: Vec::new(),
+        fields: super::Fields::of(root),
     };
     let Some(members) = root.as_object() else {
         cx.err(
@@ -485,6 +486,7 @@ fn read_body(cx: &mut Cx<'_>, v: &Value, index: usize) -> Option<Body> {
         name: name?,
         id: id?,
         pos: v.pos,
+        fields: super::Fields::of(v),
         mass,
         jbar,
         q0: q0?,
@@ -722,6 +724,7 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
         name: name?,
         id: id?,
         pos: v.pos,
+        fields: super::Fields::of(v),
         kind,
     })
 }
@@ -831,6 +834,7 @@ fn read_force(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> Optio
         name: name?,
         id: id?,
         pos: v.pos,
+        fields: super::Fields::of(v),
         kind,
     })
 }

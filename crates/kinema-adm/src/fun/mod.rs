@@ -186,7 +186,7 @@ impl Func {
     }
 
     /// kinema's name of the function (all the same except `log` → `ln`).
-    fn kin_name(self) -> &'static str {
+    pub(crate) fn kin_name(self) -> &'static str {
         match (self, self.op()) {
             (_, Some(op)) => op.name(),
             (Func::Log10, None) => "ln",
@@ -380,26 +380,8 @@ impl Expr {
         let Some(root) = self.nodes.len().checked_sub(1) else {
             return String::new();
         };
-        let consts = self.values(0.0);
-        let mut has_t = Vec::with_capacity(self.nodes.len());
-        for node in &self.nodes {
-            let h = |i: u32| has_t.get(i as usize).copied().unwrap_or(true);
-            let x = match *node {
-                Node::T => true,
-                Node::Num(_) | Node::Pi => false,
-                Node::Neg(a) | Node::Call(_, a) => h(a),
-                Node::Bin(_, a, b) | Node::Call2(_, a, b) => h(a) || h(b),
-            };
-            has_t.push(x);
-        }
-        // The exponent of a power, as an integer, when it is a t-free
-        // expression whose value is an exact integer of moderate size.
-        let int_exponent = |b: u32| -> Option<i64> {
-            let i = b as usize;
-            let v = *consts.get(i)?;
-            let free = !*has_t.get(i)?;
-            (free && v.is_finite() && v.fract() == 0.0 && v.abs() <= 1e6).then_some(v as i64)
-        };
+        let exponents = self.int_exponents();
+        let int_exponent = |b: u32| exponents.get(b as usize).copied().flatten();
 
         enum Task {
             Node(u32, u8),
@@ -489,6 +471,31 @@ impl Expr {
             }
         }
         out
+    }
+
+    /// Per node, its value as an integer exponent: `Some(n)` for a
+    /// t-free expression whose value is an exact integer of moderate size
+    /// (|n| ≤ 10⁶), so `x^n` is `powi(x, n)` rather than `pow(x, y)`.
+    pub(crate) fn int_exponents(&self) -> Vec<Option<i64>> {
+        let consts = self.values(0.0);
+        let mut has_t: Vec<bool> = Vec::with_capacity(self.nodes.len());
+        for node in &self.nodes {
+            let h = |i: u32| has_t.get(i as usize).copied().unwrap_or(true);
+            let x = match *node {
+                Node::T => true,
+                Node::Num(_) | Node::Pi => false,
+                Node::Neg(a) | Node::Call(_, a) => h(a),
+                Node::Bin(_, a, b) | Node::Call2(_, a, b) => h(a) || h(b),
+            };
+            has_t.push(x);
+        }
+        consts
+            .iter()
+            .zip(&has_t)
+            .map(|(&v, &t)| {
+                (!t && v.is_finite() && v.fract() == 0.0 && v.abs() <= 1e6).then_some(v as i64)
+            })
+            .collect()
     }
 
     /// Precedence of a node as printed by [`Expr::to_kin`].

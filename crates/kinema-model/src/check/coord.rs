@@ -76,7 +76,7 @@ pub(super) fn check_coords(
         }
         out.push(Coord {
             name: c.name.to_string(),
-            span: Span::new(c.name.span()),
+            span: c.name.span(),
             docs: c.docs.clone(),
             guess_value,
             guess,
@@ -105,15 +105,12 @@ pub(super) fn check_curves(
     for item in &mech.items {
         let Item::Curve(c) = item else { continue };
         let bn = c.body.to_string();
-        let Some(body) = resolve_body(cx, names, &bn, Span::new(c.body.span())) else {
+        let Some(body) = resolve_body(cx, names, &bn, c.body.span()) else {
             continue;
         };
         let name = c.name.to_string();
         if names.curves.contains_key(&(body, name.clone())) {
-            cx.error(
-                Span::new(c.name.span()),
-                format!("duplicate curve `{bn}.{name}`"),
-            );
+            cx.error(c.name.span(), format!("duplicate curve `{bn}.{name}`"));
             continue;
         }
         let local = check_curve_value(cx, names, c, values.len());
@@ -121,7 +118,7 @@ pub(super) fn check_curves(
         out.push(Curve {
             name,
             body,
-            span: Span::new(c.name.span()),
+            span: c.name.span(),
             docs: c.docs.clone(),
             param: c.param.to_string(),
             local: local.unwrap_or_else(|| TExpr {
@@ -144,7 +141,7 @@ fn check_curve_value(
     if matches!(param.as_str(), "pi" | "t" | "ground") {
         // error: `t` cannot be a curve's parameter: it is time
         cx.error(
-            Span::new(c.param.span()),
+            c.param.span(),
             format!("`{param}` cannot be a curve's parameter: it has a built-in meaning"),
         );
         return None;
@@ -197,15 +194,12 @@ pub(super) fn check_curve_arg(
         _ => return curve_expected(cx, node.span, spec),
     };
     let bn = bid.to_string();
-    let body = resolve_body(cx, names, &bn, Span::new(bid.span()))?;
+    let body = resolve_body(cx, names, &bn, bid.span())?;
     let fname = f.to_string();
     if let Some(&k) = names.curves.get(&(body, fname.clone())) {
         return Some((body, k));
     }
-    let mut d = Diagnostic::error(
-        Span::new(f.span()),
-        format!("body `{bn}` has no curve `{fname}`"),
-    );
+    let mut d = Diagnostic::error(f.span(), format!("body `{bn}` has no curve `{fname}`"));
     // The same name on another body: the likely mistake (a curve belongs
     // to the body it is declared on). Lowest body first, for stable output.
     let elsewhere = names

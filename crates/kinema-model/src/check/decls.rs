@@ -26,7 +26,7 @@ pub(super) fn check_params(
     let mut values: Vec<f64> = Vec::with_capacity(params.len());
     for (i, p) in params.iter().enumerate() {
         let name = p.name.to_string();
-        let span = Span::new(p.name.span());
+        let span = p.name.span();
         let value = match &p.value {
             None => {
                 cx.error(
@@ -81,7 +81,7 @@ pub(super) fn check_points(
         out.push(Point {
             name: p.name.to_string(),
             body: *body,
-            span: Span::new(p.name.span()),
+            span: p.name.span(),
             docs: p.docs.clone(),
             local_value,
             local,
@@ -119,7 +119,7 @@ pub(super) fn check_guesses(
         }
         out.push(Body {
             name: b.name.to_string(),
-            span: Span::new(b.name.span()),
+            span: b.name.span(),
             docs: b.docs.clone(),
             guess_value,
             guess,

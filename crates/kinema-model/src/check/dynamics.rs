@@ -242,7 +242,7 @@ pub(super) fn check_dynamics(
     let mut first: HashMap<String, Span> = HashMap::new();
     for f in forces {
         let name = f.name.to_string();
-        let span = Span::new(f.name.span());
+        let span = f.name.span();
         if let Some(s) = first.get(&name) {
             let s = s.start();
             // error: duplicate force name `spring`
@@ -297,7 +297,7 @@ fn check_inertia(
                 .join(" and ");
             cx.push(
                 Diagnostic::error(
-                    Span::new(b.name.span()),
+                    b.name.span(),
                     format!(
                         "body `{}` has no {what}: in a model with dynamics every body needs a mass and an inertia",
                         b.name
@@ -392,11 +392,8 @@ fn check_force(
     let fname = f.to_string();
     let Some(spec) = FORCES.iter().find(|s| s.name == fname) else {
         cx.push(
-            Diagnostic::error(
-                Span::new(f.span()),
-                format!("unknown force element `{fname}`"),
-            )
-            .with_help(format!("the force elements are {}", all())),
+            Diagnostic::error(f.span(), format!("unknown force element `{fname}`"))
+                .with_help(format!("the force elements are {}", all())),
         );
         return None;
     };

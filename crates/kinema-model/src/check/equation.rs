@@ -32,7 +32,7 @@ pub(super) fn check_equations(
     for item in &mech.items {
         let Item::Equation(e) = item else { continue };
         let name = e.name.to_string();
-        let span = Span::new(e.name.span());
+        let span = e.name.span();
         check_unique(cx, &mut first, &name, span);
         let Some((form, deps, library, rows)) = check_equation(cx, names, e, values) else {
             rows_known = false;
@@ -128,7 +128,7 @@ fn check_equation(
         (Some(_), Some((spec, f, _))) => {
             // error: `revolute` is a library constraint, a whole equation: it cannot be compared with `==`
             cx.push(
-                Diagnostic::error(Span::new(f.span()), format!("`{}` is a library constraint, a whole equation: it cannot be compared with `==`", spec.name))
+                Diagnostic::error(f.span(), format!("`{}` is a library constraint, a whole equation: it cannot be compared with `==`", spec.name))
                     .with_help(format!("write `{} {}: {};`", e.keyword.as_str(), e.name, spec.signature)),
             );
             None
@@ -145,10 +145,7 @@ fn check_equation(
 ///   error: expected a library constraint or an equation `lhs == rhs`, found an expression without `==`
 fn not_an_equation(cx: &mut Ctxt, lhs: &syntax::Expr) {
     let (found, span) = match &lhs.node(lhs.root).kind {
-        ExprKind::Call(f, _) => (
-            format!("unknown library constraint `{f}`"),
-            Span::new(f.span()),
-        ),
+        ExprKind::Call(f, _) => (format!("unknown library constraint `{f}`"), f.span()),
         _ => ("an expression without `==`".to_string(), lhs.span()),
     };
     let all = LIBRARY
@@ -368,7 +365,7 @@ pub(super) fn check_point_arg(
     match &node.kind {
         ExprKind::Call(b, args) => {
             let bn = b.to_string();
-            let body = resolve_body(cx, names, &bn, Span::new(b.span()))?;
+            let body = resolve_body(cx, names, &bn, b.span())?;
             let [x, y] = args[..] else {
                 cx.error(node.span, format!("wrong number of arguments: expected `{bn}(sx, sy)` (a point in the body's frame), found {}", plural_args(args.len())));
                 return None;
@@ -383,7 +380,7 @@ pub(super) fn check_point_arg(
                 return None;
             };
             let bn = bid.to_string();
-            let body = resolve_body(cx, names, &bn, Span::new(bid.span()))?;
+            let body = resolve_body(cx, names, &bn, bid.span())?;
             named_point(cx, names, body, &bn, f)
         }
         _ => {
@@ -405,7 +402,7 @@ fn named_point(
     names: &Names<'_>,
     body: BodyRef,
     bn: &str,
-    f: &syn::Ident,
+    f: &crate::syntax::Name,
 ) -> Option<(BodyRef, TExpr)> {
     let fname = f.to_string();
     if let Some(&p) = names.points.get(&(body, fname.clone())) {
@@ -413,13 +410,9 @@ fn named_point(
         return Some((body, point.local.clone()));
     }
     cx.push(
-        Diagnostic::error(
-            Span::new(f.span()),
-            format!("body `{bn}` has no point `{fname}`"),
-        )
-        .with_help(format!(
-            "expected a point declared with `point {bn}.{fname} = (sx, sy);`"
-        )),
+        Diagnostic::error(f.span(), format!("body `{bn}` has no point `{fname}`")).with_help(
+            format!("expected a point declared with `point {bn}.{fname} = (sx, sy);`"),
+        ),
     );
     None
 }

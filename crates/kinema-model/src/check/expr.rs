@@ -205,7 +205,7 @@ impl ExprCheck<'_, '_> {
         &self,
         cx: &mut Ctxt,
         bn: &str,
-        field: &syn::Ident,
+        field: &crate::syntax::Name,
         span: Span,
     ) -> Option<Node> {
         let BodyName::Body(body) = self.names.body(bn) else {
@@ -246,7 +246,7 @@ impl ExprCheck<'_, '_> {
                     // error: body `crank` has no point `q`
                     cx.push(
                         Diagnostic::error(
-                            Span::new(field.span()),
+                            field.span(),
                             format!("body `{bn}` has no point `{f}`"),
                         )
                         .with_help(format!(
@@ -260,7 +260,12 @@ impl ExprCheck<'_, '_> {
     }
 
     /// `v.x`, `v.y` of a vector expression.
-    fn check_vector_field(&self, cx: &mut Ctxt, b: u32, field: &syn::Ident) -> Option<Node> {
+    fn check_vector_field(
+        &self,
+        cx: &mut Ctxt,
+        b: u32,
+        field: &crate::syntax::Name,
+    ) -> Option<Node> {
         let (a, da) = self.child(b)?;
         let ta = self.ty(a);
         let f = field.to_string();
@@ -282,7 +287,7 @@ impl ExprCheck<'_, '_> {
             _ => {
                 // error: unknown field `z`: expected `x` or `y`
                 cx.error(
-                    Span::new(field.span()),
+                    field.span(),
                     format!("unknown field `{f}`: expected `x` or `y` (or a body before the `.`)"),
                 );
                 None
@@ -380,7 +385,7 @@ impl ExprCheck<'_, '_> {
     fn check_call_or_point(
         &mut self,
         cx: &mut Ctxt,
-        fname: &syn::Ident,
+        fname: &crate::syntax::Name,
         span: Span,
         args: &[Arg],
     ) -> Option<Node> {
@@ -388,7 +393,7 @@ impl ExprCheck<'_, '_> {
         match self.names.body(&f) {
             BodyName::Body(body) => self.check_body_point(cx, &f, body, span, args),
             BodyName::Poisoned if !super::call::is_function(&f) => None,
-            _ => check_call(cx, self, &f, Span::new(fname.span()), span, args),
+            _ => check_call(cx, self, &f, fname.span(), span, args),
         }
     }
 

@@ -45,6 +45,7 @@ pub use dynamics::{Dynamics, Force, ForceKind, Inertia};
 pub use library::LibKind;
 pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
 pub(crate) use model::{Form, LibArg, TExpr, TNode};
+pub use names::may_declare;
 pub use output::Output;
 pub(crate) use output::point_columns;
 
@@ -185,7 +186,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     let dynamics = dynamics::check_dynamics(&mut cx, &names, mech, &values);
     let mut model = CheckedModel {
         name: mech.name.to_string(),
-        span: Span::new(mech.name.span()),
+        span: mech.name.span(),
         docs: mech.docs.clone(),
         params,
         bodies,

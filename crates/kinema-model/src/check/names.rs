@@ -28,6 +28,17 @@ pub(super) type PointNames = HashMap<(BodyRef, String), u32>;
 /// Names with a built-in meaning.
 const RESERVED: &[&str] = &["pi", "t", "ground"];
 
+/// Whether a param, body or coordinate may be named `name` (the rules of
+/// [`check_names`] on one name): not a built-in name (`pi`, `t`,
+/// `ground`) nor, for a body (`body` true), a function's name. Any other
+/// identifier is a name, Rust keywords included. For front ends that
+/// choose names (the simEngine2D importer).
+#[must_use]
+pub fn may_declare(name: &str, body: bool) -> bool {
+    let function = body && super::call::is_function(name);
+    !(RESERVED.contains(&name) || function)
+}
+
 /// The declarations of a mechanism, by kind, and what their names mean.
 pub(super) struct Declared<'m> {
     pub(super) decls: HashMap<String, Decl>,
@@ -75,7 +86,7 @@ pub(super) fn check_names<'m>(cx: &mut Ctxt, mech: &'m syntax::Mechanism) -> Dec
             _ => continue,
         };
         let name = ident.to_string();
-        let span = Span::new(ident.span());
+        let span = ident.span();
         let decl = match check_name(cx, &name, decl, span, &first_span) {
             Some(d) => d,
             None if RESERVED.contains(&name.as_str()) => continue,
@@ -160,20 +171,20 @@ pub(super) fn check_point_names<'m>(
     for item in &mech.items {
         let Item::Point(p) = item else { continue };
         let body_name = p.body.to_string();
-        let Some(body) = resolve_body(cx, names, &body_name, Span::new(p.body.span())) else {
+        let Some(body) = resolve_body(cx, names, &body_name, p.body.span()) else {
             continue;
         };
         let name = p.name.to_string();
         if matches!(name.as_str(), "x" | "y" | "phi") {
             cx.error(
-                Span::new(p.name.span()),
+                p.name.span(),
                 format!("a point cannot be named `{name}`: `{body_name}.{name}` is a coordinate"),
             );
             continue;
         }
         if points.contains_key(&(body, name.clone())) {
             cx.error(
-                Span::new(p.name.span()),
+                p.name.span(),
                 format!("duplicate point `{body_name}.{name}`"),
             );
             continue;

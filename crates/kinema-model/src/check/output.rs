@@ -97,7 +97,7 @@ pub(super) fn check_outputs(
     for item in &mech.items {
         let Item::Output(o) = item else { continue };
         let name = o.name.to_string();
-        let span = Span::new(o.name.span());
+        let span = o.name.span();
         if let Some(f) = first.get(&name) {
             // error: duplicate output `angle`
             let s = f.start();

@@ -9,7 +9,7 @@
 //! ```
 
 use syn::parse::ParseStream;
-use syn::{Ident, Token, parenthesized};
+use syn::{Token, parenthesized};
 
 use super::{Expr, expect, expected, kw, name};
 use crate::span::Span;
@@ -32,7 +32,7 @@ pub struct ForceDecl {
     /// The `force` keyword's span.
     pub keyword: Span,
     /// The force's name.
-    pub name: Ident,
+    pub name: crate::syntax::Name,
     /// The element call (`point_force(P, F)`, `torque(B, T)`, `rsda(…)`, `tsda(…)`).
     pub call: Expr,
 }
