@@ -368,6 +368,21 @@ pub fn adm(data: &[u8]) -> Result<Reach, Finding> {
     let names = kinema_adm::Names::of(&model);
     let _ = names.rows(&model);
     let emitted = kinema_adm::to_kin(&model);
+    // `kinema run` builds the model straight from the ADM data; `kinema
+    // import` prints it. Both must check alike and derive the same rows.
+    let built = kinema_adm::build(&model).check();
+    let printed = kinema_model::check_str(&emitted);
+    let verdict = |r: &Result<kinema_model::CheckedModel, _>| match r {
+        Ok(m) => format!("checks with {} equations", m.equations.len()),
+        Err(_) => "is refused".to_string(),
+    };
+    let (b, p) = (verdict(&built), verdict(&printed));
+    if b != p {
+        return Err(finding(
+            "adm-built-differs",
+            format!("the built model {b} and the printed one {p}"),
+        ));
+    }
     // What the CLI computes before it runs: the output and solve grids.
     let outputs = analysis.output_times();
     let solves = analysis.solve_times();
