@@ -164,28 +164,7 @@ impl Derivation {
     pub fn with_budget(model: &CheckedModel, budget: usize) -> Result<Self, Diagnostics> {
         let mut arena = Arena::new();
         let lo = Lowerer::new(&mut arena, model);
-
-        // Coordinates, velocities, guesses.
-        let mut coordinates = Vec::with_capacity(3 * model.bodies.len());
-        for (k, b) in model.bodies.iter().enumerate() {
-            for (c, comp) in [Comp::X, Comp::Y, Comp::Phi].into_iter().enumerate() {
-                let i = 3 * k + c;
-                let q = lo.coords[k][c];
-                let suffix = ["x", "y", "phi"][c];
-                let qd = arena.velocity(&format!("{}.{suffix}_dot", b.name), idx(i));
-                let guess = lo.scalar(&mut arena, &b.guess[c]);
-                coordinates.push(Coordinate {
-                    name: format!("{}.{suffix}", b.name),
-                    body: k,
-                    comp,
-                    sym: sym(&arena, q),
-                    velocity: sym(&arena, qd),
-                    guess,
-                    guess_value: b.guess_value[c],
-                });
-            }
-        }
-        crate::follower::push_coordinates(&mut arena, &lo, model, &mut coordinates);
+        let coordinates = coordinates(&mut arena, &lo, model);
         let params = model
             .params
             .iter()
@@ -198,144 +177,25 @@ impl Derivation {
             })
             .collect();
         let time = sym(&arena, lo.time);
+        let Phi { rows, phi, source } = phi_rows(&mut arena, &lo, model);
 
-        // Φ: kinematic equations first, then drivers, each in declaration order.
-        let mut rows = Vec::new();
-        let mut phi = Vec::new();
-        // The equation each row comes from (for budget errors).
-        let mut source: Vec<usize> = Vec::new();
-        for driving in [false, true] {
-            for (eq, e) in model
-                .equations
-                .iter()
-                .enumerate()
-                .filter(|(_, e)| e.is_driver() == driving)
-            {
-                let exprs = match &e.form {
-                    Form::User { lhs, rhs } => {
-                        let l = lo.lower(&mut arena, lhs);
-                        let r = lo.lower(&mut arena, rhs);
-                        match (l, r) {
-                            (crate::lower::Value::V(a), crate::lower::Value::V(b)) => {
-                                vec![arena.sub(a.x, b.x), arena.sub(a.y, b.y)]
-                            }
-                            (crate::lower::Value::S(a), crate::lower::Value::S(b)) => {
-                                vec![arena.sub(a, b)]
-                            }
-                            // The checker gives both sides the same type.
-                            _ => Vec::new(),
-                        }
-                    }
-                    Form::Library(kind, args) => crate::library::rows(&lo, &mut arena, *kind, args),
-                };
-                for (name, ex) in e.row_names().into_iter().zip(exprs) {
-                    rows.push(Row {
-                        name,
-                        kind: if driving {
-                            RowKind::Driving
-                        } else {
-                            RowKind::Kinematic
-                        },
-                        keyword: e.keyword,
-                        library: e.library,
-                        equation: e.name.clone(),
-                        docs: e.docs.clone(),
-                    });
-                    phi.push(ex);
-                    source.push(eq);
-                }
-            }
-        }
-
-        // Derivatives, row by row so that each equation's growth is bounded.
         let q_syms: Vec<SymId> = coordinates.iter().map(|c| c.sym).collect();
         let pairs: Vec<(SymId, ExprId)> = coordinates
             .iter()
             .map(|c| (c.sym, arena.sym_expr(c.velocity)))
             .collect();
-        let seeds = arena.seeds(&pairs);
-        let columns = Columns::new(&q_syms);
-        let n = phi.len();
-        let mut phi_q = SparseMatrix {
-            rows: n,
-            cols: q_syms.len(),
-            entries: Vec::new(),
-        };
-        let mut phi_qt = phi_q.clone();
-        let (mut phi_t, mut phi_tt) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        let (mut phi_q_qdot, mut phi_q_qdot_q_qdot) =
-            (Vec::with_capacity(n), Vec::with_capacity(n));
-        let (mut phi_qt_qdot, mut nu, mut gamma) = (
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-        );
-        let mut limit_of: Option<(usize, usize)> = None;
-        for (i, &e) in phi.iter().enumerate() {
-            // The budget counts from the first row of the row's equation.
-            let limit = match limit_of {
-                Some((eq, limit)) if eq == source[i] => limit,
-                _ => {
-                    let limit = arena.size().saturating_add(budget);
-                    limit_of = Some((source[i], limit));
-                    limit
-                }
-            };
-            arena.set_budget(Some(limit));
-            let row = |m: SparseMatrix| {
-                m.entries
-                    .into_iter()
-                    .map(move |en| Entry { row: idx(i), ..en })
-            };
-            let jq = arena.jacobian_by(&[e], &columns);
-            phi_q.entries.extend(row(jq));
-            let et = arena.diff(e, time);
-            let ett = arena.diff(et, time);
-            let jqt = arena.jacobian_by(&[et], &columns);
-            phi_qt.entries.extend(row(jqt));
-            let v = arena.directional(e, seeds);
-            let vv = arena.directional(v, seeds);
-            let vt = arena.diff(v, time);
-            if arena.budget_exceeded() || arena.size() > limit {
-                let eq = &model.equations[source[i]];
-                let mut errors = Diagnostics::new();
-                errors.push(Diagnostic::error(
-                    eq.span,
-                    format!(
-                        "the derivatives of `{}` are too large: they would need more than {budget} \
-                         expression entries (the limit per equation)",
-                        eq.name
-                    ),
-                )
-                .with_help(
-                    "write the equation with fewer terms or factors (e.g. split a long product \
-                     with extra coordinates), or derive it with a larger budget",
-                ));
-                return Err(errors);
-            }
-            phi_t.push(et);
-            phi_tt.push(ett);
-            phi_q_qdot.push(v);
-            phi_q_qdot_q_qdot.push(vv);
-            phi_qt_qdot.push(vt);
-            nu.push(arena.neg(et));
-            let a = arena.neg(vv);
-            let b = arena.scale(2.0, vt);
-            let ab = arena.sub(a, b);
-            gamma.push(arena.sub(ab, ett));
-        }
-        arena.set_budget(None);
         let along = crate::outputs::Along {
-            seeds,
-            columns: &columns,
+            seeds: arena.seeds(&pairs),
+            columns: &Columns::new(&q_syms),
             time,
             budget,
         };
+        let d = Derivatives::of(&mut arena, &phi, &source, q_syms.len(), &along)
+            .map_err(|row| too_large(&model.equations[source[row]], budget))?;
         let outputs = crate::outputs::derive_outputs(model, &lo, &mut arena, &along)?;
-        let dynamics = model
-            .dynamics
-            .as_ref()
-            .map(|d| crate::dynamics::derive(&lo, &mut arena, model, d, &rows, &phi_q, seeds));
+        let dynamics = model.dynamics.as_ref().map(|dy| {
+            crate::dynamics::derive(&lo, &mut arena, model, dy, &rows, &d.phi_q, along.seeds)
+        });
 
         Ok(Derivation {
             name: model.name.clone(),
@@ -347,15 +207,15 @@ impl Derivation {
             time,
             rows,
             phi,
-            phi_q,
-            phi_t,
-            phi_qt,
-            phi_tt,
-            phi_q_qdot,
-            phi_q_qdot_q_qdot,
-            phi_qt_qdot,
-            nu,
-            gamma,
+            phi_q: d.phi_q,
+            phi_t: d.phi_t,
+            phi_qt: d.phi_qt,
+            phi_tt: d.phi_tt,
+            phi_q_qdot: d.phi_q_qdot,
+            phi_q_qdot_q_qdot: d.phi_q_qdot_q_qdot,
+            phi_qt_qdot: d.phi_qt_qdot,
+            nu: d.nu,
+            gamma: d.gamma,
             dof: model.dof(),
             outputs,
             dynamics,
@@ -437,6 +297,209 @@ impl Derivation {
         }
         out
     }
+}
+
+/// The coordinates q, in order: x, y, φ of each body, then the
+/// coordinates of their own; each with its velocity symbol q̇ and guess.
+fn coordinates(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Vec<Coordinate> {
+    let mut coordinates = Vec::with_capacity(3 * model.bodies.len());
+    for (k, b) in model.bodies.iter().enumerate() {
+        for (c, comp) in [Comp::X, Comp::Y, Comp::Phi].into_iter().enumerate() {
+            let i = 3 * k + c;
+            let q = lo.coords[k][c];
+            let suffix = ["x", "y", "phi"][c];
+            let qd = arena.velocity(&format!("{}.{suffix}_dot", b.name), idx(i));
+            let guess = lo.scalar(arena, &b.guess[c]);
+            coordinates.push(Coordinate {
+                name: format!("{}.{suffix}", b.name),
+                body: k,
+                comp,
+                sym: sym(arena, q),
+                velocity: sym(arena, qd),
+                guess,
+                guess_value: b.guess_value[c],
+            });
+        }
+    }
+    crate::follower::push_coordinates(arena, lo, model, &mut coordinates);
+    coordinates
+}
+
+/// Φ's rows, lowered: kinematic equations first, then drivers, each in
+/// declaration order.
+struct Phi {
+    rows: Vec<Row>,
+    phi: Vec<ExprId>,
+    /// The equation each row comes from (for budget errors).
+    source: Vec<usize>,
+}
+
+/// Lowers every equation into rows of Φ: `lhs == rhs` is Φ = lhs − rhs
+/// (a vector equation two rows, x then y); a library call its rows
+/// ([`crate::library::rows`]).
+fn phi_rows(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Phi {
+    use crate::lower::Value;
+    let mut out = Phi {
+        rows: Vec::new(),
+        phi: Vec::new(),
+        source: Vec::new(),
+    };
+    for driving in [false, true] {
+        for (eq, e) in model
+            .equations
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_driver() == driving)
+        {
+            let exprs = match &e.form {
+                Form::User { lhs, rhs } => match (lo.lower(arena, lhs), lo.lower(arena, rhs)) {
+                    (Value::V(a), Value::V(b)) => vec![arena.sub(a.x, b.x), arena.sub(a.y, b.y)],
+                    (Value::S(a), Value::S(b)) => vec![arena.sub(a, b)],
+                    // The checker gives both sides the same type.
+                    _ => Vec::new(),
+                },
+                Form::Library(kind, args) => crate::library::rows(lo, arena, *kind, args),
+            };
+            for (name, ex) in e.row_names().into_iter().zip(exprs) {
+                out.rows.push(Row {
+                    name,
+                    kind: if driving {
+                        RowKind::Driving
+                    } else {
+                        RowKind::Kinematic
+                    },
+                    keyword: e.keyword,
+                    library: e.library,
+                    equation: e.name.clone(),
+                    docs: e.docs.clone(),
+                });
+                out.phi.push(ex);
+                out.source.push(eq);
+            }
+        }
+    }
+    out
+}
+
+/// Φ's derivatives, row by row (module docs): Φ_q and Φ_qt sparse, the
+/// others one entry per row.
+struct Derivatives {
+    phi_q: SparseMatrix,
+    phi_qt: SparseMatrix,
+    phi_t: Vec<ExprId>,
+    phi_tt: Vec<ExprId>,
+    phi_q_qdot: Vec<ExprId>,
+    phi_q_qdot_q_qdot: Vec<ExprId>,
+    phi_qt_qdot: Vec<ExprId>,
+    nu: Vec<ExprId>,
+    gamma: Vec<ExprId>,
+}
+
+impl Derivatives {
+    /// Derives every row of `phi` (`cols` coordinates); the rows of one
+    /// equation (`source`)
+    /// share a budget of `along.budget` arena entries, counted from its
+    /// first row. On overflow, the index of the row that overflowed.
+    fn of(
+        arena: &mut Arena,
+        phi: &[ExprId],
+        source: &[usize],
+        cols: usize,
+        along: &crate::outputs::Along<'_>,
+    ) -> Result<Derivatives, usize> {
+        let n = phi.len();
+        let empty = SparseMatrix {
+            rows: n,
+            cols,
+            entries: Vec::new(),
+        };
+        let mut d = Derivatives {
+            phi_q: empty.clone(),
+            phi_qt: empty,
+            phi_t: Vec::with_capacity(n),
+            phi_tt: Vec::with_capacity(n),
+            phi_q_qdot: Vec::with_capacity(n),
+            phi_q_qdot_q_qdot: Vec::with_capacity(n),
+            phi_qt_qdot: Vec::with_capacity(n),
+            nu: Vec::with_capacity(n),
+            gamma: Vec::with_capacity(n),
+        };
+        let mut limit_of: Option<(usize, usize)> = None;
+        for (i, &e) in phi.iter().enumerate() {
+            let limit = match limit_of {
+                Some((eq, limit)) if eq == source[i] => limit,
+                _ => {
+                    let limit = arena.size().saturating_add(along.budget);
+                    limit_of = Some((source[i], limit));
+                    limit
+                }
+            };
+            arena.set_budget(Some(limit));
+            d.push_row(arena, i, e, along);
+            if arena.budget_exceeded() || arena.size() > limit {
+                return Err(i);
+            }
+        }
+        arena.set_budget(None);
+        Ok(d)
+    }
+
+    /// Row `i` with Φ_i = `e`: Φ_q, Φ_t, Φ_tt = ∂Φ_t/∂t, Φ_qt, Φ_q q̇ (the
+    /// directional derivative v along q → q̇), (Φ_q q̇)_q q̇ (that of v),
+    /// Φ_qt q̇ = ∂v/∂t; ν = −Φ_t and γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt.
+    fn push_row(
+        &mut self,
+        arena: &mut Arena,
+        i: usize,
+        e: ExprId,
+        along: &crate::outputs::Along<'_>,
+    ) {
+        let row = |m: SparseMatrix| {
+            m.entries
+                .into_iter()
+                .map(move |en| Entry { row: idx(i), ..en })
+        };
+        let jq = arena.jacobian_by(&[e], along.columns);
+        self.phi_q.entries.extend(row(jq));
+        let et = arena.diff(e, along.time);
+        let ett = arena.diff(et, along.time);
+        let jqt = arena.jacobian_by(&[et], along.columns);
+        self.phi_qt.entries.extend(row(jqt));
+        let v = arena.directional(e, along.seeds);
+        let vv = arena.directional(v, along.seeds);
+        let vt = arena.diff(v, along.time);
+        self.phi_t.push(et);
+        self.phi_tt.push(ett);
+        self.phi_q_qdot.push(v);
+        self.phi_q_qdot_q_qdot.push(vv);
+        self.phi_qt_qdot.push(vt);
+        self.nu.push(arena.neg(et));
+        let a = arena.neg(vv);
+        let b = arena.scale(2.0, vt);
+        let ab = arena.sub(a, b);
+        self.gamma.push(arena.sub(ab, ett));
+    }
+}
+
+/// The error for an equation whose derivatives outgrow `budget`, at its
+/// name.
+fn too_large(eq: &crate::check::Equation, budget: usize) -> Diagnostics {
+    let mut errors = Diagnostics::new();
+    errors.push(
+        Diagnostic::error(
+            eq.span,
+            format!(
+                "the derivatives of `{}` are too large: they would need more than {budget} \
+                 expression entries (the limit per equation)",
+                eq.name
+            ),
+        )
+        .with_help(
+            "write the equation with fewer terms or factors (e.g. split a long product \
+             with extra coordinates), or derive it with a larger budget",
+        ),
+    );
+    errors
 }
 
 fn sym(arena: &Arena, e: ExprId) -> SymId {

@@ -220,7 +220,9 @@ impl<'m> Lowerer<'m> {
     }
 
     /// [`lower_reporting`](Self::lower_reporting) with `arg` standing for
-    /// a curve's parameter.
+    /// a curve's parameter. One forward pass over the nodes (children
+    /// first); a chain of scalar sums (or products) is built by its root
+    /// as one n-ary node ([`Self::sum_chain`], [`Self::product_chain`]).
     fn lower_with(
         &self,
         arena: &mut Arena,
@@ -228,25 +230,11 @@ impl<'m> Lowerer<'m> {
         report: &mut dyn FnMut(u32, Undefined),
         arg: ExprId,
     ) -> Value {
-        let undefined = |arena: &Arena, v: Value| match v {
-            Value::S(e) => arena.is_undefined(e),
-            Value::V(v) => arena.is_undefined(v.x) || arena.is_undefined(v.y),
-        };
         // Operands of the node being lowered (chain operands for chain roots).
         let mut operands: Vec<u32> = Vec::new();
         let mut vals: Vec<Value> = Vec::with_capacity(t.nodes.len());
         let zero = arena.num(0.0);
         let chains = Chains::new(t);
-        let s = |vals: &Vec<Value>, i: u32| match vals.get(i as usize) {
-            Some(Value::S(e)) => *e,
-            Some(Value::V(v)) => v.x,
-            None => zero,
-        };
-        let w = |vals: &Vec<Value>, i: u32| match vals.get(i as usize) {
-            Some(Value::V(v)) => *v,
-            Some(Value::S(e)) => Vec2::new(*e, *e),
-            None => Vec2::new(zero, zero),
-        };
         for (i, n) in t.nodes.iter().enumerate() {
             if chains.inner[i] {
                 // Built by the root of its chain.
@@ -257,149 +245,264 @@ impl<'m> Lowerer<'m> {
             let mut divided_by_zero = false;
             let v = match *n {
                 TNode::Add(..) | TNode::Sub(..) if chains.is_sum(i) => {
-                    let mut terms = Vec::new();
-                    let mut stack = vec![(idx(i), 1.0)];
-                    while let Some((k, sign)) = stack.pop() {
-                        match t.nodes[k as usize] {
-                            TNode::Add(a, b) if k as usize == i || chains.inner[k as usize] => {
-                                stack.push((b, sign));
-                                stack.push((a, sign));
-                            }
-                            TNode::Sub(a, b) if k as usize == i || chains.inner[k as usize] => {
-                                stack.push((b, -sign));
-                                stack.push((a, sign));
-                            }
-                            _ => {
-                                operands.push(k);
-                                terms.push(Term {
-                                    coeff: sign,
-                                    expr: s(&vals, k),
-                                });
-                            }
-                        }
-                    }
-                    Value::S(arena.linear(0.0, &terms))
+                    Self::sum_chain(arena, &chains, &vals, i, &mut operands, zero)
                 }
                 TNode::Mul(..) | TNode::Div(..) if chains.is_product(i) => {
-                    let mut factors = Vec::new();
-                    let mut stack = vec![(idx(i), 1.0)];
-                    while let Some((k, exp)) = stack.pop() {
-                        match t.nodes[k as usize] {
-                            TNode::Mul(a, b) if k as usize == i || chains.inner[k as usize] => {
-                                stack.push((b, exp));
-                                stack.push((a, exp));
-                            }
-                            TNode::Div(a, b) if k as usize == i || chains.inner[k as usize] => {
-                                stack.push((b, -exp));
-                                stack.push((a, exp));
-                            }
-                            _ => {
-                                let base = s(&vals, k);
-                                if exp < 0.0 && base == zero {
-                                    report(k, Undefined::ZeroDivisor);
-                                    divided_by_zero = true;
-                                }
-                                operands.push(k);
-                                factors.push(Factor { base, exp });
-                            }
-                        }
-                    }
-                    Value::S(arena.product_of(1.0, &factors))
+                    let (v, by_zero) =
+                        Self::product_chain(arena, &chains, &vals, i, &mut operands, zero, report);
+                    divided_by_zero = by_zero;
+                    v
                 }
-                TNode::Num(x) => Value::S(arena.num(x)),
-                TNode::Pi => Value::S(arena.num(std::f64::consts::PI)),
-                TNode::Time => Value::S(self.time),
-                TNode::Param(i) => Value::S(self.params.get(i as usize).copied().unwrap_or(zero)),
-                TNode::Coord(k, Comp::Extra) => Value::S(self.extra(arena, k)),
-                TNode::Coord(k, c) => {
-                    let xyz = self.coords[k as usize];
-                    Value::S(match c {
-                        Comp::X => xyz[0],
-                        Comp::Y => xyz[1],
-                        Comp::Phi | Comp::Extra => xyz[2],
-                    })
-                }
-                TNode::Vel(k, c) => Value::S(
-                    self.velocities
-                        .get(k as usize)
-                        .map_or(zero, |v| v[c as usize]),
-                ),
-                TNode::CurveArg => Value::S(arg),
-                TNode::Point(body, local) => {
-                    let l = w(&vals, local);
-                    Value::V(self.global(arena, body, l))
-                }
-                TNode::NamedPoint(p) => {
-                    // A constant has no named point (the checker's rule).
-                    let point = self.model.and_then(|m| m.points.get(p as usize));
-                    let l = self.point_locals.get(p as usize).copied();
-                    match (point, l) {
-                        (Some(point), Some(l)) => Value::V(self.global(arena, point.body, l)),
-                        _ => {
-                            let nan = arena.num(f64::NAN);
-                            Value::V(Vec2::new(nan, nan))
-                        }
-                    }
-                }
-                TNode::Vec(a, b) => Value::V(Vec2::new(s(&vals, a), s(&vals, b))),
-                TNode::X(a) => Value::S(w(&vals, a).x),
-                TNode::Y(a) => Value::S(w(&vals, a).y),
-                TNode::Neg(a) => match vals.get(a as usize) {
-                    Some(Value::V(v)) => Value::V(arena.vneg(*v)),
-                    _ => Value::S(arena.neg(s(&vals, a))),
+                _ => match self.leaf(arena, n, &vals, arg, zero) {
+                    Some(v) => v,
+                    None => operation(arena, n, &vals, zero),
                 },
-                TNode::Add(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
-                    (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vadd(*u, *v)),
-                    _ => Value::S(arena.add(s(&vals, a), s(&vals, b))),
-                },
-                TNode::Sub(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
-                    (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vsub(*u, *v)),
-                    _ => Value::S(arena.sub(s(&vals, a), s(&vals, b))),
-                },
-                TNode::Mul(a, b) => match (vals.get(a as usize), vals.get(b as usize)) {
-                    (Some(Value::V(u)), Some(Value::S(c)))
-                    | (Some(Value::S(c)), Some(Value::V(u))) => Value::V(arena.vscale(*c, *u)),
-                    _ => Value::S(arena.mul(s(&vals, a), s(&vals, b))),
-                },
-                TNode::Div(a, b) => match vals.get(a as usize) {
-                    Some(Value::V(u)) => Value::V(arena.vdiv(*u, s(&vals, b))),
-                    _ => Value::S(arena.div(s(&vals, a), s(&vals, b))),
-                },
-                TNode::F1(f, a) => Value::S(arena.unary(f, s(&vals, a))),
-                TNode::Sqrt(a) => Value::S(arena.sqrt(s(&vals, a))),
-                TNode::Atan2(a, b) => Value::S(arena.atan2(s(&vals, a), s(&vals, b))),
-                TNode::Pow(a, b) => Value::S(arena.pow(s(&vals, a), s(&vals, b))),
-                TNode::Powi(a, k) => Value::S(arena.powi(s(&vals, a), k)),
-                TNode::Step([x, x0, h0, x1, h1]) => Value::S(arena.step(
-                    s(&vals, x),
-                    s(&vals, x0),
-                    s(&vals, h0),
-                    s(&vals, x1),
-                    s(&vals, h1),
-                )),
-                TNode::Dot(a, b) => Value::S(arena.dot(w(&vals, a), w(&vals, b))),
-                TNode::Cross(a, b) => Value::S(arena.cross(w(&vals, a), w(&vals, b))),
-                TNode::Norm(a) => Value::S(arena.norm(w(&vals, a))),
-                TNode::Rot(a, b) => Value::V(arena.rot(s(&vals, a), w(&vals, b))),
-                TNode::Perp(a) => Value::V(arena.perp(w(&vals, a))),
             };
             if undefined(arena, v) && !divided_by_zero {
-                if operands.is_empty() {
-                    children(n, &mut operands);
-                }
-                let inherited = operands
-                    .iter()
-                    .any(|&k| vals.get(k as usize).is_some_and(|&c| undefined(arena, c)));
-                match *n {
-                    _ if inherited => {}
-                    // A vector divided by zero (scalar quotients are chains).
-                    TNode::Div(_, b) if s(&vals, b) == zero => report(b, Undefined::ZeroDivisor),
-                    _ => report(idx(i), Undefined::Value),
-                }
+                report_undefined(arena, n, i, &vals, &mut operands, zero, report);
             }
             vals.push(v);
         }
         vals.last().copied().unwrap_or(Value::S(zero))
+    }
+
+    /// The chain of scalar sums and differences rooted at node `i` as one
+    /// linear combination Σ ±operand (signs pushed through `−`); its
+    /// operands are recorded in `operands`.
+    fn sum_chain(
+        arena: &mut Arena,
+        chains: &Chains<'_>,
+        vals: &[Value],
+        i: usize,
+        operands: &mut Vec<u32>,
+        zero: ExprId,
+    ) -> Value {
+        let nodes = &chains.t.nodes;
+        let mut terms = Vec::new();
+        let mut stack = vec![(idx(i), 1.0)];
+        while let Some((k, sign)) = stack.pop() {
+            let chained = k as usize == i || chains.inner[k as usize];
+            match nodes[k as usize] {
+                TNode::Add(a, b) if chained => {
+                    stack.push((b, sign));
+                    stack.push((a, sign));
+                }
+                TNode::Sub(a, b) if chained => {
+                    stack.push((b, -sign));
+                    stack.push((a, sign));
+                }
+                _ => {
+                    operands.push(k);
+                    terms.push(Term {
+                        coeff: sign,
+                        expr: scalar(vals, k, zero),
+                    });
+                }
+            }
+        }
+        Value::S(arena.linear(0.0, &terms))
+    }
+
+    /// The chain of scalar products and quotients rooted at node `i` as
+    /// one product Π operand^±1 (a divisor gets exponent −1); a divisor
+    /// that is the number 0 is reported. Returns the value and whether
+    /// such a divisor was found.
+    fn product_chain(
+        arena: &mut Arena,
+        chains: &Chains<'_>,
+        vals: &[Value],
+        i: usize,
+        operands: &mut Vec<u32>,
+        zero: ExprId,
+        report: &mut dyn FnMut(u32, Undefined),
+    ) -> (Value, bool) {
+        let nodes = &chains.t.nodes;
+        let mut divided_by_zero = false;
+        let mut factors = Vec::new();
+        let mut stack = vec![(idx(i), 1.0)];
+        while let Some((k, exp)) = stack.pop() {
+            let chained = k as usize == i || chains.inner[k as usize];
+            match nodes[k as usize] {
+                TNode::Mul(a, b) if chained => {
+                    stack.push((b, exp));
+                    stack.push((a, exp));
+                }
+                TNode::Div(a, b) if chained => {
+                    stack.push((b, -exp));
+                    stack.push((a, exp));
+                }
+                _ => {
+                    let base = scalar(vals, k, zero);
+                    if exp < 0.0 && base == zero {
+                        report(k, Undefined::ZeroDivisor);
+                        divided_by_zero = true;
+                    }
+                    operands.push(k);
+                    factors.push(Factor { base, exp });
+                }
+            }
+        }
+        (Value::S(arena.product_of(1.0, &factors)), divided_by_zero)
+    }
+
+    /// A node that names something of the model (a number, π, t, a param,
+    /// a coordinate or velocity, the curve's parameter, a point: r + A s′);
+    /// `None` for an operation.
+    fn leaf(
+        &self,
+        arena: &mut Arena,
+        n: &TNode,
+        vals: &[Value],
+        arg: ExprId,
+        zero: ExprId,
+    ) -> Option<Value> {
+        Some(match *n {
+            TNode::Num(x) => Value::S(arena.num(x)),
+            TNode::Pi => Value::S(arena.num(std::f64::consts::PI)),
+            TNode::Time => Value::S(self.time),
+            TNode::Param(i) => Value::S(self.params.get(i as usize).copied().unwrap_or(zero)),
+            TNode::Coord(k, Comp::Extra) => Value::S(self.extra(arena, k)),
+            TNode::Coord(k, c) => {
+                let xyz = self.coords[k as usize];
+                Value::S(match c {
+                    Comp::X => xyz[0],
+                    Comp::Y => xyz[1],
+                    Comp::Phi | Comp::Extra => xyz[2],
+                })
+            }
+            TNode::Vel(k, c) => Value::S(
+                self.velocities
+                    .get(k as usize)
+                    .map_or(zero, |v| v[c as usize]),
+            ),
+            TNode::CurveArg => Value::S(arg),
+            TNode::Point(body, local) => {
+                let l = vector(vals, local, zero);
+                Value::V(self.global(arena, body, l))
+            }
+            TNode::NamedPoint(p) => {
+                // A constant has no named point (the checker's rule).
+                let point = self.model.and_then(|m| m.points.get(p as usize));
+                let l = self.point_locals.get(p as usize).copied();
+                match (point, l) {
+                    (Some(point), Some(l)) => Value::V(self.global(arena, point.body, l)),
+                    _ => {
+                        let nan = arena.num(f64::NAN);
+                        Value::V(Vec2::new(nan, nan))
+                    }
+                }
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// Whether a lowered value (either component of a vector) is undefined.
+fn undefined(arena: &Arena, v: Value) -> bool {
+    match v {
+        Value::S(e) => arena.is_undefined(e),
+        Value::V(v) => arena.is_undefined(v.x) || arena.is_undefined(v.y),
+    }
+}
+
+/// Operand `i` as a scalar (a vector's x; 0 when missing).
+fn scalar(vals: &[Value], i: u32, zero: ExprId) -> ExprId {
+    match vals.get(i as usize) {
+        Some(Value::S(e)) => *e,
+        Some(Value::V(v)) => v.x,
+        None => zero,
+    }
+}
+
+/// Operand `i` as a vector (a scalar twice; 0 when missing).
+fn vector(vals: &[Value], i: u32, zero: ExprId) -> Vec2 {
+    match vals.get(i as usize) {
+        Some(Value::V(v)) => *v,
+        Some(Value::S(e)) => Vec2::new(*e, *e),
+        None => Vec2::new(zero, zero),
+    }
+}
+
+/// An operation on lowered operands, scalar or vector by their types: the
+/// `Vec2` algebra for vectors (u ± v, c u, u / c, A(θ) v, R v, uᵀv, u × v,
+/// |u|), the arena's constructors for scalars.
+fn operation(arena: &mut Arena, n: &TNode, vals: &[Value], zero: ExprId) -> Value {
+    let s = |i: u32| scalar(vals, i, zero);
+    let w = |i: u32| vector(vals, i, zero);
+    let get = |i: u32| vals.get(i as usize);
+    match *n {
+        TNode::Vec(a, b) => Value::V(Vec2::new(s(a), s(b))),
+        TNode::X(a) => Value::S(w(a).x),
+        TNode::Y(a) => Value::S(w(a).y),
+        TNode::Neg(a) => match get(a) {
+            Some(Value::V(v)) => Value::V(arena.vneg(*v)),
+            _ => Value::S(arena.neg(s(a))),
+        },
+        TNode::Add(a, b) => match (get(a), get(b)) {
+            (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vadd(*u, *v)),
+            _ => Value::S(arena.add(s(a), s(b))),
+        },
+        TNode::Sub(a, b) => match (get(a), get(b)) {
+            (Some(Value::V(u)), Some(Value::V(v))) => Value::V(arena.vsub(*u, *v)),
+            _ => Value::S(arena.sub(s(a), s(b))),
+        },
+        TNode::Mul(a, b) => match (get(a), get(b)) {
+            (Some(Value::V(u)), Some(Value::S(c))) | (Some(Value::S(c)), Some(Value::V(u))) => {
+                Value::V(arena.vscale(*c, *u))
+            }
+            _ => Value::S(arena.mul(s(a), s(b))),
+        },
+        TNode::Div(a, b) => match get(a) {
+            Some(Value::V(u)) => Value::V(arena.vdiv(*u, s(b))),
+            _ => Value::S(arena.div(s(a), s(b))),
+        },
+        TNode::F1(f, a) => Value::S(arena.unary(f, s(a))),
+        TNode::Sqrt(a) => Value::S(arena.sqrt(s(a))),
+        TNode::Atan2(a, b) => Value::S(arena.atan2(s(a), s(b))),
+        TNode::Pow(a, b) => Value::S(arena.pow(s(a), s(b))),
+        TNode::Powi(a, k) => Value::S(arena.powi(s(a), k)),
+        TNode::Step([x, x0, h0, x1, h1]) => Value::S(arena.step(s(x), s(x0), s(h0), s(x1), s(h1))),
+        TNode::Dot(a, b) => Value::S(arena.dot(w(a), w(b))),
+        TNode::Cross(a, b) => Value::S(arena.cross(w(a), w(b))),
+        TNode::Norm(a) => Value::S(arena.norm(w(a))),
+        TNode::Rot(a, b) => Value::V(arena.rot(s(a), w(b))),
+        TNode::Perp(a) => Value::V(arena.perp(w(a))),
+        // Leaves are lowered by `Lowerer::leaf`.
+        TNode::Num(_)
+        | TNode::Pi
+        | TNode::Time
+        | TNode::Param(_)
+        | TNode::Coord(..)
+        | TNode::Vel(..)
+        | TNode::CurveArg
+        | TNode::Point(..)
+        | TNode::NamedPoint(_) => Value::S(zero),
+    }
+}
+
+/// Node `i` lowered to an undefined value: reported where it starts — at
+/// the node itself, or at a vector's divisor that is 0 — unless an operand
+/// already was undefined (reported there).
+fn report_undefined(
+    arena: &Arena,
+    n: &TNode,
+    i: usize,
+    vals: &[Value],
+    operands: &mut Vec<u32>,
+    zero: ExprId,
+    report: &mut dyn FnMut(u32, Undefined),
+) {
+    if operands.is_empty() {
+        children(n, operands);
+    }
+    let inherited = operands
+        .iter()
+        .any(|&k| vals.get(k as usize).is_some_and(|&c| undefined(arena, c)));
+    match *n {
+        _ if inherited => {}
+        // A vector divided by zero (scalar quotients are chains).
+        TNode::Div(_, b) if scalar(vals, b, zero) == zero => report(b, Undefined::ZeroDivisor),
+        _ => report(idx(i), Undefined::Value),
     }
 }
 

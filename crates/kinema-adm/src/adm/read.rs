@@ -301,11 +301,17 @@ impl<'v> Elem<'v> {
     fn nonzero(&self, cx: &mut Cx<'_>, key: &str, v: Option<Vec2>, what: &str) -> Option<Vec2> {
         let v = v?;
         if v[0] == 0.0 && v[1] == 0.0 {
-            let pos = self.obj.get(key).map_or(self.obj.pos, |x| x.pos);
-            cx.err(pos, format!("{}: field \"{key}\": {what}", self.label));
-            return None;
+            return self.refuse(cx, key, what);
         }
         Some(v)
+    }
+
+    /// Reports `{label}: field "key": what` at the field (at the element
+    /// when it has no such key); `None`, for `return`.
+    fn refuse<T>(&self, cx: &mut Cx<'_>, key: &str, what: &str) -> Option<T> {
+        let pos = self.obj.get(key).map_or(self.obj.pos, |x| x.pos);
+        cx.err(pos, format!("{}: field \"{key}\": {what}", self.label));
+        None
     }
 }
 
@@ -566,7 +572,6 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
     let id = read_id(cx, &e, index, false);
     let ty_v = e.string(cx, "type")?;
     let ty = ty_v.as_str().map(|s| s.text.as_str()).unwrap_or_default();
-    let abs_none = "an Absolute* element needs a function of t (write \"0\" for a constant zero)";
     e.needs = match ty {
         "AbsoluteX" | "AbsoluteY" => "AbsoluteX/AbsoluteY need body1, sP1, fun",
         "AbsoluteAngle" => "AbsoluteAngle needs body1, fun",
@@ -576,130 +581,9 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
         _ => "",
     };
     let kind = match ty {
-        "AbsoluteX" | "AbsoluteY" => {
-            let body1 = e.body(cx, "body1", nbodies);
-            let sp1 = e.vec2(cx, "sP1");
-            let fun = e.expr(cx, "fun", abs_none);
-            let (body1, sp1, fun) = (body1?, sp1?, fun?);
-            if ty == "AbsoluteX" {
-                ConstraintKind::AbsoluteX { body1, sp1, fun }
-            } else {
-                ConstraintKind::AbsoluteY { body1, sp1, fun }
-            }
-        }
-        "AbsoluteAngle" => {
-            let body1 = e.body(cx, "body1", nbodies);
-            let fun = e.expr(cx, "fun", abs_none);
-            ConstraintKind::AbsoluteAngle {
-                body1: body1?,
-                fun: fun?,
-            }
-        }
-        "RevoluteJoint" => {
-            let bodies = e.two_bodies(cx, nbodies);
-            let sp1 = e.vec2(cx, "sP1");
-            let sp2 = e.vec2(cx, "sP2");
-            let (body1, body2) = bodies?;
-            ConstraintKind::Revolute {
-                body1,
-                sp1: sp1?,
-                body2,
-                sp2: sp2?,
-                fun: e.ignored_fun(),
-            }
-        }
-        "TranslationalJoint" => {
-            let bodies = e.two_bodies(cx, nbodies);
-            let sp1 = e.vec2(cx, "sP1");
-            let vp1 = e.vec2(cx, "vP1");
-            let vp1 = e.nonzero(cx, "vP1", vp1, "the direction vector must not be zero");
-            let sp2 = e.vec2(cx, "sP2");
-            let vp2 = e.vec2(cx, "vP2");
-            let vp2 = e.nonzero(cx, "vP2", vp2, "the direction vector must not be zero");
-            let (body1, body2) = bodies?;
-            ConstraintKind::Translational {
-                body1,
-                sp1: sp1?,
-                vp1: vp1?,
-                body2,
-                sp2: sp2?,
-                vp2: vp2?,
-                fun: e.ignored_fun(),
-            }
-        }
-        "RackPinion" => {
-            let bodies = e.two_bodies(cx, nbodies);
-            let sp1 = e.vec2(cx, "sP1");
-            let sq1 = e.vec2(cx, "sQ1");
-            let sp2 = e.vec2(cx, "sP2");
-            let r2 = e.num(cx, "R2");
-            let theta1 = e.num(cx, "theta1");
-            let theta2 = e.num(cx, "theta2");
-            let (sp1, sq1) = (sp1?, sq1?);
-            if sp1 == sq1 {
-                let pos = v.get("sQ1").map_or(v.pos, |x| x.pos);
-                cx.err(
-                    pos,
-                    format!(
-                        "{}: field \"sQ1\": sQ1 equals sP1; the two points must span the rack's pitch line",
-                        e.label
-                    ),
-                );
-                return None;
-            }
-            let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
-            if !crate::emit::length(u).is_finite() {
-                let pos = v.get("sQ1").map_or(v.pos, |x| x.pos);
-                cx.err(
-                    pos,
-                    format!(
-                        "{}: field \"sQ1\": the pitch line from sP1 to sQ1 is longer than the largest number (about 1.8e308)",
-                        e.label
-                    ),
-                );
-                return None;
-            }
-            let r2 = r2?;
-            // The rolling row is scaled by L = |sQ1 − sP1|: L·R2 is a
-            // constant of the imported equations, and must be a number.
-            let scale = crate::emit::length(u) * r2;
-            if !scale.is_finite() {
-                let pos = v.get("R2").map_or(v.pos, |x| x.pos);
-                cx.err(
-                    pos,
-                    format!(
-                        "{}: field \"R2\": R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number (about 1.8e308)",
-                        e.label
-                    ),
-                );
-                return None;
-            }
-            // The rolling angle's constant, θ1 − θ2 + 3π/2, must be a number.
-            let (theta1, theta2) = (theta1?, theta2?);
-            if !(theta1 - theta2).is_finite() {
-                let pos = v.get("theta2").map_or(v.pos, |x| x.pos);
-                cx.err(
-                    pos,
-                    format!(
-                        "{}: field \"theta2\": theta1 - theta2 is larger than the largest number (about 1.8e308)",
-                        e.label
-                    ),
-                );
-                return None;
-            }
-            let (body1, body2) = bodies?;
-            ConstraintKind::RackPinion {
-                body1,
-                body2,
-                sp1,
-                sq1,
-                sp2: sp2?,
-                r2,
-                theta1,
-                theta2,
-                fun: e.ignored_fun(),
-            }
-        }
+        "AbsoluteX" | "AbsoluteY" | "AbsoluteAngle" => read_absolute(cx, &e, ty, nbodies),
+        "RevoluteJoint" | "TranslationalJoint" => read_joint(cx, &e, ty, nbodies),
+        "RackPinion" => read_rack_pinion(cx, &e, nbodies),
         other => {
             let hint = CONSTRAINT_TYPES
                 .iter()
@@ -717,15 +601,134 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
                     CONSTRAINT_TYPES.join(", ")
                 ),
             );
-            return None;
+            None
         }
-    };
+    }?;
     Some(Constraint {
         name: name?,
         id: id?,
         pos: v.pos,
         fields: super::Fields::of(v),
         kind,
+    })
+}
+
+/// AbsoluteX, AbsoluteY (body1, sP1, fun) and AbsoluteAngle (body1, fun).
+fn read_absolute(
+    cx: &mut Cx<'_>,
+    e: &Elem<'_>,
+    ty: &str,
+    nbodies: usize,
+) -> Option<ConstraintKind> {
+    let abs_none = "an Absolute* element needs a function of t (write \"0\" for a constant zero)";
+    let body1 = e.body(cx, "body1", nbodies);
+    if ty == "AbsoluteAngle" {
+        let fun = e.expr(cx, "fun", abs_none);
+        return Some(ConstraintKind::AbsoluteAngle {
+            body1: body1?,
+            fun: fun?,
+        });
+    }
+    let sp1 = e.vec2(cx, "sP1");
+    let fun = e.expr(cx, "fun", abs_none);
+    let (body1, sp1, fun) = (body1?, sp1?, fun?);
+    Some(if ty == "AbsoluteX" {
+        ConstraintKind::AbsoluteX { body1, sp1, fun }
+    } else {
+        ConstraintKind::AbsoluteY { body1, sp1, fun }
+    })
+}
+
+/// RevoluteJoint (body1, sP1, body2, sP2) and TranslationalJoint (also
+/// vP1, vP2, nonzero directions); their `fun` is kept as text, ignored.
+fn read_joint(cx: &mut Cx<'_>, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option<ConstraintKind> {
+    let bodies = e.two_bodies(cx, nbodies);
+    let sp1 = e.vec2(cx, "sP1");
+    if ty == "RevoluteJoint" {
+        let sp2 = e.vec2(cx, "sP2");
+        let (body1, body2) = bodies?;
+        return Some(ConstraintKind::Revolute {
+            body1,
+            sp1: sp1?,
+            body2,
+            sp2: sp2?,
+            fun: e.ignored_fun(),
+        });
+    }
+    let zero = "the direction vector must not be zero";
+    let vp1 = e.vec2(cx, "vP1");
+    let vp1 = e.nonzero(cx, "vP1", vp1, zero);
+    let sp2 = e.vec2(cx, "sP2");
+    let vp2 = e.vec2(cx, "vP2");
+    let vp2 = e.nonzero(cx, "vP2", vp2, zero);
+    let (body1, body2) = bodies?;
+    Some(ConstraintKind::Translational {
+        body1,
+        sp1: sp1?,
+        vp1: vp1?,
+        body2,
+        sp2: sp2?,
+        vp2: vp2?,
+        fun: e.ignored_fun(),
+    })
+}
+
+/// RackPinion (body1 the rack, body2 the pinion, sP1, sQ1, sP2, R2,
+/// theta1, theta2). The imported equations' constants must be numbers:
+/// the pitch line u = sQ1 − sP1 nonzero with a finite length L = |u|,
+/// L·R2 (the rolling row's scale) and θ1 − θ2 (its angle's constant)
+/// finite.
+fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<ConstraintKind> {
+    let bodies = e.two_bodies(cx, nbodies);
+    let sp1 = e.vec2(cx, "sP1");
+    let sq1 = e.vec2(cx, "sQ1");
+    let sp2 = e.vec2(cx, "sP2");
+    let r2 = e.num(cx, "R2");
+    let theta1 = e.num(cx, "theta1");
+    let theta2 = e.num(cx, "theta2");
+    let (sp1, sq1) = (sp1?, sq1?);
+    if sp1 == sq1 {
+        return e.refuse(
+            cx,
+            "sQ1",
+            "sQ1 equals sP1; the two points must span the rack's pitch line",
+        );
+    }
+    let u = [sq1[0] - sp1[0], sq1[1] - sp1[1]];
+    if !crate::emit::length(u).is_finite() {
+        return e.refuse(
+            cx,
+            "sQ1",
+            "the pitch line from sP1 to sQ1 is longer than the largest number (about 1.8e308)",
+        );
+    }
+    let r2 = r2?;
+    if !(crate::emit::length(u) * r2).is_finite() {
+        return e.refuse(
+            cx,
+            "R2",
+            "R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number (about 1.8e308)",
+        );
+    }
+    let (theta1, theta2) = (theta1?, theta2?);
+    if !(theta1 - theta2).is_finite() {
+        return e.refuse(
+            cx,
+            "theta2",
+            "theta1 - theta2 is larger than the largest number (about 1.8e308)",
+        );
+    }
+    let (body1, body2) = bodies?;
+    Some(ConstraintKind::RackPinion {
+        body1,
+        body2,
+        sp1,
+        sq1,
+        sp2: sp2?,
+        r2,
+        theta1,
+        theta2,
+        fun: e.ignored_fun(),
     })
 }
 

@@ -38,130 +38,134 @@ impl Tok {
     }
 }
 
+/// The tokens of `text`, each with its character offset; whitespace
+/// separates, `End` closes.
 fn lex(text: &str) -> Result<Vec<(Tok, usize)>, FunError> {
     let chars: Vec<char> = text.chars().collect();
     let mut toks = Vec::new();
     let mut i = 0;
-    let err = |offset: usize, message: String| FunError { offset, message };
     while let Some(&c) = chars.get(i) {
-        let at = |k: usize| chars.get(k).copied();
+        let start = i;
         if c.is_whitespace() {
             i += 1;
             continue;
         }
-        let start = i;
-        if c.is_ascii_digit() || (c == '.' && at(i + 1).is_some_and(|d| d.is_ascii_digit())) {
-            let mut int = String::new();
-            while let Some(d) = at(i).filter(char::is_ascii_digit) {
-                int.push(d);
-                i += 1;
-            }
-            let mut frac = String::new();
-            // `5.*t` is `5 .* t`: a dot followed by an element-wise operator
-            // belongs to the operator.
-            if at(i) == Some('.') && !matches!(at(i + 1), Some('*' | '/' | '^')) {
-                i += 1;
-                while let Some(d) = at(i).filter(char::is_ascii_digit) {
-                    frac.push(d);
-                    i += 1;
-                }
-            }
-            let mut exp = String::new();
-            if matches!(at(i), Some('e' | 'E')) {
-                let mut j = i + 1;
-                if let Some(s @ ('+' | '-')) = at(j) {
-                    exp.push(s);
-                    j += 1;
-                }
-                if !at(j).is_some_and(|d| d.is_ascii_digit()) {
-                    return Err(err(
-                        i,
-                        "malformed number: `e` must be followed by an exponent such as `e-5` \
-                         (`e` is not a constant; write `exp(1)`)"
-                            .into(),
-                    ));
-                }
-                while let Some(d) = at(j).filter(char::is_ascii_digit) {
-                    exp.push(d);
-                    j += 1;
-                }
-                i = j;
-            }
-            let canonical = format!(
-                "{}.{}e{}",
-                if int.is_empty() { "0" } else { &int },
-                if frac.is_empty() { "0" } else { &frac },
-                if exp.is_empty() { "0" } else { &exp }
-            );
-            match canonical.parse::<f64>() {
-                Ok(x) if x.is_finite() => toks.push((Tok::Num(x), start)),
-                _ => {
-                    let written: String = chars.get(start..i).unwrap_or(&[]).iter().collect();
-                    return Err(err(start, format!("number `{written}` is out of range")));
-                }
-            }
-            continue;
+        let next = chars.get(i + 1).copied();
+        let (tok, end) =
+            if c.is_ascii_digit() || (c == '.' && next.is_some_and(|d| d.is_ascii_digit())) {
+                lex_number(&chars, i)?
+            } else if c.is_alphabetic() || c == '_' {
+                let end = (i..chars.len())
+                    .find(|&k| !(chars[k].is_alphanumeric() || chars[k] == '_'))
+                    .unwrap_or(chars.len());
+                (Tok::Ident(chars[i..end].iter().collect()), end)
+            } else {
+                lex_operator(c, next, i)?
+            };
+        toks.push((tok, start));
+        i = end;
+    }
+    toks.push((Tok::End, chars.len()));
+    Ok(toks)
+}
+
+/// The number starting at `chars[start]`, and the offset after it:
+/// `int ( "." frac )? ( [eE] [+-]? exp )?` with either part of the
+/// mantissa possibly empty (`5.`, `.5`), read as `int.frac e exp` — but
+/// `5.*t` is `5 .* t` (a dot before an element-wise operator belongs to
+/// the operator). Out of the `f64` range is an error, and so is an `e`
+/// without an exponent.
+fn lex_number(chars: &[char], start: usize) -> Result<(Tok, usize), FunError> {
+    let at = |k: usize| chars.get(k).copied();
+    let digits = |from: usize| {
+        (from..chars.len())
+            .find(|&k| !chars[k].is_ascii_digit())
+            .unwrap_or(chars.len())
+    };
+    let text = |a: usize, b: usize| -> String { chars.get(a..b).unwrap_or(&[]).iter().collect() };
+    let mut i = digits(start);
+    let int = text(start, i);
+    let mut frac = String::new();
+    if at(i) == Some('.') && !matches!(at(i + 1), Some('*' | '/' | '^')) {
+        let end = digits(i + 1);
+        frac = text(i + 1, end);
+        i = end;
+    }
+    let mut exp = String::new();
+    if matches!(at(i), Some('e' | 'E')) {
+        let mut j = i + 1;
+        if let Some(s @ ('+' | '-')) = at(j) {
+            exp.push(s);
+            j += 1;
         }
-        if c.is_alphabetic() || c == '_' {
-            let mut name = String::new();
-            while let Some(d) = at(i).filter(|d| d.is_alphanumeric() || *d == '_') {
-                name.push(d);
-                i += 1;
-            }
-            toks.push((Tok::Ident(name), start));
-            continue;
+        if !at(j).is_some_and(|d| d.is_ascii_digit()) {
+            return Err(FunError {
+                offset: i,
+                message: "malformed number: `e` must be followed by an exponent such as `e-5` \
+                          (`e` is not a constant; write `exp(1)`)"
+                    .into(),
+            });
         }
-        let tok = match c {
-            '+' => Tok::Plus,
-            '-' => Tok::Minus,
-            '*' => Tok::Star,
-            '/' => Tok::Slash,
-            '^' => Tok::Caret,
-            '(' => Tok::LParen,
-            ')' => Tok::RParen,
-            ',' => Tok::Comma,
-            '.' => match at(i + 1) {
-                Some('*') => {
-                    i += 1;
-                    Tok::Star
-                }
-                Some('/') => {
-                    i += 1;
-                    Tok::Slash
-                }
-                Some('^') => {
-                    i += 1;
-                    Tok::Caret
-                }
+        let end = digits(j);
+        exp.push_str(&text(j, end));
+        i = end;
+    }
+    let or_zero = |s: &str| {
+        if s.is_empty() {
+            "0".to_string()
+        } else {
+            s.to_string()
+        }
+    };
+    let canonical = format!("{}.{}e{}", or_zero(&int), or_zero(&frac), or_zero(&exp));
+    match canonical.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok((Tok::Num(x), i)),
+        _ => Err(FunError {
+            offset: start,
+            message: format!("number `{}` is out of range", text(start, i)),
+        }),
+    }
+}
+
+/// The operator or bracket `c` at offset `i` (`next` after it), and the
+/// offset after it: `+ - * / ^ ( ) ,` and MATLAB's element-wise `.*`,
+/// `./`, `.^` (the same on scalars). Left division and the transpose are
+/// refused by name.
+fn lex_operator(c: char, next: Option<char>, i: usize) -> Result<(Tok, usize), FunError> {
+    let err = |message: String| FunError { offset: i, message };
+    let tok = match c {
+        '+' => Tok::Plus,
+        '-' => Tok::Minus,
+        '*' => Tok::Star,
+        '/' => Tok::Slash,
+        '^' => Tok::Caret,
+        '(' => Tok::LParen,
+        ')' => Tok::RParen,
+        ',' => Tok::Comma,
+        '.' => {
+            let tok = match next {
+                Some('*') => Tok::Star,
+                Some('/') => Tok::Slash,
+                Some('^') => Tok::Caret,
                 _ => {
                     return Err(err(
-                        i,
                         "unexpected `.`: expected a number such as `.5` or an operator `.*`, `./`, `.^`"
                             .into(),
                     ));
                 }
-            },
-            '\\' => {
-                return Err(err(
-                    i,
-                    "left division `\\` is not supported; write `/`".into(),
-                ));
-            }
-            '\'' => {
-                return Err(err(i, "the transpose `'` is not supported in a fun".into()));
-            }
-            other => {
-                return Err(err(
-                    i,
-                    format!("unexpected character `{}`", other.escape_debug()),
-                ));
-            }
-        };
-        i += 1;
-        toks.push((tok, start));
-    }
-    toks.push((Tok::End, chars.len()));
-    Ok(toks)
+            };
+            return Ok((tok, i + 2));
+        }
+        '\\' => return Err(err("left division `\\` is not supported; write `/`".into())),
+        '\'' => return Err(err("the transpose `'` is not supported in a fun".into())),
+        other => {
+            return Err(err(format!(
+                "unexpected character `{}`",
+                other.escape_debug()
+            )));
+        }
+    };
+    Ok((tok, i + 1))
 }
 
 // ---------------------------------------------------------------- parser
