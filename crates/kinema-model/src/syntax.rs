@@ -53,76 +53,18 @@ pub(crate) mod kw {
 }
 
 mod dynamics;
+mod items;
 mod lexing;
+mod name;
 pub use dynamics::{ForceDecl, GravityDecl};
+use items::parse_item;
 use lexing::{lex_error, nesting_error};
+pub use name::Name;
 
 /// Deepest nesting of parentheses, calls and groups accepted in one
 /// expression. Deeper input is rejected with an error instead of risking the
 /// stack.
 pub const MAX_NESTING: usize = 128;
-
-/// A name as written (a param, body, point, equation, function, field…):
-/// its text, a raw identifier's `r#` removed, and where it is.
-///
-/// Parsed names carry their token's span; a tree built by another front
-/// end (the simEngine2D importer) gives each name the place in its own
-/// file that the name comes from ([`Span::at`]), so that every message
-/// points there.
-#[derive(Clone, Debug)]
-pub struct Name {
-    text: String,
-    span: Span,
-}
-
-impl Name {
-    /// The name `text` at `span`.
-    #[must_use]
-    pub fn new(text: impl Into<String>, span: Span) -> Name {
-        Name {
-            text: text.into(),
-            span,
-        }
-    }
-
-    /// The name's text.
-    #[must_use]
-    pub fn as_str(&self) -> &str {
-        &self.text
-    }
-
-    /// Where the name is written.
-    #[must_use]
-    pub fn span(&self) -> Span {
-        self.span
-    }
-}
-
-impl From<Ident> for Name {
-    /// A parsed identifier, `r#` removed.
-    fn from(ident: Ident) -> Name {
-        let ident = ident.unraw();
-        Name::new(ident.to_string(), Span::new(ident.span()))
-    }
-}
-
-impl std::fmt::Display for Name {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.text)
-    }
-}
-
-impl PartialEq<str> for Name {
-    fn eq(&self, other: &str) -> bool {
-        self.text == other
-    }
-}
-
-impl PartialEq<&str> for Name {
-    fn eq(&self, other: &&str) -> bool {
-        self.text == *other
-    }
-}
 
 /// A mechanism as written: the root of the syntax tree.
 #[derive(Clone, Debug)]
@@ -793,135 +735,6 @@ fn split_items(body: TokenStream) -> Vec<TokenStream> {
         items.push(current.into_iter().collect());
     }
     items
-}
-
-fn parse_item(input: ParseStream<'_>) -> syn::Result<Item> {
-    let item = parse_item_inner(input)?;
-    if !input.peek(Token![$]) {
-        // error: expected the end of the item, found `x`
-        return Err(expected(input, "the end of the item"));
-    }
-    input.parse::<Token![$]>()?;
-    Ok(item)
-}
-
-fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
-    let docs = parse_docs(input)?;
-    let lookahead = input.lookahead1();
-    if lookahead.peek(kw::param) {
-        let keyword = Span::new(input.parse::<kw::param>()?.span);
-        let name = name(input, "the param's name after `param`")?;
-        let value = if input.peek(Token![=]) {
-            input.parse::<Token![=]>()?;
-            Some(input.parse::<Expr>()?)
-        } else {
-            None
-        };
-        expect::<Token![;]>(input, "`;` at the end of the param")?;
-        Ok(Item::Param(ParamDecl {
-            docs,
-            keyword,
-            name,
-            value,
-        }))
-    } else if lookahead.peek(kw::body) {
-        input.parse::<kw::body>()?;
-        let name = name(input, "the body's name after `body`")?;
-        let lookahead = input.lookahead1();
-        let fields = if lookahead.peek(Token![;]) {
-            input.parse::<Token![;]>()?;
-            dynamics::BodyFields::default()
-        } else if lookahead.peek(syn::token::Brace) {
-            let content;
-            braced!(content in input);
-            dynamics::parse_body_fields(&content)?
-        } else {
-            // error: expected `;` or `{ guess: (x, y, phi) }` after the body's name, found `(`
-            return Err(expected(
-                input,
-                "`;` or `{ guess: (x, y, phi) }` after the body's name",
-            ));
-        };
-        Ok(Item::Body(BodyDecl {
-            docs,
-            name,
-            guess: fields.guess,
-            mass: fields.mass,
-            inertia: fields.inertia,
-        }))
-    } else if lookahead.peek(kw::point) {
-        input.parse::<kw::point>()?;
-        // point body.name = (sx, sy);
-        let body = name(input, "a body's name after `point`")?;
-        expect::<Token![.]>(input, "`.`: a point is `point body.name = (sx, sy);`")?;
-        let name = name(input, "the point's name after `.`")?;
-        expect::<Token![=]>(input, "`=`: a point is `point body.name = (sx, sy);`")?;
-        let value: Expr = input.parse()?;
-        expect::<Token![;]>(input, "`;` at the end of the point")?;
-        Ok(Item::Point(PointDecl {
-            docs,
-            body,
-            name,
-            value,
-        }))
-    } else if lookahead.peek(kw::joint)
-        || lookahead.peek(kw::constraint)
-        || lookahead.peek(kw::driver)
-    {
-        let (keyword, keyword_span) = if input.peek(kw::joint) {
-            (EquationKeyword::Joint, input.parse::<kw::joint>()?.span)
-        } else if input.peek(kw::constraint) {
-            (
-                EquationKeyword::Constraint,
-                input.parse::<kw::constraint>()?.span,
-            )
-        } else {
-            (EquationKeyword::Driver, input.parse::<kw::driver>()?.span)
-        };
-        let name = name(input, "the equation's name")?;
-        expect::<Token![:]>(input, "`:` after the equation's name")?;
-        let lhs: Expr = input.parse()?;
-        let rhs = if input.peek(Token![==]) {
-            input.parse::<Token![==]>()?;
-            Some(input.parse::<Expr>()?)
-        } else {
-            None
-        };
-        if !input.peek(Token![;]) {
-            // error: expected `==` or `;`
-            return Err(expected(
-                input,
-                if rhs.is_none() {
-                    "an operator, `==` or `;`"
-                } else {
-                    "an operator or `;`"
-                },
-            ));
-        }
-        input.parse::<Token![;]>()?;
-        Ok(Item::Equation(EquationDecl {
-            docs,
-            keyword,
-            keyword_span: Span::new(keyword_span),
-            name,
-            lhs,
-            rhs,
-        }))
-    } else if lookahead.peek(kw::output) {
-        crate::outputs::parse_output(input, docs).map(Item::Output)
-    } else if lookahead.peek(kw::gravity) {
-        dynamics::parse_gravity(input).map(Item::Gravity)
-    } else if lookahead.peek(kw::force) {
-        dynamics::parse_force(input, docs).map(Item::Force)
-    } else if lookahead.peek(kw::coord) || lookahead.peek(kw::curve) {
-        crate::follower::parse_item(input, docs)
-    } else {
-        // error: expected an item (`param`, `body`, `point`, `coord`, `curve`, `joint`, `constraint`, `driver` or `output`), found `bdy`
-        Err(expected(
-            input,
-            "an item (`param`, `body`, `point`, `coord`, `curve`, `joint`, `constraint`, `driver` or `output`)",
-        ))
-    }
 }
 
 /// Tokenizes `source` (text of a `.kin` file) and parses it. Lexer and parser
