@@ -18,7 +18,7 @@ use kinema_model::{Diagnostics, ParsedModel, Span};
 use proc_macro2::LineColumn;
 
 use crate::adm::{Body, Constraint, ConstraintKind, Fields, Force, ForceKind, Model, Vec2};
-use crate::emit::{Names, RackPinion, SumTerm, comment_text, normalised};
+use crate::emit::{Names, RackPinion, SumTerm, body_name, comment_text, normalised};
 use crate::error::Pos;
 use crate::fun::{self, BinOp as FunOp, Func, Func2, Node};
 
@@ -259,10 +259,6 @@ impl Tree {
     }
 }
 
-fn body_name(bodies: &[String], i: usize) -> &str {
-    bodies.get(i).map_or("ground", String::as_str)
-}
-
 /// Where `key` of `fields` is, or else where the element starts.
 fn field_span(fields: &Fields, key: &str, element: Pos) -> Span {
     span(fields.get(key).unwrap_or(element))
@@ -324,20 +320,50 @@ fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec
         let fallback = ["c", "c_2"][k.min(1)];
         Name::new(idents.get(k).map_or(fallback, String::as_str), at("name"))
     };
-    let equation = |keyword, docs, name, (lhs, rhs): (Expr, Option<Expr>)| EquationDecl {
-        docs,
+    let equation = |keyword, doc_text, name, (lhs, rhs): (Expr, Option<Expr>)| EquationDecl {
+        docs: doc(doc_text),
         keyword,
         keyword_span: span(c.pos),
         name,
         lhs,
         rhs,
     };
-    let ignored = |fun: &Option<String>| crate::emit::ignored_fun(fun.as_deref());
+    if let Some(rp) = RackPinion::of(&c.kind, bodies) {
+        let [first, second] = rack_pinion_rows(&rp, &at);
+        let ignored = crate::emit::ignored_fun(rp.fun.as_deref());
+        let doc1 = format!("{head} {}{ignored}", rp.first_doc());
+        let doc2 = rp.second_doc(c.id, &comment_text(&c.name));
+        return vec![
+            equation(EquationKeyword::Constraint, doc1, name(0), first),
+            equation(EquationKeyword::Constraint, doc2, name(1), second),
+        ];
+    }
     let mut t = Tree::new();
-    let point = |t: &mut Tree, body: usize, s: Vec2, bkey: &str, skey: &str| {
+    let (keyword, doc_text, root) = one_row(&mut t, c, bodies, &head, &at);
+    vec![equation(keyword, doc_text, name(0), (t.finish(root), None))]
+}
+
+/// The one equation of an element other than a RackPinion: its keyword,
+/// doc comment and call (see [`crate::emit`]'s table).
+fn one_row(
+    t: &mut Tree,
+    c: &Constraint,
+    bodies: &[String],
+    head: &str,
+    at: &dyn Fn(&str) -> Span,
+) -> (EquationKeyword, String, u32) {
+    let ignored = |fun: &Option<String>| crate::emit::ignored_fun(fun.as_deref());
+    let point = |t: &mut Tree, body: usize, s: Vec2, n: usize| {
+        let (bkey, skey) = [("body1", "sP1"), ("body2", "sP2")][n];
         t.point(bodies, body, s, (at(bkey), at(skey)))
     };
-    let mut out = Vec::new();
+    // `f(subject, fun)`: a driver when the fun mentions t.
+    let absolute = |t: &mut Tree, f: &str, subject: u32, fun: &fun::Expr| {
+        let f_t = t.fun(fun, &c.fields, "fun");
+        let root = t.call(f, at("type"), vec![subject, f_t]);
+        let doc_text = format!("{head}, fun \"{}\"", comment_text(fun.text()));
+        (keyword(fun), doc_text, root)
+    };
     match &c.kind {
         ConstraintKind::AbsoluteX { body1, sp1, fun }
         | ConstraintKind::AbsoluteY { body1, sp1, fun } => {
@@ -346,28 +372,12 @@ fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec
             } else {
                 "abs_y"
             };
-            let p = point(&mut t, *body1, *sp1, "body1", "sP1");
-            let f_t = t.fun(fun, &c.fields, "fun");
-            let root = t.call(f, at("type"), vec![p, f_t]);
-            let docs = doc(format!("{head}, fun \"{}\"", comment_text(fun.text())));
-            out.push(equation(
-                keyword(fun),
-                docs,
-                name(0),
-                (t.finish(root), None),
-            ));
+            let p = point(t, *body1, *sp1, 0);
+            absolute(t, f, p, fun)
         }
         ConstraintKind::AbsoluteAngle { body1, fun } => {
             let b = t.ident(body_name(bodies, *body1), at("body1"));
-            let f_t = t.fun(fun, &c.fields, "fun");
-            let root = t.call("abs_angle", at("type"), vec![b, f_t]);
-            let docs = doc(format!("{head}, fun \"{}\"", comment_text(fun.text())));
-            out.push(equation(
-                keyword(fun),
-                docs,
-                name(0),
-                (t.finish(root), None),
-            ));
+            absolute(t, "abs_angle", b, fun)
         }
         ConstraintKind::Revolute {
             body1,
@@ -376,12 +386,14 @@ fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec
             sp2,
             fun,
         } => {
-            let p1 = point(&mut t, *body1, *sp1, "body1", "sP1");
-            let p2 = point(&mut t, *body2, *sp2, "body2", "sP2");
+            let p1 = point(t, *body1, *sp1, 0);
+            let p2 = point(t, *body2, *sp2, 1);
             let root = t.call("revolute", at("type"), vec![p1, p2]);
-            let docs = doc(format!("{head}{}", ignored(fun)));
-            let eq = (t.finish(root), None);
-            out.push(equation(EquationKeyword::Joint, docs, name(0), eq));
+            (
+                EquationKeyword::Joint,
+                format!("{head}{}", ignored(fun)),
+                root,
+            )
         }
         ConstraintKind::Translational {
             body1,
@@ -392,32 +404,22 @@ fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec
             vp2,
             fun,
         } => {
-            let p1 = point(&mut t, *body1, *sp1, "body1", "sP1");
+            let p1 = point(t, *body1, *sp1, 0);
             let v1 = t.pair(normalised(*vp1).unwrap_or(*vp1), at("vP1"));
-            let p2 = point(&mut t, *body2, *sp2, "body2", "sP2");
+            let p2 = point(t, *body2, *sp2, 1);
             let v2 = t.pair(normalised(*vp2).unwrap_or(*vp2), at("vP2"));
             let root = t.call("translational", at("type"), vec![p1, v1, p2, v2]);
-            let docs = doc(format!(
+            let doc_text = format!(
                 "{head}, directions vP1 = {} and vP2 = {} normalised{}",
                 crate::emit::pair(*vp1),
                 crate::emit::pair(*vp2),
                 ignored(fun)
-            ));
-            let eq = (t.finish(root), None);
-            out.push(equation(EquationKeyword::Joint, docs, name(0), eq));
+            );
+            (EquationKeyword::Joint, doc_text, root)
         }
-        ConstraintKind::RackPinion { .. } => {
-            let Some(rp) = RackPinion::of(&c.kind, bodies) else {
-                return out;
-            };
-            let [first, second] = rack_pinion_rows(&rp, &at);
-            let doc1 = doc(format!("{head} {}{}", rp.first_doc(), ignored(rp.fun)));
-            let doc2 = doc(rp.second_doc(c.id, &comment_text(&c.name)));
-            out.push(equation(EquationKeyword::Constraint, doc1, name(0), first));
-            out.push(equation(EquationKeyword::Constraint, doc2, name(1), second));
-        }
+        // Handled by `constraint_decls` (two rows).
+        ConstraintKind::RackPinion { .. } => (EquationKeyword::Constraint, head.to_string(), 0),
     }
-    out
 }
 
 /// `driver` when the `fun` mentions `t`, otherwise `constraint`.

@@ -87,7 +87,7 @@ pub(crate) fn emit(out: &mut String, model: &Model, bodies: &[String]) {
     if !has_dynamics(model) {
         return;
     }
-    let body = |i: usize| bodies.get(i).map_or("ground", String::as_str);
+    let body = |i: usize| crate::emit::body_name(bodies, i);
     let n = format_number;
     let _ = writeln!(
         out,

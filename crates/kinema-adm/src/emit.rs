@@ -320,7 +320,7 @@ impl<'a> RackPinion<'a> {
 
     /// What the first row's doc comment says after the element's head.
     pub(crate) fn first_doc(&self) -> String {
-        let name = |i: usize| self.bodies.get(i).map_or("ground", String::as_str);
+        let name = |i: usize| body_name(self.bodies, i);
         format!(
             "(body1 {} is the rack, body2 {} the pinion), row 1 of 2: rolling, scaled by L = |sQ1 - sP1|",
             name(self.rack),
@@ -343,10 +343,7 @@ fn sum(terms: &[SumTerm], bodies: &[String]) -> String {
     for term in terms {
         let (negative, text) = match *term {
             SumTerm::Num(x, _) => (x < 0.0, format_number(x.abs())),
-            SumTerm::Phi(neg, b, _) => (
-                neg,
-                format!("{}.phi", bodies.get(b).map_or("ground", String::as_str)),
-            ),
+            SumTerm::Phi(neg, b, _) => (neg, format!("{}.phi", body_name(bodies, b))),
             SumTerm::ThreePiOverTwo => (false, "3 * pi / 2".to_string()),
         };
         match (out.is_empty(), negative) {
@@ -470,16 +467,24 @@ fn emit_vis_points(out: &mut String, body: &crate::adm::Body, ident: &str) {
     }
 }
 
+/// The identifier of body `i`; `ground` for an index out of range.
+pub(crate) fn body_name(bodies: &[String], i: usize) -> &str {
+    bodies.get(i).map_or("ground", String::as_str)
+}
+
+/// `B(sx, sy)`: the point `s` of body `i` (see [`body_name`]).
+fn point_text(bodies: &[String], i: usize, s: Vec2) -> String {
+    format!(
+        "{}({}, {})",
+        body_name(bodies, i),
+        format_number(s[0]),
+        format_number(s[1])
+    )
+}
+
 fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: &[String]) {
-    let body = |i: usize| bodies.get(i).map_or("ground", String::as_str);
-    let point = |i: usize, s: Vec2| {
-        format!(
-            "{}({}, {})",
-            body(i),
-            format_number(s[0]),
-            format_number(s[1])
-        )
-    };
+    let body = |i: usize| body_name(bodies, i);
+    let point = |i: usize, s: Vec2| point_text(bodies, i, s);
     let name = idents.first().map_or("c", String::as_str);
     let head = format!(
         "    /// constraint {} \"{}\": {}",
@@ -580,15 +585,8 @@ fn emit_rack_pinion(
     idents: &[String],
     c: &Constraint,
 ) {
-    let body = |i: usize| rp.bodies.get(i).map_or("ground", String::as_str);
-    let point = |i: usize, s: Vec2| {
-        format!(
-            "{}({}, {})",
-            body(i),
-            format_number(s[0]),
-            format_number(s[1])
-        )
-    };
+    let body = |i: usize| body_name(rp.bodies, i);
+    let point = |i: usize, s: Vec2| point_text(rp.bodies, i, s);
     let name = idents.first().map_or("c", String::as_str);
     let second = idents.get(1).map_or("c_2", String::as_str);
     let a = format!("rot({}.phi, {})", body(rp.rack), pair(rp.u));

@@ -7,8 +7,6 @@
 
 mod common;
 
-use std::path::PathBuf;
-
 use kinema_adm::{Model, build, to_kin};
 use kinema_model::{Derivation, ParsedModel};
 
@@ -50,24 +48,9 @@ fn built_and_printed_models_derive_the_same() {
 /// Every `.adm` of ../shared/simengine2d, kinematic and dynamic.
 #[test]
 fn real_files_build_as_they_print() {
-    // ../shared beside the repository (or beside a worktree's parent).
-    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let found = manifest
-        .ancestors()
-        .map(|a| a.join("shared/simengine2d"))
-        .find(|d| d.is_dir());
-    let Some(entries) = found.and_then(|d| std::fs::read_dir(d).ok()) else {
-        println!(
-            "NOTICE: no shared/simengine2d above {}; skipping",
-            manifest.display()
-        );
+    let Some(paths) = common::shared_models() else {
         return;
     };
-    let mut paths: Vec<PathBuf> = entries
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "adm"))
-        .collect();
-    paths.sort();
     let mut dynamic = 0;
     for path in &paths {
         let m = Model::read(path).unwrap();

@@ -14,3 +14,32 @@ pub fn data(name: &str) -> PathBuf {
 pub fn read(name: &str) -> String {
     std::fs::read_to_string(data(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
+
+/// The `.adm` files of `shared/simengine2d` (beside the repository, or
+/// above a worktree of it), sorted; `None`, with a notice, where there is
+/// no such folder.
+#[allow(dead_code, reason = "not every test reads the shared models")]
+pub fn shared_models() -> Option<Vec<PathBuf>> {
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let Some(dir) = manifest
+        .ancestors()
+        .map(|a| a.join("shared/simengine2d"))
+        .find(|d| d.is_dir())
+    else {
+        println!(
+            "NOTICE: no shared/simengine2d above {}; skipping",
+            manifest.display()
+        );
+        return None;
+    };
+    let entries = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    let mut paths: Vec<PathBuf> = entries
+        .map(|e| {
+            e.unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+                .path()
+        })
+        .filter(|p| p.extension().is_some_and(|e| e == "adm"))
+        .collect();
+    paths.sort();
+    Some(paths)
+}

@@ -7,8 +7,6 @@
 
 mod common;
 
-use std::path::PathBuf;
-
 use kinema_adm::{ConstraintKind, Counts, Model, Names, to_kin};
 
 /// Φ(q, t) of SIMENGINE2D.md, computed from the ADM model.
@@ -171,16 +169,9 @@ fn own_files_round_trip_through_kinema_model() {
 
 #[test]
 fn real_files_round_trip_through_kinema_model() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/simengine2d");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!("NOTICE: {} is absent; skipping", dir.display());
+    let Some(paths) = common::shared_models() else {
         return;
     };
-    let mut paths: Vec<PathBuf> = entries
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "adm"))
-        .collect();
-    paths.sort();
     for path in paths {
         let m = Model::read(&path).unwrap();
         check(&path.display().to_string(), &m);

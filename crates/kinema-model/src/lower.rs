@@ -277,28 +277,18 @@ impl<'m> Lowerer<'m> {
         operands: &mut Vec<u32>,
         zero: ExprId,
     ) -> Value {
-        let nodes = &chains.t.nodes;
-        let mut terms = Vec::new();
-        let mut stack = vec![(idx(i), 1.0)];
-        while let Some((k, sign)) = stack.pop() {
-            let chained = k as usize == i || chains.inner[k as usize];
-            match nodes[k as usize] {
-                TNode::Add(a, b) if chained => {
-                    stack.push((b, sign));
-                    stack.push((a, sign));
-                }
-                TNode::Sub(a, b) if chained => {
-                    stack.push((b, -sign));
-                    stack.push((a, sign));
-                }
-                _ => {
-                    operands.push(k);
-                    terms.push(Term {
-                        coeff: sign,
-                        expr: scalar(vals, k, zero),
-                    });
-                }
-            }
+        let links = chains.operands(i, |n| match *n {
+            TNode::Add(a, b) => Some((a, b, false)),
+            TNode::Sub(a, b) => Some((a, b, true)),
+            _ => None,
+        });
+        let mut terms = Vec::with_capacity(links.len());
+        for (k, sign) in links {
+            operands.push(k);
+            terms.push(Term {
+                coeff: sign,
+                expr: scalar(vals, k, zero),
+            });
         }
         Value::S(arena.linear(0.0, &terms))
     }
@@ -316,31 +306,21 @@ impl<'m> Lowerer<'m> {
         zero: ExprId,
         report: &mut dyn FnMut(u32, Undefined),
     ) -> (Value, bool) {
-        let nodes = &chains.t.nodes;
+        let links = chains.operands(i, |n| match *n {
+            TNode::Mul(a, b) => Some((a, b, false)),
+            TNode::Div(a, b) => Some((a, b, true)),
+            _ => None,
+        });
         let mut divided_by_zero = false;
-        let mut factors = Vec::new();
-        let mut stack = vec![(idx(i), 1.0)];
-        while let Some((k, exp)) = stack.pop() {
-            let chained = k as usize == i || chains.inner[k as usize];
-            match nodes[k as usize] {
-                TNode::Mul(a, b) if chained => {
-                    stack.push((b, exp));
-                    stack.push((a, exp));
-                }
-                TNode::Div(a, b) if chained => {
-                    stack.push((b, -exp));
-                    stack.push((a, exp));
-                }
-                _ => {
-                    let base = scalar(vals, k, zero);
-                    if exp < 0.0 && base == zero {
-                        report(k, Undefined::ZeroDivisor);
-                        divided_by_zero = true;
-                    }
-                    operands.push(k);
-                    factors.push(Factor { base, exp });
-                }
+        let mut factors = Vec::with_capacity(links.len());
+        for (k, exp) in links {
+            let base = scalar(vals, k, zero);
+            if exp < 0.0 && base == zero {
+                report(k, Undefined::ZeroDivisor);
+                divided_by_zero = true;
             }
+            operands.push(k);
+            factors.push(Factor { base, exp });
         }
         (Value::S(arena.product_of(1.0, &factors)), divided_by_zero)
     }
@@ -545,6 +525,32 @@ fn children(n: &TNode, out: &mut Vec<u32>) {
 struct Chains<'t> {
     t: &'t TExpr,
     inner: Vec<bool>,
+}
+
+impl Chains<'_> {
+    /// The operands of the chain rooted at node `i`, left to right, each
+    /// with its sign: `link` splits a chained node into (left, right,
+    /// whether the right operand is inverted — `−` for a sum, a divisor's
+    /// exponent −1 for a product); signs multiply down the chain.
+    fn operands(
+        &self,
+        i: usize,
+        link: impl Fn(&TNode) -> Option<(u32, u32, bool)>,
+    ) -> Vec<(u32, f64)> {
+        let mut out = Vec::new();
+        let mut stack = vec![(idx(i), 1.0)];
+        while let Some((k, sign)) = stack.pop() {
+            let chained = k as usize == i || self.inner[k as usize];
+            match self.t.nodes.get(k as usize).and_then(&link) {
+                Some((a, b, inverted)) if chained => {
+                    stack.push((b, if inverted { -sign } else { sign }));
+                    stack.push((a, sign));
+                }
+                _ => out.push((k, sign)),
+            }
+        }
+        out
+    }
 }
 
 impl<'t> Chains<'t> {
