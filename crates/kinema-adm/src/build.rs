@@ -198,14 +198,21 @@ impl Tree {
                 }
             }
         }
+        // Each node at its character, found in one pass over the string.
+        let exact = fields.char_positions(key, e.text());
+        let whole = fields.get(key).unwrap_or_else(Pos::start);
         let mut ids = vec![0u32; nodes.len()];
         for (i, node) in nodes.iter().enumerate() {
             if !shown[i] {
                 continue;
             }
-            let at = fields
-                .in_string(key, e.text(), e.offset_of(i))
-                .map_or_else(|| span(Pos::start()), span);
+            let offset = e.offset_of(i);
+            let at = span(
+                exact
+                    .as_ref()
+                    .and_then(|v| v.get(offset).copied())
+                    .unwrap_or(whole),
+            );
             let id = |k: u32| ids[k as usize];
             ids[i] = match *node {
                 Node::Num(x) => self.num(x, at),
@@ -237,7 +244,8 @@ impl Tree {
                 Node::Call2(Func2::Atan2, a, b) => self.call("atan2", at, vec![id(a), id(b)]),
             };
         }
-        ids.last().copied().unwrap_or(0)
+        *ids.last()
+            .expect("a parsed `fun` has at least one node: its root")
     }
 
     /// A sum of signed terms as [`crate::emit`] prints it: `a - 1.5 - b`
@@ -417,8 +425,12 @@ fn one_row(
             );
             (EquationKeyword::Joint, doc_text, root)
         }
-        // Handled by `constraint_decls` (two rows).
-        ConstraintKind::RackPinion { .. } => (EquationKeyword::Constraint, head.to_string(), 0),
+        // Never here: `constraint_decls` makes a RackPinion's two rows
+        // itself. An empty call would be refused by the checker.
+        ConstraintKind::RackPinion { .. } => {
+            let root = t.call("rack_pinion", at("type"), Vec::new());
+            (EquationKeyword::Constraint, head.to_string(), root)
+        }
     }
 }
 

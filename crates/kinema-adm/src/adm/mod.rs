@@ -75,16 +75,23 @@ impl Fields {
         self.at.iter().find(|f| f.key == key).map(|f| f.pos)
     }
 
-    /// Where character `k` of the string value `text` of `key` is: exact
-    /// for a string written without escapes, otherwise where the value
-    /// starts.
+    /// Where each character of the string value `text` of `key` is (one
+    /// more entry for the end), computed in one pass; `None` for a string
+    /// written with escapes (only where it starts is known: [`get`]) or
+    /// no such key.
+    ///
+    /// [`get`]: Fields::get
     #[must_use]
-    pub fn in_string(&self, key: &str, text: &str, k: usize) -> Option<Pos> {
-        let f = self.at.iter().find(|f| f.key == key)?;
-        Some(match f.text {
-            Some(start) => text.chars().take(k).fold(start, Pos::advance),
-            None => f.pos,
-        })
+    pub fn char_positions(&self, key: &str, text: &str) -> Option<Vec<Pos>> {
+        let start = self.at.iter().find(|f| f.key == key)?.text?;
+        let mut out = Vec::with_capacity(text.len() + 1);
+        let mut pos = start;
+        for c in text.chars() {
+            out.push(pos);
+            pos = pos.advance(c);
+        }
+        out.push(pos);
+        Some(out)
     }
 }
 
