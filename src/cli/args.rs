@@ -67,7 +67,8 @@ Examples:
   kinema run rack_pinion.adm --acf kinematics.acf --plot rack.svg
 
 The CSV has the columns t; every body's B.x, B.y, B.phi in declaration order; the same
-names suffixed _dot (velocities); then suffixed _ddot (accelerations).";
+names suffixed _dot (velocities); then suffixed _ddot (accelerations). With
+--positions-only, only t and the position columns.";
 
 const SWEEP_EXAMPLES: &str = "\
 Examples:
@@ -110,6 +111,10 @@ pub struct SweepArgs {
     /// Worker threads (default: one per core).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub jobs: Option<u16>,
+    /// Positions only: no velocity or acceleration solve; the CSV has no
+    /// `_dot` and `_ddot` columns.
+    #[arg(long)]
+    pub positions_only: bool,
 }
 
 /// A model file.
@@ -187,6 +192,13 @@ pub struct RunArgs {
     /// absolute) tolerance of the error control [default: 1e-8].
     #[arg(long, value_name = "X")]
     pub rtol: Option<f64>,
+    /// Positions only, for synthesis loops: no velocity or acceleration
+    /// solve, so each step costs Newton's updates alone. The CSV has only
+    /// the position columns (t, B.x, B.y, B.phi, points and outputs; no
+    /// `_dot`, `_ddot` or dynamics columns). Not with forward dynamics,
+    /// `--equilibrium` or `--plot` (which draws velocities).
+    #[arg(long)]
+    pub positions_only: bool,
     /// Forward dynamics: three more CSV columns, `energy.kinetic`,
     /// `energy.potential` (gravity) and `energy.work` (the work of the
     /// other forces and the drivers since the start): kinetic + potential −

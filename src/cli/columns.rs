@@ -17,6 +17,8 @@ pub struct Selection {
     pub coordinates: Vec<usize>,
     /// Result columns ([`Derivation::outputs`]), increasing.
     pub outputs: Vec<usize>,
+    /// Values only (`--positions-only`): no `_dot` and `_ddot` columns.
+    pub positions_only: bool,
 }
 
 impl Selection {
@@ -25,7 +27,22 @@ impl Selection {
         Selection {
             coordinates: (0..d.nc()).collect(),
             outputs: (0..d.outputs.len()).collect(),
+            positions_only: false,
         }
+    }
+
+    /// This selection with the values only (`positions_only`), or also
+    /// their `_dot` and `_ddot` columns.
+    pub fn with_positions_only(self, positions_only: bool) -> Selection {
+        Selection {
+            positions_only,
+            ..self
+        }
+    }
+
+    /// How many of q, q̇, q̈ (y, ẏ, ÿ) each selected quantity writes.
+    pub fn orders(&self) -> usize {
+        if self.positions_only { 1 } else { 3 }
     }
 
     /// The selection `--columns` asks for, every column without it.
@@ -96,11 +113,13 @@ impl Selection {
         Ok(Selection {
             coordinates: pick(coords),
             outputs: pick(outs),
+            positions_only: false,
         })
     }
 
     /// The header's names after `t`: each selected quantity's value, `_dot`
-    /// and `_ddot`, bodies' block first.
+    /// and `_ddot` (the value alone with `positions_only`), bodies' block
+    /// first.
     pub fn header(&self, d: &Derivation) -> Vec<String> {
         let mut out = Vec::with_capacity(3 * (self.coordinates.len() + self.outputs.len()));
         let coords: Vec<&str> = self
@@ -114,7 +133,7 @@ impl Selection {
             .filter_map(|&k| d.outputs.get(k).map(|o| o.name.as_str()))
             .collect();
         for names in [coords, outs] {
-            for suffix in ["", "_dot", "_ddot"] {
+            for suffix in &["", "_dot", "_ddot"][..self.orders()] {
                 out.extend(names.iter().map(|n| format!("{n}{suffix}")));
             }
         }

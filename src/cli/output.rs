@@ -458,12 +458,13 @@ impl CsvSink {
         self.line.number(t);
         let row = &mut self.row;
         row.clear();
-        for values in states {
+        let orders = self.selection.orders();
+        for values in &states[..orders] {
             for &k in &self.selection.coordinates {
                 row.push(values.get(k).copied().unwrap_or(f64::NAN));
             }
         }
-        for values in results {
+        for values in &results[..orders] {
             for &k in &self.selection.outputs {
                 row.push(values.get(k).copied().unwrap_or(f64::NAN));
             }

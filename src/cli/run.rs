@@ -261,7 +261,30 @@ fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
 /// [`Failure::Input`] for bad arguments or models, [`Failure::Analysis`]
 /// when the analysis fails (the rows computed before the failure are kept)
 /// or its results cannot be written.
+/// `--positions-only` where it makes no sense: with `--equilibrium` (one
+/// static state, whose rates are zero anyway), `--plot` (which draws
+/// velocities and accelerations), and forward dynamics (`dynamics`: its
+/// positions come from integrating the accelerations).
+fn refuse_positions_only(args: &RunArgs, dynamics: bool) -> Result<(), Failure> {
+    if !args.positions_only {
+        return Ok(());
+    }
+    let conflict = if dynamics {
+        "forward dynamics: its positions are integrated from the accelerations, which it must solve"
+    } else if args.equilibrium {
+        "--equilibrium: a static equilibrium is one state, its rates zero"
+    } else if args.plot.is_some() {
+        "--plot: the figure draws velocities and accelerations (--animate needs positions only)"
+    } else {
+        return Ok(());
+    };
+    Err(Failure::usage(format_args!(
+        "--positions-only cannot be used with {conflict}"
+    )))
+}
+
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    refuse_positions_only(args, false)?;
     if args.equilibrium {
         return super::equilibrium::run(args);
     }
@@ -295,6 +318,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 return Err(Failure::usage(format_args!("{}: {e}", source())));
             }
             if analysis.simulation == kinema_adm::Simulation::Dynamics {
+                refuse_positions_only(args, true)?;
                 let loaded = super::load::load_with(&args.model, None, false)?;
                 loaded.print_warnings();
                 if loaded.model.derivation().dynamics.is_none() {
@@ -326,6 +350,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let loaded = load(&args.model, analysis.as_ref())?;
     loaded.print_warnings();
     if super::forward::is_forward(&loaded) {
+        refuse_positions_only(args, true)?;
         return super::forward::run(args, &loaded, &grid.times, None, &grid.description);
     }
     super::forward::refuse_options(args)?;
@@ -346,9 +371,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         outputs.input("the analysis file", acf);
     }
     let derivation = loaded.model.derivation();
-    let selection = Selection::of_option(args.columns.as_deref(), derivation)?;
+    let selection = Selection::of_option(args.columns.as_deref(), derivation)?
+        .with_positions_only(args.positions_only);
+    // Inverse dynamics needs the accelerations: no such columns with
+    // positions only.
     let mut dynamics =
-        super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some());
+        super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some())
+            .filter(|_| !args.positions_only);
     let mut header = selection.header(derivation);
     if let Some(d) = &dynamics {
         header.extend(d.names().iter().cloned());
@@ -368,7 +397,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .transpose()?;
 
     let analysis_start = Instant::now();
-    let options = Options::default().with_stop_at_singular(args.stop_at_singular);
+    let options = Options::default()
+        .with_stop_at_singular(args.stop_at_singular)
+        .with_positions_only(args.positions_only);
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options)
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
     let mut result_scratch = kinema::System::scratch(solver.system());

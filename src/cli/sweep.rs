@@ -5,7 +5,8 @@
 //! one row of values per variant (blank lines and lines starting with `#`
 //! are skipped). The output has the columns `row` (the variant's 1-based
 //! number in the table), the swept parameters, then the columns of
-//! `kinema run` (`t`, coordinates, `_dot`, `_ddot`, then the named points and outputs likewise), the variants one after
+//! `kinema run` (`t`, coordinates, `_dot`, `_ddot`, then the named points and outputs likewise; values only with
+//! `--positions-only`), the variants one after
 //! the other in table order. A variant whose analysis fails keeps the rows
 //! computed before the failure, a warning names it, and the exit status is
 //! then 1. `--shard I/N` runs the I-th of N contiguous parts of the table:
@@ -164,6 +165,11 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     if let Some(jobs) = args.jobs {
         sweep = sweep.with_threads(usize::from(jobs));
     }
+    if args.positions_only {
+        let options = sweep.options().with_positions_only(true);
+        sweep = sweep.with_options(options);
+    }
+    let orders = if args.positions_only { 1 } else { 3 };
 
     let mut outputs = Outputs::new();
     outputs.input("the model", &args.model);
@@ -177,7 +183,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         .map(|c| c.name.as_str())
         .collect();
     let results: Vec<&str> = derivation.outputs.iter().map(|o| o.name.as_str()).collect();
-    let header = header(&table.names, &[&coordinates, &results]);
+    let header = header(&table.names, &[&coordinates, &results], orders);
     out.write_all(header.as_bytes())
         .map_err(|e| write_failure(&destination, &e))?;
 
@@ -190,7 +196,7 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     let mut failures: Vec<String> = Vec::new();
     for (b, chunk) in rows.chunks(batch).enumerate() {
         let first = range.start + b * batch;
-        let texts = sweep_chunk(&sweep, chunk, first, &grid.times);
+        let texts = sweep_chunk(&sweep, chunk, first, &grid.times, orders);
         for (k, result) in texts.into_iter().enumerate() {
             let (bytes, failure) = match result {
                 Ok(done) => done,
@@ -251,6 +257,7 @@ fn sweep_chunk(
     rows: &[Vec<f64>],
     first: usize,
     times: &[f64],
+    orders: usize,
 ) -> Vec<Result<VariantText, Error>> {
     sweep.map(rows, |k, solver| {
         let row = &rows[k];
@@ -272,8 +279,9 @@ fn sweep_chunk(
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());
-            let values = state.q().iter().chain(state.qd()).chain(state.qdd());
-            line.numbers(values.chain(results.iter().flatten()));
+            let states = [state.q(), state.qd(), state.qdd()];
+            let values = states[..orders].iter().flat_map(|v| v.iter());
+            line.numbers(values.chain(results[..orders].iter().flatten()));
             text.extend_from_slice(line.as_bytes());
             text.push(b'\n');
         }
@@ -281,8 +289,9 @@ fn sweep_chunk(
     })
 }
 
-/// `row,<params>,t,<coordinates>,<_dot>,<_ddot>,<results>,<_dot>,<_ddot>`.
-fn header(params: &[String], blocks: &[&[&str]]) -> String {
+/// `row,<params>,t,<coordinates>,<_dot>,<_ddot>,<results>,<_dot>,<_ddot>`
+/// (the first `orders` of the value, `_dot`, `_ddot` blocks).
+fn header(params: &[String], blocks: &[&[&str]], orders: usize) -> String {
     let mut header = String::from("row");
     for p in params {
         header.push(',');
@@ -290,7 +299,7 @@ fn header(params: &[String], blocks: &[&[&str]]) -> String {
     }
     header.push_str(",t");
     for names in blocks {
-        for suffix in ["", "_dot", "_ddot"] {
+        for suffix in &["", "_dot", "_ddot"][..orders] {
             for c in *names {
                 header.push(',');
                 header.push_str(c);

@@ -47,6 +47,23 @@ pub struct Options {
     /// with [`Error::SingularConfiguration`](crate::Error::SingularConfiguration)
     /// instead of passing it on the analytic continuation.
     pub stop_at_singular: bool,
+    /// Positions only: no velocity or acceleration solve (for synthesis
+    /// loops that read q alone). Each step then costs Newton's updates and
+    /// nothing more: Φ_q is not evaluated or factored again at the converged
+    /// q, and ν and γ are never evaluated. The states' q̇ and q̈ are **not**
+    /// the rates: q̇ holds the backward difference (q − q_prev)/(t − t_prev)
+    /// of the last two positions (zero at assembly) and q̈ zero — estimates
+    /// the solver's predictor and branch test use in place of the rates.
+    /// A row flagged near singular, interpolated between regular states on
+    /// either side, is interpolated with those slopes: its positions then
+    /// agree with the full analysis's to about 1e-5, not to Newton's
+    /// tolerance (4e-6 on the change-point linkage of `tests/singular/`),
+    /// a bifurcation is located less precisely (2e-4 s off there), and the
+    /// approach to one may be recorded as a toggle too.
+    /// The singular-configuration monitor reads the pivots of the last
+    /// factorization Newton made (at its last iterate, or an earlier step's
+    /// when no update was needed).
+    pub positions_only: bool,
 }
 
 impl Default for Options {
@@ -68,6 +85,7 @@ impl Default for Options {
             modified_newton: false,
             singular_tolerance: 1e-10,
             stop_at_singular: false,
+            positions_only: false,
         }
     }
 }
@@ -88,6 +106,7 @@ impl Options {
             modified_newton: false,
             singular_tolerance: Self::default().singular_tolerance,
             stop_at_singular: false,
+            positions_only: false,
         }
     }
 
@@ -111,6 +130,16 @@ impl Options {
     pub fn with_stop_at_singular(self, stop_at_singular: bool) -> Self {
         Self {
             stop_at_singular,
+            ..self
+        }
+    }
+
+    /// These options computing positions only, or also velocities and
+    /// accelerations (see [`positions_only`](Self::positions_only)).
+    #[must_use]
+    pub fn with_positions_only(self, positions_only: bool) -> Self {
+        Self {
+            positions_only,
             ..self
         }
     }

@@ -666,19 +666,52 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &self.options,
             &mut self.ws,
         )?;
-        if !converged.jacobian_current {
-            self.system
-                .jacobian(&mut self.scratch, q, t, &mut self.ws.jac);
-        }
         self.next.t = t;
         self.next.stats = converged.stats;
         self.travel = converged.travel;
+        if self.options.positions_only {
+            self.difference_rates(t);
+            return Ok(());
+        }
+        if !converged.jacobian_current {
+            self.system
+                .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
+        }
         self.factor_and_rates(t)
     }
 
-    /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved.
+    /// [`Options::positions_only`]: instead of the rates, `self.next` gets
+    /// q̇ = the backward difference from the current state (zero when there
+    /// is none, or it is not finite) and q̈ = 0, what the predictor and the
+    /// branch test read.
+    #[inline]
+    fn difference_rates(&mut self, t: f64) {
+        let State { q, qd, qdd, .. } = &mut self.next;
+        qdd.fill(0.0);
+        let h = t - self.state.t;
+        let base = self.assembled && h != 0.0 && h.is_finite();
+        let n = q.len();
+        let (q, qd, q0) = (&q[..n], &mut qd[..n], &self.state.q[..n]);
+        let mut sum = 0.0;
+        if base {
+            for i in 0..n {
+                qd[i] = (q[i] - q0[i]) / h;
+                sum += qd[i];
+            }
+        }
+        if !(base && sum.is_finite()) {
+            qd.fill(0.0);
+        }
+    }
+
+    /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved
+    /// (with [`Options::positions_only`], estimated instead).
     fn rates(&mut self, t: f64) -> Result<(), Error> {
         self.factored = 0;
+        if self.options.positions_only {
+            self.difference_rates(t);
+            return Ok(());
+        }
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         self.factor_and_rates(t)

@@ -89,6 +89,14 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // q̇(t0) = q̇ − δ q̈ + δ²/2 q⃛, q̈(t0) = q̈ − δ q⃛.
         std::mem::swap(&mut self.state, &mut self.next);
         let second = self.attempt(t0 + 2.0 * delta).is_ok() && !self.next.stats.near_singular;
+        if second && self.options.positions_only {
+            // No rates: the slope between the two solves stands for q̇ at
+            // t0 + δ (q̈ is zero), which takes q back to t0 to O(δ²).
+            let (one, two) = (&mut self.state, &self.next);
+            for ((v, &a), &b) in one.qd.iter_mut().zip(&one.q).zip(&two.q) {
+                *v = (b - a) / delta;
+            }
+        }
         self.spare.clone_from(&self.state);
         let (one, two) = (&self.state, &self.next);
         let out = &mut self.spare;
