@@ -24,4 +24,6 @@ $PY bench_sympy.py chain1000 --reps 2 --variants numpy,splu --dense-steps 3
 $PY bench_casadi.py chain1000 --reps 1 --c-steps 3 --own-steps 1 --py-reps 2
 $PY make_results.py > /dev/null
 $PY make_reference.py > /dev/null   # reference/traj_*.csv (committed) from results/
+# The Strider peer (pylinkage + numba), its own venv.
+./run_strider.sh 10
 echo "run_all.sh done in $(( $(date +%s) - start )) s; see RESULTS.md"

@@ -7,7 +7,8 @@
 //! inverse dynamics at every step: slider_crank, chain10, and with
 //! `--features large-dynamics` chain1000), dynamics-kinematics (the same
 //! solvers with inertia, the kinematic step alone); mode: same, default
-//! (predictor, full Newton), predictor-modified, modified (no predictor);
+//! (predictor, full Newton), same-positions and positions (either,
+//! positions only), predictor-modified, modified (no predictor);
 //! repetitions).
 
 use kinema::{Dynamics, InverseDynamics, LinearSolver, Options, Solver, System};
@@ -54,13 +55,19 @@ fn main() {
         "same" => Options::same_algorithm(),
         // Predictor with full Newton: the defaults.
         "default" => Options::default(),
+        // Either, positions only (no velocity or acceleration solve).
+        "same-positions" => Options::same_algorithm().with_positions_only(true),
+        "positions" => Options::default().with_positions_only(true),
         // Predictor with modified Newton.
         "predictor-modified" => Options::default().with_modified_newton(true),
         // Modified Newton without the predictor.
         "modified" => Options::default()
             .with_predictor(false)
             .with_modified_newton(true),
-        other => panic!("unknown mode {other:?}: same, default, predictor-modified or modified"),
+        other => panic!(
+            "unknown mode {other:?}: same, default, same-positions, positions, \
+             predictor-modified or modified"
+        ),
     };
     let ok = |e: kinema::Error| -> ! { panic!("{e}") };
     match (name.as_str(), backend.as_str()) {
