@@ -8,6 +8,9 @@
 # each profile, and removes both files.
 #
 #   benches/compile_time.sh [N]        # default N = 1000
+#   PROFILES=dev benches/compile_time.sh   # one profile only
+# The debug build runs with CARGO_INCREMENTAL=0 (the incremental cache of
+# this one file is gigabytes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 n="${1:-1000}"
@@ -45,7 +48,8 @@ fn main() {
     println!("q[0] at t = 0.5: {}", state.q()[0]);
 }
 RS
-for profile in release dev; do
+export CARGO_INCREMENTAL=0
+for profile in ${PROFILES:-release dev}; do
   flag=$([ "$profile" = release ] && echo --release || true)
   # Dependencies first (the profile example has the same), untimed.
   cargo build $flag -p kinema-bench --example profile -q
