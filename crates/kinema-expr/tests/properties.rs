@@ -161,14 +161,26 @@ fn add(a: R, b: R, sign: f64) -> R {
     }
 }
 
+/// Whether a derivative `d` (contributions of magnitude `dm`) is known to
+/// the derivative check's tolerance when the values it multiplies carry the
+/// rounding-error bound `moved` of its result: a factor that is a roundoff
+/// residue (x0 · (t − (x2 + t) − |x2|), exactly 0 · … symbolically but
+/// 2.2e-16 · 1 in floating point, seen in CI) makes its product's
+/// derivative a roundoff value, not a point for the check.
+fn conditioned(d: f64, dm: f64, moved: f64) -> bool {
+    moved <= 1e-9 * d.abs().max(dm)
+}
+
 fn mul(a: R, b: R) -> R {
     let v = a.v * b.v;
+    let (d, dm) = (a.d * b.v + a.v * b.d, a.dm * b.v.abs() + a.v.abs() * b.dm);
+    let moved = a.e * b.d.abs() + b.e * a.d.abs();
     R {
         v,
         e: b.v.abs() * a.e + a.v.abs() * b.e + EPS * v.abs(),
-        d: a.d * b.v + a.v * b.d,
-        dm: a.dm * b.v.abs() + a.v.abs() * b.dm,
-        smooth: a.smooth && b.smooth,
+        d,
+        dm,
+        smooth: a.smooth && b.smooth && conditioned(d, dm, moved),
         cut: a.cut || b.cut,
     }
 }
@@ -188,12 +200,15 @@ fn div(a: R, b: R) -> R {
     } else {
         (a.e + q.abs() * b.e) / b.v.abs() + EPS * q.abs()
     };
+    let (d, dm) = ((a.d - q * b.d) / b.v, (a.dm + q.abs() * b.dm) / b.v.abs());
+    // q's and b's rounding errors move d = (a' − q b') / b by about this.
+    let moved = (e * b.d.abs() + d.abs() * b.e) / b.v.abs();
     R {
         v: q,
         e,
-        d: (a.d - q * b.d) / b.v,
-        dm: (a.dm + q.abs() * b.dm) / b.v.abs(),
-        smooth: a.smooth && b.smooth && b.v.abs() > 1e-6,
+        d,
+        dm,
+        smooth: a.smooth && b.smooth && b.v.abs() > 1e-6 && conditioned(d, dm, moved),
         cut: a.cut || b.cut,
     }
 }
@@ -489,6 +504,29 @@ fn a_negative_power_of_a_roundoff_residue_is_undetermined() {
     ] {
         assert!(reference(&t, &x, None).e.is_infinite(), "{t:?}");
     }
+}
+
+/// A random case of CI's run at stop 14: d/dx0 of x0 · (t − (x2 + t) − |x2|)
+/// is the second factor, exactly 0 (the engine folds it to 0) but 2.2e-16
+/// in floating point. The reference must not hold the engine to that
+/// roundoff residue within 1e-8 of itself: the point is not one for the
+/// derivative check.
+#[test]
+fn a_derivative_that_is_a_roundoff_residue_is_not_checked() {
+    let residue = T::Sub(
+        Box::new(T::Sub(
+            Box::new(T::Time),
+            Box::new(T::Add(Box::new(T::X(2)), Box::new(T::Time))),
+        )),
+        Box::new(T::Un(Fun::Abs, Box::new(T::X(2)))),
+    );
+    let product = T::Mul(Box::new(residue), Box::new(T::X(0)));
+    let x = [0.0, 0.0, -0.813243553178588, 0.0, 2.852224326494225];
+    let r = reference(&product, &x, Some(0));
+    assert_ne!(r.d, 0.0, "floating point leaves a residue");
+    assert!(!r.smooth, "{r:?}");
+    // Along x2 the derivative is not a residue and stays checked.
+    assert!(reference(&product, &[0.5, 0.0, -0.8, 0.0, 2.8], Some(2)).smooth);
 }
 
 proptest! {
