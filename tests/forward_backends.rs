@@ -6,9 +6,6 @@
 //! lead's forward-dynamics benchmark mechanisms fd_slider_crank (no
 //! driver; 3 bodies, NDOF = 1) and fd_chain10 (NDOF = 10).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use kinema::{Accurate, ForwardSystem, Hht, HhtOptions, Model};
 
 mod fd_slider_crank {
@@ -24,40 +21,9 @@ use fd_slider_crank::FdSliderCrank;
 const SLIDER_CRANK: &str = include_str!("forward_backends/fd_slider_crank.kin");
 const CHAIN10: &str = include_str!("forward_backends/fd_chain10.kin");
 
-struct Counting;
-
-thread_local! {
-    /// Allocations (and reallocations) made by this thread.
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
-
-#[allow(
-    unsafe_code,
-    reason = "a GlobalAlloc impl is unsafe by definition; it only forwards"
-)]
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|n| n.set(n.get() + 1));
-        // SAFETY: the caller's contract is the system allocator's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: as above.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|n| n.set(n.get() + 1));
-        // SAFETY: as above.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+#[path = "common/counting.rs"]
+mod counting;
+use counting::allocations;
 
 fn model(src: &str) -> Model {
     Model::from_source(src, "test.kin").unwrap_or_else(|e| panic!("{e}"))
