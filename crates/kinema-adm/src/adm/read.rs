@@ -43,6 +43,30 @@ struct Elem<'v> {
     needs: &'static str,
 }
 
+impl<'v> Elem<'v> {
+    /// The `index`-th element of an array of `kind`s (`body`, `constraint`,
+    /// `force`): an object, labelled by its name and id; anything else is
+    /// reported at its position and gives `None`.
+    fn of_array_item(cx: &mut Cx<'_>, kind: &str, v: &'v Value, index: usize) -> Option<Self> {
+        if v.as_object().is_none() {
+            cx.err(
+                v.pos,
+                format!(
+                    "{kind} number {}: expected an object, found {}",
+                    index + 1,
+                    v.describe()
+                ),
+            );
+            return None;
+        }
+        Some(Elem {
+            label: label(kind, v, index),
+            obj: v,
+            needs: "",
+        })
+    }
+}
+
 fn plural(n: usize, one: &str, many: &str) -> String {
     if n == 1 {
         format!("{n} {one}")
@@ -465,22 +489,7 @@ fn read_id(cx: &mut Cx<'_>, e: &Elem<'_>, index: usize, strict: bool) -> Option<
 }
 
 fn read_body(cx: &mut Cx<'_>, v: &Value, index: usize) -> Option<Body> {
-    if v.as_object().is_none() {
-        cx.err(
-            v.pos,
-            format!(
-                "body number {}: expected an object, found {}",
-                index + 1,
-                v.describe()
-            ),
-        );
-        return None;
-    }
-    let e = Elem {
-        label: label("body", v, index),
-        obj: v,
-        needs: "",
-    };
+    let e = Elem::of_array_item(cx, "body", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, true);
     let q0 = e.field(cx, "q0").and_then(|q| e.array_of::<3>(cx, "q0", q));
@@ -552,22 +561,7 @@ fn read_body_vis(cx: &mut Cx<'_>, body: &Elem<'_>, v: &Value) -> Option<BodyVis>
 }
 
 fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> Option<Constraint> {
-    if v.as_object().is_none() {
-        cx.err(
-            v.pos,
-            format!(
-                "constraint number {}: expected an object, found {}",
-                index + 1,
-                v.describe()
-            ),
-        );
-        return None;
-    }
-    let mut e = Elem {
-        label: label("constraint", v, index),
-        obj: v,
-        needs: "",
-    };
+    let mut e = Elem::of_array_item(cx, "constraint", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, false);
     let ty_v = e.string(cx, "type")?;
@@ -733,22 +727,7 @@ fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<Con
 }
 
 fn read_force(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> Option<Force> {
-    if v.as_object().is_none() {
-        cx.err(
-            v.pos,
-            format!(
-                "force number {}: expected an object, found {}",
-                index + 1,
-                v.describe()
-            ),
-        );
-        return None;
-    }
-    let e = Elem {
-        label: label("force", v, index),
-        obj: v,
-        needs: "",
-    };
+    let e = Elem::of_array_item(cx, "force", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, false);
     let ty_v = e.string(cx, "type")?;

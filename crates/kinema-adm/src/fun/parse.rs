@@ -299,13 +299,20 @@ impl Parser {
     }
 
     fn unary(&mut self) -> Result<u32, FunError> {
+        self.signed(Self::power)
+    }
+
+    /// Leading signs (`-` negates, `+` is dropped), then `rest`: a unary
+    /// expression with `rest` = [`power`](Self::power), the right operand of
+    /// `^` with `rest` = [`primary`](Self::primary).
+    fn signed(&mut self, rest: fn(&mut Self) -> Result<u32, FunError>) -> Result<u32, FunError> {
         match self.peek() {
             Tok::Plus | Tok::Minus => {
                 let neg = matches!(self.peek(), Tok::Minus);
                 let at = self.offset();
                 self.bump();
                 self.enter()?;
-                let a = self.unary()?;
+                let a = self.signed(rest)?;
                 self.depth -= 1;
                 if neg {
                     self.push(Node::Neg(a), at)
@@ -313,7 +320,7 @@ impl Parser {
                     Ok(a)
                 }
             }
-            _ => self.power(),
+            _ => rest(self),
         }
     }
 
@@ -330,22 +337,7 @@ impl Parser {
 
     /// The right operand of `^`: signs, then a primary.
     fn operand(&mut self) -> Result<u32, FunError> {
-        match self.peek() {
-            Tok::Plus | Tok::Minus => {
-                let neg = matches!(self.peek(), Tok::Minus);
-                let at = self.offset();
-                self.bump();
-                self.enter()?;
-                let a = self.operand()?;
-                self.depth -= 1;
-                if neg {
-                    self.push(Node::Neg(a), at)
-                } else {
-                    Ok(a)
-                }
-            }
-            _ => self.primary(),
-        }
+        self.signed(Self::primary)
     }
 
     fn primary(&mut self) -> Result<u32, FunError> {

@@ -319,6 +319,19 @@ impl<S: ForwardSystem> Hht<S> {
         })
     }
 
+    /// `ys` ← Φ_q q̇ − ν, from `jac` (dense m × n) and `nu`.
+    fn velocity_residual(&mut self) {
+        let n = self.n;
+        for (i, y) in self.ys.iter_mut().enumerate().take(self.m) {
+            let r: f64 = self.jac[i * n..(i + 1) * n]
+                .iter()
+                .zip(&self.qd)
+                .map(|(a, v)| a * v)
+                .sum();
+            *y = r - self.nu[i];
+        }
+    }
+
     /// x ← x − Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ r with r in `ys` (the Gram matrix factored).
     fn correct(&mut self, which: bool) {
         let n = self.n;
@@ -376,15 +389,7 @@ impl<S: ForwardSystem> Hht<S> {
         if !finite(&self.jac) || !finite(&self.nu) {
             return Err(self.non_finite("Φ_q or ν at the start"));
         }
-        let n = self.n;
-        for i in 0..self.m {
-            let r: f64 = self.jac[i * n..(i + 1) * n]
-                .iter()
-                .zip(&self.qd)
-                .map(|(a, v)| a * v)
-                .sum();
-            self.ys[i] = r - self.nu[i];
-        }
+        self.velocity_residual();
         c.velocity = amax(&self.ys);
         if self.m > 0 {
             self.factor_gram("Φ_q Φ_qᵀ (projecting the initial velocities)")?;
@@ -757,7 +762,7 @@ impl<S: ForwardSystem> Hht<S> {
     /// Accepts the step: the state at t + h with the final q̈, λ; the
     /// optional velocity projection; the forces and the work.
     fn accept(&mut self, h: f64, t1: f64) -> Result<(), IntegrateError> {
-        let (n, m) = (self.n, self.m);
+        let m = self.m;
         self.predict(h);
         std::mem::swap(&mut self.q, &mut self.qn);
         std::mem::swap(&mut self.qd, &mut self.qdn);
@@ -768,14 +773,7 @@ impl<S: ForwardSystem> Hht<S> {
         self.system.jacobian(&self.q, t1, &mut self.jac);
         if self.options.project_velocity && m > 0 {
             self.system.nu(&self.q, t1, &mut self.nu);
-            for i in 0..m {
-                let r: f64 = self.jac[i * n..(i + 1) * n]
-                    .iter()
-                    .zip(&self.qd)
-                    .map(|(a, v)| a * v)
-                    .sum();
-                self.ys[i] = r - self.nu[i];
-            }
+            self.velocity_residual();
             self.factor_gram("Φ_q Φ_qᵀ (velocity projection)")?;
             self.correct(false);
         }
