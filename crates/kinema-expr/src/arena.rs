@@ -388,21 +388,38 @@ impl Arena {
     /// products the operands are the last `len` entries of the pool (they are
     /// popped again if an equal node exists).
     pub(crate) fn intern(&mut self, node: Node) -> ExprId {
+        // Every undefined expression is one node, the number NaN: its value
+        // is undefined wherever it is evaluated, and one spelling keeps the
+        // canonical form independent of the order of construction (x·∞·0⁻¹
+        // built either way). [`is_undefined`](Self::is_undefined) of every
+        // expression is unchanged: undefinedness propagates to every node
+        // that contains an undefined operand.
+        let canonical_nan = matches!(node, Node::Num(v) if v.to_bits() == f64::NAN.to_bits());
+        if !canonical_nan && self.node_undefined(&node) {
+            Self::drop_operands(&mut self.terms, &mut self.factors, &node);
+            return self.intern(Node::Num(f64::NAN));
+        }
         let (h, m) = self.hash_and_mask(&node);
         let mut cur = self.intern.get(&h).copied().unwrap_or(NONE);
         while cur != NONE {
             if self.same(&self.nodes[cur as usize], &node) {
-                // Drop the operands just pushed for this node: they are a copy.
-                match node {
-                    Node::Add { start, .. } => self.terms.truncate(start as usize),
-                    Node::Mul { start, .. } => self.factors.truncate(start as usize),
-                    _ => {}
-                }
+                // The operands just pushed for this node are a copy.
+                Self::drop_operands(&mut self.terms, &mut self.factors, &node);
                 return ExprId(cur);
             }
             cur = self.next[cur as usize];
         }
         self.insert(node, h, m)
+    }
+
+    /// Drops the operands pushed for `node` (the last ones of `terms` or
+    /// `factors`) when it is not inserted.
+    fn drop_operands(terms: &mut Vec<Term>, factors: &mut Vec<Factor>, node: &Node) {
+        match *node {
+            Node::Add { start, .. } => terms.truncate(start as usize),
+            Node::Mul { start, .. } => factors.truncate(start as usize),
+            _ => {}
+        }
     }
 
     fn insert(&mut self, node: Node, h: u64, m: u64) -> ExprId {

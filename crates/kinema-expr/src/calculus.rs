@@ -196,6 +196,11 @@ impl Arena {
     /// The tangent of `n` if it is already known without work.
     #[inline]
     fn tangent_known(&self, n: ExprId, seeds: SeedsId) -> Option<ExprId> {
+        // The derivative of an undefined expression (the number NaN: see
+        // `Arena::intern`) is undefined.
+        if self.is_undefined(n) {
+            return Some(n);
+        }
         let set = &self.calc.seeds[seeds.0 as usize];
         if self.mask_of(n) & set.mask == 0 {
             return Some(self.zero);

@@ -270,3 +270,41 @@ fn powers_of_scaled_terms_keep_their_values() {
         );
     }
 }
+
+/// An expression with an undefined part has one canonical form whatever the
+/// order it was built in (the property test `construction_order_does_not_matter`
+/// found x0 / (√(step(0; 0, −0.41, 0.1, 0)) · 0⁻¹) folding to `NaN` one way
+/// and to `NaN*x0` the other), and its derivatives are undefined too.
+#[test]
+fn undefined_expressions_have_one_form_whatever_the_order() {
+    let mut a = Arena::new();
+    let x = a.coordinate("x0", 0);
+    let zero = a.zero();
+    let minus = a.num(-0.41);
+    let root = a.sqrt(minus);
+    let inv0 = a.powi(zero, -1);
+    assert!(a.is_undefined(root) && a.is_undefined(inv0));
+    let left = a.mul(root, inv0);
+    let right = a.mul(inv0, root);
+    let e1 = a.div(x, left);
+    let e2 = a.div(x, right);
+    let p1 = a.product(&[x, root, inv0]);
+    let p2 = a.product(&[inv0, x, root]);
+    let s1 = a.add(x, root);
+    let s2 = a.add(root, x);
+    let nan = a.num(f64::NAN);
+    for e in [left, right, e1, e2, p1, p2, s1, s2] {
+        assert_eq!(e, nan, "{}", a.display(e));
+    }
+    let sx = a.symbol_of(x).unwrap_or_else(|| unreachable!());
+    // ∂(x·√−0.41)/∂x is undefined, not 0.
+    let d = a.diff(p1, sx);
+    assert!(a.is_undefined(d), "{}", a.display(d));
+    // Every non-finite number is the one NaN: ∞ built by overflow, −∞, −NaN.
+    let big = a.num(1e308);
+    let inf = a.mul(big, big);
+    for v in [f64::INFINITY, f64::NEG_INFINITY, -f64::NAN] {
+        assert_eq!(a.num(v), nan);
+    }
+    assert_eq!(inf, nan);
+}
