@@ -141,6 +141,32 @@ impl Plan {
         pattern: &[(u32, u32, Option<f64>)],
         values: &[f64],
     ) -> Option<Plan> {
+        let (mut plan, mut active) = Plan::start(n, pattern, values)?;
+        let mut below: Vec<(usize, Cell)> = Vec::new();
+        let mut right: Vec<(usize, Cell)> = Vec::new();
+        for _ in 0..n {
+            let (r, c) = choose(&active.rows, &active.cols, &active.by_count)?;
+            let pivot = active.rows[r]
+                .get(&c)
+                .copied()
+                .expect("`choose` returns an entry of the active matrix");
+            if pivot.val == Val::Const(0.0) {
+                return None;
+            }
+            active.take_pivot(r, c, &mut right, &mut below);
+            plan.eliminate(&mut active, (r, c), pivot, &right, &below)?;
+        }
+        plan.renumber_by_position();
+        Some(plan)
+    }
+
+    /// An empty plan and the whole matrix as the active one: constant
+    /// entries as [`Val::Const`], the others as run-time inputs.
+    fn start(
+        n: usize,
+        pattern: &[(u32, u32, Option<f64>)],
+        values: &[f64],
+    ) -> Option<(Plan, Active)> {
         let mut vars: Vec<Def> = Vec::new();
         let mut rows: Vec<BTreeMap<usize, Cell>> = vec![BTreeMap::new(); n];
         let mut cols: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
@@ -167,10 +193,8 @@ impl Plan {
             cols[c].insert(r);
         }
         // Rows by count, for a search that usually stops at a singleton.
-        let mut by_count: BTreeSet<(usize, usize)> =
-            rows.iter().enumerate().map(|(r, m)| (m.len(), r)).collect();
-
-        let mut plan = Plan {
+        let by_count = rows.iter().enumerate().map(|(r, m)| (m.len(), r)).collect();
+        let plan = Plan {
             n,
             nnz: pattern.len(),
             row_order: Vec::with_capacity(n),
@@ -183,79 +207,65 @@ impl Plan {
             runtime_inputs,
             constant_scale,
         };
-        let mut below: Vec<(usize, Cell)> = Vec::new();
-        let mut right: Vec<(usize, Cell)> = Vec::new();
-        for _ in 0..n {
-            let (r, c) = choose(&rows, &cols, &by_count)?;
-            let pivot = rows[r]
-                .get(&c)
-                .copied()
-                .expect("`choose` returns an entry of the active matrix");
-            if pivot.val == Val::Const(0.0) {
+        Some((
+            plan,
+            Active {
+                rows,
+                cols,
+                by_count,
+            },
+        ))
+    }
+
+    /// One elimination step at pivot `(r, c)` (already taken out of
+    /// `active`, with its row's other entries `right` and its column's
+    /// `below`): records the pivot, its reciprocal, U's row and L's column,
+    /// and applies the rank-one update a_ij −= l_i·u_j to the active matrix,
+    /// with the fill it creates. `None` when a constant multiplier exceeds
+    /// 1/θ or the plan grows past [`MAX_OPERATIONS`].
+    fn eliminate(
+        &mut self,
+        active: &mut Active,
+        (r, c): (usize, usize),
+        pivot: Cell,
+        right: &[(usize, Cell)],
+        below: &[(usize, Cell)],
+    ) -> Option<()> {
+        let k = self.pivots.len();
+        self.row_order.push(r);
+        self.col_order.push(c);
+        self.pivots.push(pivot.val);
+        let inv = self.recip(pivot.val);
+        self.inv.push(inv);
+        let inv_num = 1.0 / pivot.num;
+        for &(j, cell) in right {
+            self.upper.push((k, j, cell.val));
+        }
+        for &(i, cell) in below {
+            let l = self.mul(cell.val, inv);
+            if let Val::Const(v) = l
+                && v.abs() > 1.0 / RUNTIME_THRESHOLD
+            {
                 return None;
             }
-            // Take row r and column c out of the active matrix.
-            by_count.remove(&(rows[r].len(), r));
-            right.clear();
-            right.extend(
-                rows[r]
-                    .iter()
-                    .filter(|&(&j, _)| j != c)
-                    .map(|(&j, &cell)| (j, cell)),
-            );
-            rows[r].clear();
-            for &(j, _) in &right {
-                cols[j].remove(&r);
+            let l_num = cell.num * inv_num;
+            self.lower.push((i, k, l));
+            for &(j, u) in right {
+                let old = active.rows[i].get(&j).copied();
+                let old_val = old.map_or(Val::Const(0.0), |o| o.val);
+                let val = self.update(old_val, l, u.val);
+                let num = old.map_or(0.0, |o| o.num) - l_num * u.num;
+                let num = if num.is_finite() { num } else { 0.0 };
+                if old.is_none() {
+                    active.fill(i, j);
+                }
+                active.rows[i].insert(j, Cell { num, val });
             }
-            below.clear();
-            for &i in cols[c].iter().filter(|&&i| i != r) {
-                if let Some(cell) = rows[i].remove(&c) {
-                    by_count.remove(&(rows[i].len() + 1, i));
-                    by_count.insert((rows[i].len(), i));
-                    below.push((i, cell));
-                }
-            }
-            cols[c].clear();
-
-            let k = plan.pivots.len();
-            plan.row_order.push(r);
-            plan.col_order.push(c);
-            plan.pivots.push(pivot.val);
-            let inv = plan.recip(pivot.val);
-            plan.inv.push(inv);
-            let inv_num = 1.0 / pivot.num;
-            for &(j, cell) in &right {
-                plan.upper.push((k, j, cell.val));
-            }
-            for &(i, cell) in &below {
-                let l = plan.mul(cell.val, inv);
-                if let Val::Const(v) = l
-                    && v.abs() > 1.0 / RUNTIME_THRESHOLD
-                {
-                    return None;
-                }
-                let l_num = cell.num * inv_num;
-                plan.lower.push((i, k, l));
-                for &(j, u) in &right {
-                    let old = rows[i].get(&j).copied();
-                    let old_val = old.map_or(Val::Const(0.0), |o| o.val);
-                    let val = plan.update(old_val, l, u.val);
-                    let num = old.map_or(0.0, |o| o.num) - l_num * u.num;
-                    let num = if num.is_finite() { num } else { 0.0 };
-                    if old.is_none() {
-                        by_count.remove(&(rows[i].len(), i));
-                        by_count.insert((rows[i].len() + 1, i));
-                        cols[j].insert(i);
-                    }
-                    rows[i].insert(j, Cell { num, val });
-                }
-                if plan.vars.len() > MAX_OPERATIONS {
-                    return None;
-                }
+            if self.vars.len() > MAX_OPERATIONS {
+                return None;
             }
         }
-        plan.renumber_by_position();
-        Some(plan)
+        Some(())
     }
 
     /// Renumbers L's rows and U's columns as elimination positions.
@@ -365,6 +375,55 @@ impl Plan {
             stored.insert(x, next);
         }
         stored
+    }
+}
+
+/// The active submatrix of the elimination: each row's entries by column,
+/// each column's rows, and the rows ordered by their entry count.
+struct Active {
+    rows: Vec<BTreeMap<usize, Cell>>,
+    cols: Vec<BTreeSet<usize>>,
+    by_count: BTreeSet<(usize, usize)>,
+}
+
+impl Active {
+    /// Takes row `r` and column `c` out of the active matrix: the row's
+    /// other entries into `right`, the column's other entries into `below`.
+    fn take_pivot(
+        &mut self,
+        r: usize,
+        c: usize,
+        right: &mut Vec<(usize, Cell)>,
+        below: &mut Vec<(usize, Cell)>,
+    ) {
+        self.by_count.remove(&(self.rows[r].len(), r));
+        right.clear();
+        right.extend(
+            self.rows[r]
+                .iter()
+                .filter(|&(&j, _)| j != c)
+                .map(|(&j, &cell)| (j, cell)),
+        );
+        self.rows[r].clear();
+        for &(j, _) in right.iter() {
+            self.cols[j].remove(&r);
+        }
+        below.clear();
+        for &i in self.cols[c].iter().filter(|&&i| i != r) {
+            if let Some(cell) = self.rows[i].remove(&c) {
+                self.by_count.remove(&(self.rows[i].len() + 1, i));
+                self.by_count.insert((self.rows[i].len(), i));
+                below.push((i, cell));
+            }
+        }
+        self.cols[c].clear();
+    }
+
+    /// Registers a new entry (fill) at `(i, j)` before it is inserted.
+    fn fill(&mut self, i: usize, j: usize) {
+        self.by_count.remove(&(self.rows[i].len(), i));
+        self.by_count.insert((self.rows[i].len() + 1, i));
+        self.cols[j].insert(i);
     }
 }
 

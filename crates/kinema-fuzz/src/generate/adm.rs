@@ -114,42 +114,68 @@ pub fn generate(rng: &mut Rng) -> String {
     }
     out.push_str("  \"bodies\": [\n");
     for i in 0..nbodies {
-        let name = if odd_names {
-            (*rng.pick(NAMES)).to_string()
-        } else {
-            format!("body{i}")
-        };
-        let q0 = if rng.chance(0.7) {
-            format!("[{}, 0, 0]", i)
-        } else {
-            format!(
-                "[{}, {}, {}]",
-                json_number(rng),
-                json_number(rng),
-                json_number(rng)
-            )
-        };
-        let vis = if rng.chance(0.3) {
-            format!(
-                ", \"vis\": {{ \"RGB\": [0.8, 0.3, 0.4], \"shapes\": [{{ \"loc\": {}, \"size\": {} }}], \"points\": [{}] }}",
-                vec2(rng),
-                vec2(rng),
-                vec2(rng)
-            )
-        } else {
-            String::new()
-        };
-        let sep = if i + 1 < nbodies { "," } else { "" };
-        let _ = writeln!(
-            out,
-            "    {{ \"name\": {}, \"id\": {}, \"mass\": {}, \"jbar\": {}, \"q0\": {q0}, \"qd0\": [0, 0, 0]{vis} }}{sep}",
-            json_string(&name),
-            i + 1,
-            inertia(rng),
-            inertia(rng)
-        );
+        body_line(rng, &mut out, i, nbodies, odd_names);
     }
     out.push_str("  ],\n  \"constraints\": [\n");
+    let items = constraint_items(rng, nbodies, odd_names);
+    out.push_str(&items.join(",\n"));
+    out.push_str("\n  ]");
+    if rng.chance(0.15) {
+        let _ = write!(
+            out,
+            ",\n  \"forces\": [ {{ \"name\": \"f\", \"id\": 1, \"type\": \"PointForce\", \"body1\": 1, \"sP1\": [0, 0], \"frame\": \"GRF\", \"funX\": {}, \"funY\": \"0\" }} ]",
+            json_string(&fun::generate(rng))
+        );
+    }
+    out.push_str("\n}\n");
+    if rng.chance(0.3) {
+        out.push('\0');
+        out.push_str(&acf(rng));
+    }
+    out
+}
+
+/// Body `i` of `nbodies` as one line of the `bodies` array.
+fn body_line(rng: &mut Rng, out: &mut String, i: usize, nbodies: usize, odd_names: bool) {
+    let name = if odd_names {
+        (*rng.pick(NAMES)).to_string()
+    } else {
+        format!("body{i}")
+    };
+    let q0 = if rng.chance(0.7) {
+        format!("[{}, 0, 0]", i)
+    } else {
+        format!(
+            "[{}, {}, {}]",
+            json_number(rng),
+            json_number(rng),
+            json_number(rng)
+        )
+    };
+    let vis = if rng.chance(0.3) {
+        format!(
+            ", \"vis\": {{ \"RGB\": [0.8, 0.3, 0.4], \"shapes\": [{{ \"loc\": {}, \"size\": {} }}], \"points\": [{}] }}",
+            vec2(rng),
+            vec2(rng),
+            vec2(rng)
+        )
+    } else {
+        String::new()
+    };
+    let sep = if i + 1 < nbodies { "," } else { "" };
+    let _ = writeln!(
+        out,
+        "    {{ \"name\": {}, \"id\": {}, \"mass\": {}, \"jbar\": {}, \"q0\": {q0}, \"qd0\": [0, 0, 0]{vis} }}{sep}",
+        json_string(&name),
+        i + 1,
+        inertia(rng),
+        inertia(rng)
+    );
+}
+
+/// The constraints: for each body a two-row joint to an earlier body or
+/// absolute constraints, enough rows (or not) for a model to check.
+fn constraint_items(rng: &mut Rng, nbodies: usize, odd_names: bool) -> Vec<String> {
     let mut items = Vec::new();
     for i in 0..nbodies {
         let b = i + 1;
@@ -217,21 +243,7 @@ pub fn generate(rng: &mut Rng) -> String {
             ));
         }
     }
-    out.push_str(&items.join(",\n"));
-    out.push_str("\n  ]");
-    if rng.chance(0.15) {
-        let _ = write!(
-            out,
-            ",\n  \"forces\": [ {{ \"name\": \"f\", \"id\": 1, \"type\": \"PointForce\", \"body1\": 1, \"sP1\": [0, 0], \"frame\": \"GRF\", \"funX\": {}, \"funY\": \"0\" }} ]",
-            json_string(&fun::generate(rng))
-        );
-    }
-    out.push_str("\n}\n");
-    if rng.chance(0.3) {
-        out.push('\0');
-        out.push_str(&acf(rng));
-    }
-    out
+    items
 }
 
 /// An ACF analysis, JSON or the plain `key: value` form, with extreme
