@@ -200,6 +200,61 @@ pub(crate) fn body(
     (stmts, used)
 }
 
+/// Scheduled nodes past which a generated function's outputs are split
+/// over several functions ([`chunks`]). LLVM's optimisation time grows
+/// faster than linearly in a function's size, so a 1000-body model's Φ_q as
+/// one function body dominated its compile time; chunks of this size keep
+/// every function in the linear regime while calls between them cost
+/// nothing measurable.
+pub(crate) const CHUNK_NODES: usize = 2000;
+
+/// `outputs` split into consecutive ranges whose bodies schedule at most
+/// about `budget` nodes each (a single output larger than that is a chunk
+/// of its own), not descending below nodes for which `stop` holds. One
+/// range when the whole fits. A node shared by two chunks is computed in
+/// each: outputs are taken in order, and the derivation's rows follow the
+/// model's bodies, so neighbouring outputs share most of what they read.
+pub(crate) fn chunks(
+    arena: &Arena,
+    outputs: &[ExprId],
+    stop: &dyn Fn(ExprId) -> bool,
+    budget: usize,
+) -> Vec<std::ops::Range<usize>> {
+    // The chunk that last counted each node (0: none yet).
+    let mut mark: Vec<u32> = vec![0; arena.len()];
+    let mut stack: Vec<ExprId> = Vec::new();
+    let mut count_new = |root: ExprId, chunk: u32| -> usize {
+        let mut added = 0;
+        stack.push(root);
+        while let Some(e) = stack.pop() {
+            if mark[e.index()] == chunk {
+                continue;
+            }
+            mark[e.index()] = chunk;
+            added += 1;
+            if !stop(e) {
+                arena.for_each_child(e, |c| stack.push(c));
+            }
+        }
+        added
+    };
+    let mut ranges = Vec::new();
+    let (mut start, mut size, mut chunk) = (0, 0, 1u32);
+    for (k, &o) in outputs.iter().enumerate() {
+        let added = count_new(o, chunk);
+        if size > 0 && size + added > budget {
+            ranges.push(start..k);
+            start = k;
+            chunk += 1;
+            size = count_new(o, chunk);
+        } else {
+            size += added;
+        }
+    }
+    ranges.push(start..outputs.len());
+    ranges
+}
+
 /// How many values [`body`] binds for `schedule`: the shared ones (the
 /// depth limit adds a few more, which `MAX_LETS` leaves room for).
 fn count_bindings(arena: &Arena, schedule: &Schedule, inputs: &Inputs<'_>) -> usize {

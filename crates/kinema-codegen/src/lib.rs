@@ -64,6 +64,13 @@ pub struct Config {
     /// order chosen at generation time, straight-line factorization and
     /// solves, runtime fallback) and make `solver()` use it.
     pub static_lu: bool,
+    /// Scheduled expression nodes past which an evaluation method (Φ, Φ_q,
+    /// ν, γ) is split into private functions of about this many nodes each,
+    /// called in order: rustc's and LLVM's time on one function grows
+    /// faster than its size, and a 1000-body chain's Φ_q as one body took
+    /// half its build. The results are the same to the bit (each chunk
+    /// computes its outputs with the same operations).
+    pub chunk_nodes: usize,
 }
 
 impl Default for Config {
@@ -72,6 +79,7 @@ impl Default for Config {
             runtime: syn::parse_quote!(::kinema::__private),
             static_dense_limit: 24,
             static_lu: true,
+            chunk_nodes: emit::CHUNK_NODES,
         }
     }
 }
@@ -146,7 +154,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     }
     let (solver, lu_items) = solver_items(d, &name, options);
     let inherent = inherent_items(d, &name, &solver);
-    let system = system_impl(d, (&name, &scratch), &params, &cache, &options.runtime);
+    let system = system_impl(d, (&name, &scratch), &params, &cache, options);
     let outputs = outputs::items(d, &name, &params, &options.runtime);
     let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
     quote! {
@@ -189,6 +197,14 @@ fn struct_item(d: &Derivation, name: &Ident, params: &[Ident]) -> TokenStream {
         let v = emit::number(p.value).tokens;
         quote! { #f: #v, }
     });
+    // A model without parameters has an empty struct, whose `Default` clippy
+    // would rather see derived (in a build script's generated file, which
+    // clippy lints, unlike the macro's output).
+    let derivable = if d.params.is_empty() {
+        quote!(#[allow(clippy::derivable_impls)])
+    } else {
+        quote!()
+    };
     quote! {
         #docs
         // Field names are the model's parameter names, as the user wrote them.
@@ -198,6 +214,7 @@ fn struct_item(d: &Derivation, name: &Ident, params: &[Ident]) -> TokenStream {
             #(#fields)*
         }
 
+        #derivable
         impl ::core::default::Default for #name {
             fn default() -> Self {
                 Self { #(#defaults)* }
@@ -331,10 +348,17 @@ fn guess_body(d: &Derivation, params: &[Ident]) -> TokenStream {
 
 /// The evaluation methods' bodies: Φ, Φ_q, both at once (one schedule, so
 /// sin/cos are computed once per body), ν and γ, each refreshing the cache
-/// it reads first.
-fn evaluation_methods(d: &Derivation, params: &[Ident], cache: &cache::Cache) -> [Method; 5] {
+/// it reads first; and the chunk functions that the bodies of a large model
+/// call ([`Chunk`]; `rt` is the runtime's path, for their scratch type).
+fn evaluation_methods(
+    d: &Derivation,
+    params: &[Ident],
+    cache: &cache::Cache,
+    (rt, chunk_nodes): (&syn::Path, usize),
+) -> ([Method; 5], Vec<TokenStream>) {
     let a = &d.arena;
     let nc = d.nc();
+    let nnz = d.phi_q.entries.len();
     let out = format_ident!("out");
     let to_out = |k: usize| emit::index(&out, k);
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
@@ -343,16 +367,35 @@ fn evaluation_methods(d: &Derivation, params: &[Ident], cache: &cache::Cache) ->
         params,
         cached: &lookup,
     };
-    let method = |outputs: &[kinema_expr::ExprId], target: &dyn Fn(usize) -> TokenStream| {
+    let method = |label: &str,
+                  outputs: &[kinema_expr::ExprId],
+                  target: &dyn Fn(usize) -> TokenStream,
+                  places: &[(&str, usize)]| {
         let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
-        let (body, mut used) = emit::body(a, outputs, target, &inputs);
+        let stop = |e| cache.lookup(e).is_some();
+        let ranges = emit::chunks(a, outputs, &stop, chunk_nodes);
+        let scratch = reads_q || reads_t;
+        let (body, mut used, helpers) = if ranges.len() > 1 {
+            let chunk = Chunk {
+                label,
+                nc,
+                places,
+                scratch,
+                rt,
+            };
+            chunk.emit(a, outputs, &ranges, target, &inputs)
+        } else {
+            let (body, used) = emit::body(a, outputs, target, &inputs);
+            (body, used, Vec::new())
+        };
         used.q |= reads_q;
         used.t |= reads_t;
-        Method {
+        let method = Method {
             body: quote!(#refresh #body),
             used,
-            scratch: reads_q || reads_t,
-        }
+            scratch,
+        };
+        (method, helpers)
     };
     let both_exprs: Vec<_> = d.phi.iter().chain(&jac_exprs).copied().collect();
     let (phi_name, values_name) = (format_ident!("phi"), format_ident!("values"));
@@ -363,13 +406,101 @@ fn evaluation_methods(d: &Derivation, params: &[Ident], cache: &cache::Cache) ->
             emit::index(&values_name, k - nc)
         }
     };
-    [
-        method(&d.phi, &to_out),
-        method(&jac_exprs, &to_out),
-        method(&both_exprs, &to_both),
-        method(&d.nu, &to_out),
-        method(&d.gamma, &to_out),
-    ]
+    let (phi, mut helpers) = method("phi", &d.phi, &to_out, &[("out", nc)]);
+    let mut more = |(m, h): (Method, Vec<TokenStream>)| {
+        helpers.extend(h);
+        m
+    };
+    let jac = more(method("jacobian", &jac_exprs, &to_out, &[("out", nnz)]));
+    let both = more(method(
+        "phi_and_jacobian",
+        &both_exprs,
+        &to_both,
+        &[("phi", nc), ("values", nnz)],
+    ));
+    let nu = more(method("nu", &d.nu, &to_out, &[("out", nc)]));
+    let gamma = more(method("gamma", &d.gamma, &to_out, &[("out", nc)]));
+    ([phi, jac, both, nu, gamma], helpers)
+}
+
+/// A large method's body split over private `#[inline(never)]` methods,
+/// one per range of its outputs ([`emit::chunks`]), so that no generated
+/// function is too large for LLVM's linear regime. Each chunk function
+/// takes what the method's body has after [`Method::wrap`] (fixed-size
+/// arrays, `t`, the scratch read-only) under the same names, so the emitted
+/// statements are the same as in one body.
+struct Chunk<'a> {
+    /// The method's name, in the chunk functions' names.
+    label: &'a str,
+    nc: usize,
+    /// The output arrays: (name, length).
+    places: &'a [(&'a str, usize)],
+    /// Whether the body reads the scratch (the cache).
+    scratch: bool,
+    rt: &'a syn::Path,
+}
+
+impl Chunk<'_> {
+    /// The method's body (calls of the chunk functions, in order), the
+    /// inputs it reads, and the chunk functions.
+    fn emit(
+        &self,
+        a: &kinema_expr::Arena,
+        outputs: &[kinema_expr::ExprId],
+        ranges: &[std::ops::Range<usize>],
+        target: &dyn Fn(usize) -> TokenStream,
+        inputs: &emit::Inputs<'_>,
+    ) -> (TokenStream, emit::Used, Vec<TokenStream>) {
+        let mut used = emit::Used::default();
+        let bodies: Vec<TokenStream> = ranges
+            .iter()
+            .map(|r| {
+                let (body, u) =
+                    emit::body(a, &outputs[r.clone()], &|k| target(r.start + k), inputs);
+                used.q |= u.q;
+                used.qd |= u.qd;
+                used.t |= u.t;
+                body
+            })
+            .collect();
+        let nc = Literal::usize_unsuffixed(self.nc);
+        let rt = self.rt;
+        let mut params = Vec::new();
+        let mut args = Vec::new();
+        let mut input = |on: bool, name: &str, ty: TokenStream| {
+            if on {
+                let n = format_ident!("{}", name);
+                params.push(quote!(#n: #ty));
+                args.push(quote!(#n));
+            }
+        };
+        input(used.q, "q", quote!(&[f64; #nc]));
+        input(used.qd, "qd", quote!(&[f64; #nc]));
+        input(used.t, "t", quote!(f64));
+        input(
+            self.scratch,
+            "scratch",
+            quote!(&<Self as #rt::System>::Scratch),
+        );
+        for &(name, len) in self.places {
+            let len = Literal::usize_unsuffixed(len);
+            input(true, name, quote!(&mut [f64; #len]));
+        }
+        let mut calls = TokenStream::new();
+        let mut helpers = Vec::with_capacity(bodies.len());
+        for (i, body) in bodies.iter().enumerate() {
+            let name = format_ident!("__kinema_{}_{}", self.label, i);
+            calls.extend(quote!(self.#name(#(#args),*);));
+            helpers.push(quote! {
+                #[inline(never)]
+                #[allow(unused_variables, clippy::too_many_arguments)]
+                fn #name(&self, #(#params),*) {
+                    #body
+                }
+            });
+        }
+        (calls, used, helpers)
+    }
 }
 
 /// `impl System`: the evaluation methods as straight-line code over the
@@ -380,14 +511,26 @@ fn system_impl(
     types: (&Ident, &TokenStream),
     params: &[Ident],
     cache: &cache::Cache,
-    rt: &syn::Path,
+    options: &Config,
 ) -> TokenStream {
+    let rt = &options.runtime;
     let (name, scratch_type) = types;
     let nc = d.nc();
     let nc_lit = Literal::usize_unsuffixed(nc);
     let nnz = d.phi_q.entries.len();
     let guess = guess_body(d, params);
-    let [phi, jac, both, nu, gamma] = evaluation_methods(d, params, cache);
+    let ([phi, jac, both, nu, gamma], helpers) =
+        evaluation_methods(d, params, cache, (rt, options.chunk_nodes));
+    let chunks = if helpers.is_empty() {
+        quote!()
+    } else {
+        quote! {
+            #[allow(clippy::approx_constant)]
+            impl #name {
+                #(#helpers)*
+            }
+        }
+    };
     let args = |m: &Method| {
         (
             Method::arg(m.scratch, "scratch"),
@@ -470,6 +613,8 @@ fn system_impl(
                 #gamma_body
             }
         }
+
+        #chunks
     }
 }
 

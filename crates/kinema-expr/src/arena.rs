@@ -309,7 +309,7 @@ impl Arena {
 
     /// Calls `f` on each child of `e`.
     #[inline]
-    pub(crate) fn for_each_child(&self, e: ExprId, f: impl FnMut(ExprId)) {
+    pub fn for_each_child(&self, e: ExprId, f: impl FnMut(ExprId)) {
         self.for_each_child_of(&self.nodes[e.index()], f);
     }
 

@@ -50,4 +50,31 @@ mod tests {
         }
         Ok(())
     }
+
+    /// The chain of ten links generated with chunked evaluation methods (by
+    /// build.rs) and in one body each (by the macro): the same trajectory,
+    /// to the bit, and the chunked source really has chunks.
+    #[test]
+    fn chunked_evaluation_is_the_same_code() -> Result<(), kinema::Error> {
+        // Each model's items that this test does not use are dead code here.
+        #[allow(dead_code)]
+        mod chunked {
+            include!(concat!(env!("OUT_DIR"), "/chain10_chunked.rs"));
+        }
+        #[allow(dead_code)]
+        mod whole {
+            kinema::mechanism!(file = "../../models/chain10.kin");
+        }
+        let source = include_str!(concat!(env!("OUT_DIR"), "/chain10_chunked.rs"));
+        assert!(source.matches("fn __kinema_phi_and_jacobian_").count() > 3);
+        let options = kinema::Options::same_algorithm();
+        let mut a = chunked::Chain10::default().solver(options)?;
+        let mut b = whole::Chain10::default().solver(options)?;
+        for k in 0..=50 {
+            let t = f64::from(k) / 50.0;
+            let (sa, sb) = (a.step(t)?, b.step(t)?);
+            assert_eq!(sa, sb, "t = {t}");
+        }
+        Ok(())
+    }
 }
