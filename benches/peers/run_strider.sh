@@ -15,7 +15,7 @@ fi
 mkdir -p results
 root=../..
 model=$root/crates/kinema-bench/models/strider.kin
-(cd $root && cargo build --release -q --bin kinema)
+(cd $root && cargo build --release -q -p kinema-cli --bin kinema)
 kinema=$root/target/release/kinema
 $kinema run "$model" --steps 360 --positions-only --out results/strider_kinema.csv > /dev/null
 $PY bench_strider.py --reps "$reps" --csv results/strider_pylinkage.csv \

@@ -146,7 +146,7 @@ pub fn cli(data: &[u8]) -> Result<Reach, Finding> {
     let Some(bin) = kinema_binary() else {
         return Err(finding(
             "cli-setup",
-            "no `kinema` binary: build it (`cargo build --bin kinema`) or set KINEMA_BIN",
+            "no `kinema` binary: build it (`cargo build -p kinema-cli`) or set KINEMA_BIN",
         ));
     };
     let dir = std::env::temp_dir().join(format!("kinema-fuzz-cli-{}", std::process::id()));

@@ -233,7 +233,7 @@ fn outputs_that_are_an_input_or_each_other_are_refused() -> TestResult {
     // The analysis file of a simEngine2D model is an input too.
     write(
         &dir.path("a.acf"),
-        &read(&format!("{ROOT}/tests/cli/adm/one_second.acf")),
+        &read(&format!("{HERE}/tests/cli/adm/one_second.acf")),
     );
     write(&dir.path("t.adm"), &adm_data("translational.adm"));
     let o = kinema_in(
@@ -287,7 +287,7 @@ fn a_failed_run_never_replaces_a_good_output_with_a_bad_one() -> TestResult {
     assert_eq!(read(&csv), "earlier results\n");
     // A lock-up: the rows before it are the CSV (as promised), the figure
     // is not drawn and the earlier one stays.
-    let lockup = format!("{ROOT}/tests/cli/models/lockup.kin");
+    let lockup = format!("{HERE}/tests/cli/models/lockup.kin");
     let o = kinema_in(
         &dir.0,
         &["run", &lockup, "--out", "good.csv", "--plot", "good.svg"],

@@ -25,7 +25,9 @@ use serde_json::Value;
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+/// The repository root (models/, the other crates' test data); the binary
+/// runs there.
+const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 
 /// One browser at a time: the frame-rate measurement must not share the
 /// machine with another page.
@@ -492,7 +494,7 @@ fn failed_run_is_marked_on_the_time_slider() -> TestResult {
     let (csv_path, html) = (dir.join("lockup.csv"), dir.join("lockup.html"));
     let (code, stderr) = kinema(&[
         "run",
-        "tests/cli/models/lockup.kin",
+        "crates/kinema-cli/tests/cli/models/lockup.kin",
         "--out",
         &csv_path.to_string_lossy(),
         "--animate",

@@ -1,5 +1,5 @@
 //! Helpers shared by the command-line tests (`tests/cli.rs`,
-//! `tests/cli_hostile.rs`): running the binary, its streams and status,
+//! `tests/cli_hostile.rs`, …): running the binary, its streams and status,
 //! temporary directories, and reading the CSV of the contract.
 
 // Each test file uses a different subset of the helpers.
@@ -11,7 +11,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 pub type TestResult = Result<(), Box<dyn std::error::Error>>;
 
-pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+/// The repository root: `models/`, the other crates' test data, `benches/`;
+/// the binary runs there.
+pub const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
+/// This package's directory: the command line's own fixtures (`tests/cli/`).
+pub const HERE: &str = env!("CARGO_MANIFEST_DIR");
 
 /// Runs the binary in the repository root with `args`.
 pub fn kinema(args: &[&str]) -> Output {

@@ -11,7 +11,8 @@ use std::path::Path;
 mod common;
 use common::*;
 
-const MODEL: &str = "tests/cli/models/keyword_names.kin";
+/// The model, from the repository root where the binary runs.
+const MODEL: &str = "crates/kinema-cli/tests/cli/models/keyword_names.kin";
 
 kinema::mechanism!(file = "tests/cli/models/keyword_names.kin");
 

@@ -295,7 +295,7 @@ fn check_reports_dof_assembly_and_rank() {
 
 #[test]
 fn check_names_redundant_equations() {
-    let o = kinema(&["check", "tests/cli/models/redundant.kin"]);
+    let o = kinema(&["check", "crates/kinema-cli/tests/cli/models/redundant.kin"]);
     assert_status(&o, 1);
     let out = stdout(&o);
     assert!(
@@ -320,7 +320,12 @@ fn check_names_redundant_equations() {
 fn lock_up_fails_with_status_1_naming_time_and_equations() -> TestResult {
     let dir = TempDir::new("lockup");
     let out = dir.path("l.csv");
-    let o = kinema(&["run", "tests/cli/models/lockup.kin", "--out", &out]);
+    let o = kinema(&[
+        "run",
+        "crates/kinema-cli/tests/cli/models/lockup.kin",
+        "--out",
+        &out,
+    ]);
     assert_status(&o, 1);
     let err = stderr(&o);
     assert!(
@@ -342,7 +347,7 @@ fn lock_up_fails_with_status_1_naming_time_and_equations() -> TestResult {
 
 #[test]
 fn bad_model_files_give_status_2_and_rendered_errors() -> TestResult {
-    let mut names: Vec<PathBuf> = std::fs::read_dir(Path::new(ROOT).join("tests/cli/bad"))?
+    let mut names: Vec<PathBuf> = std::fs::read_dir(Path::new(HERE).join("tests/cli/bad"))?
         .filter_map(Result::ok)
         .map(|e| e.path())
         .collect();
@@ -357,7 +362,9 @@ fn bad_model_files_give_status_2_and_rendered_errors() -> TestResult {
                 "run" => vec![command, &rel, "--out", "/nonexistent/never-written.csv"],
                 _ => vec![command, &rel],
             };
-            let o = kinema(&args);
+            // Run in this package, so that the messages name the file as
+            // the snapshots have it.
+            let o = kinema_in(Path::new(HERE), &args);
             assert_status(&o, 2);
             assert!(stdout(&o).is_empty(), "nothing on stdout for {rel}");
             snapshot(&format!("bad_kin__{stem}"), &stderr(&o));
@@ -427,7 +434,7 @@ fn usage_errors_give_status_2() {
             "cannot create `/nonexistent/p.svg`",
         ),
         (
-            &["check", "tests/cli/adm/one_second.acf"],
+            &["check", "crates/kinema-cli/tests/cli/adm/one_second.acf"],
             "is a simEngine2D analysis file, not a model",
         ),
     ];
@@ -513,7 +520,11 @@ fn worst_residual(adm: &Path, csv: &Csv) -> Result<f64, Box<dyn std::error::Erro
 fn adm_translational_block_moves_as_its_driver() -> TestResult {
     let dir = TempDir::new("translational");
     let adm = format!("{ADM_DATA}/translational.adm");
-    let (_, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/two_seconds.acf"))?;
+    let (_, csv) = run_adm(
+        &dir,
+        &adm,
+        Some("crates/kinema-cli/tests/cli/adm/two_seconds.acf"),
+    )?;
     assert_eq!(csv.rows.len(), 41, "outputSteps 40 of the plain-text ACF");
     // The rail is at the origin turned by θ = atan(1/2); the block's point
     // (−0.2, 0) slides on the rail's line through its point (0.5, 0.1) with
@@ -610,7 +621,11 @@ fn adm_rack_and_pinion_matches_the_closed_form() -> TestResult {
 fn adm_slider_crank_matches_the_closed_form() -> TestResult {
     let dir = TempDir::new("adm-slider-crank");
     let adm = format!("{ADM_DATA}/slider_crank.adm");
-    let (_, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/one_second.acf"))?;
+    let (_, csv) = run_adm(
+        &dir,
+        &adm,
+        Some("crates/kinema-cli/tests/cli/adm/one_second.acf"),
+    )?;
     assert_eq!(csv.rows.len(), 21);
     check_slider_crank(&csv, 1e-10)
 }
@@ -619,7 +634,11 @@ fn adm_slider_crank_matches_the_closed_form() -> TestResult {
 fn adm_four_bar_matches_the_peer_reference_and_uses_its_forces() -> TestResult {
     let dir = TempDir::new("adm-four-bar");
     let adm = format!("{ADM_DATA}/four_bar.adm");
-    let (o, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/one_second.acf"))?;
+    let (o, csv) = run_adm(
+        &dir,
+        &adm,
+        Some("crates/kinema-cli/tests/cli/adm/one_second.acf"),
+    )?;
     let err = stderr(&o);
     // Masses and jbar everywhere: the RSDA2 is imported and the run writes
     // inverse dynamics after the kinematic columns (tests/cli_dynamics.rs).
@@ -654,11 +673,16 @@ fn adm_absolute_pendulum_matches_the_closed_form_and_refuses_its_m_file_force() 
     let dir = TempDir::new("adm-pendulum");
     let adm = format!("{ADM_DATA}/absolute_pendulum.adm");
     // Its PointForceFile cannot be run: refused, naming the m-file.
-    let o = kinema(&["run", &adm, "--acf", "tests/cli/adm/two_seconds.acf"]);
+    let o = kinema(&[
+        "run",
+        &adm,
+        "--acf",
+        "crates/kinema-cli/tests/cli/adm/two_seconds.acf",
+    ]);
     assert_status(&o, 2);
     assert!(stderr(&o).contains("myForce.m"), "{}", stderr(&o));
     // Without it the model runs, its other forces used.
-    let text = std::fs::read_to_string(&adm)?;
+    let text = std::fs::read_to_string(Path::new(ROOT).join(&adm))?;
     let line = text
         .lines()
         .find(|l| l.contains("PointForceFile"))
@@ -668,7 +692,11 @@ fn adm_absolute_pendulum_matches_the_closed_form_and_refuses_its_m_file_force() 
     assert_ne!(without, text);
     let adm = dir.path("absolute_pendulum.adm");
     std::fs::write(&adm, without)?;
-    let (o, csv) = run_adm(&dir, &adm, Some("tests/cli/adm/two_seconds.acf"))?;
+    let (o, csv) = run_adm(
+        &dir,
+        &adm,
+        Some("crates/kinema-cli/tests/cli/adm/two_seconds.acf"),
+    )?;
     let err = stderr(&o);
     assert!(
         !err.contains("ignored by kinematic analysis: force"),

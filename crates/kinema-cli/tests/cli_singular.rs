@@ -4,6 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// The repository root (models/, tests/singular/); the binary runs there.
+const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
 /// A scratch directory under the system's temp dir, removed on drop.
 struct TempDir(PathBuf);
 
@@ -32,7 +35,7 @@ impl Drop for TempDir {
 fn kinema(args: &[&str]) -> Output {
     match Command::new(env!("CARGO_BIN_EXE_kinema"))
         .args(args)
-        .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")))
+        .current_dir(Path::new(ROOT))
         .output()
     {
         Ok(output) => output,
@@ -175,7 +178,8 @@ fn check_warns_instead_of_ok_at_a_singular_start() {
 
 /// The pendulum of models/pendulum.kin with L replaced.
 fn pendulum(dir: &TempDir, length: &str) -> String {
-    let source = std::fs::read_to_string("models/pendulum.kin").unwrap_or_default();
+    let source =
+        std::fs::read_to_string(Path::new(ROOT).join("models/pendulum.kin")).unwrap_or_default();
     let path = dir.path(&format!("pendulum_{length}.kin"));
     let changed = source.replace("param L = 1;", &format!("param L = {length};"));
     assert_ne!(changed, source, "the model sets L");
@@ -214,7 +218,8 @@ fn rank_decisions_do_not_depend_on_units_and_never_panic() {
 #[test]
 fn assembly_far_from_the_guess_is_a_warning() {
     // The crank's angle guessed a turn away from the driver's π/4.
-    let source = std::fs::read_to_string("models/four_bar.kin").unwrap_or_default();
+    let source =
+        std::fs::read_to_string(Path::new(ROOT).join("models/four_bar.kin")).unwrap_or_default();
     let changed = source.replace(
         "body crank   { guess: (0.1, 0.1, 0.8) }",
         "body crank   { guess: (0.1, 0.1, 7.08) }",
