@@ -16,7 +16,7 @@ use std::path::Path;
 
 use kinema::{PointKinematics, State, point_kinematics};
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
@@ -277,7 +277,8 @@ struct Series {
 /// [`MAX_AXIS`]).
 ///
 /// A wide mechanism gets the full width with the driven coordinates in a
-/// row below it; a compact one sits beside them.
+/// row below it; a compact one sits beside them; with no driven
+/// coordinate (forward dynamics) the mechanism has the row to itself.
 ///
 /// # Errors
 /// Drawing errors (the SVG backend writes to a string: none expected).
@@ -319,7 +320,9 @@ fn render(
     } else {
         720
     };
-    let driven_h = if wide { 300 } else { 0 };
+    // Forward dynamics (no driver) gets no driven-coordinates panel.
+    let driven = !scene.driven.is_empty();
+    let driven_h = if wide && driven { 300 } else { 0 };
     let measures_h = if measures.is_empty() {
         0
     } else {
@@ -362,7 +365,10 @@ fn render(
             instants: &instants,
             bounds,
         };
-        if wide {
+        if !driven {
+            let (view, legend) = upper.split_horizontally(WIDTH - legend_w);
+            mechanism.draw(&view, &legend, &mut warnings)?;
+        } else if wide {
             let (top, driven_area) = upper.split_vertically(mech_h);
             let (view, legend) = top.split_horizontally(WIDTH - legend_w);
             mechanism.draw(&view, &legend, &mut warnings)?;
@@ -420,7 +426,7 @@ impl SafeAxis {
 }
 
 impl Ranged for SafeAxis {
-    type FormatOption = DefaultFormatting;
+    type FormatOption = NoDefaultFormatting;
     type ValueType = f64;
 
     fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
@@ -441,6 +447,14 @@ impl Ranged for SafeAxis {
 
     fn range(&self) -> std::ops::Range<f64> {
         self.inner.range()
+    }
+}
+
+/// Tick labels: [`tick`] at this axis's span, on every axis (plotters'
+/// default would print `0.6000000000000001`).
+impl ValueFormatter<f64> for SafeAxis {
+    fn format_ext(&self, value: &f64) -> String {
+        tick(*value, self.hi - self.lo)
     }
 }
 
@@ -540,21 +554,34 @@ fn units(base: &str) -> [String; 3] {
 
 /// A tick label on an axis spanning about `span`: short, scientific for
 /// very large or small values, and `0` for roundoff around zero.
+///
+/// Ticks are multiples of a round step (1, 2 or 5 times a power of ten)
+/// computed in floating point, so `v` is within rounding of a short
+/// decimal: the label is the shortest decimal (fixed, or scientific with at
+/// least one digit after the point outside [1e-3, 1e5)) within 1e-9 of the
+/// span of `v`, which tells neighbouring ticks apart (they differ by a
+/// step, far more than that) and drops the rounding (`0.6`, not
+/// `0.6000000000000001`).
 fn tick(v: f64, span: f64) -> String {
     let a = v.abs();
+    let tolerance = (1e-9 * span.abs()).max(4.0 * f64::EPSILON * a);
     if v == 0.0 || a <= 1e-9 * span.abs() {
-        "0".to_string()
-    } else if !(1e-3..1e5).contains(&a) {
-        format!("{v:.1e}")
-    } else {
-        let s = format!("{v:.3}");
-        let s = s.trim_end_matches('0').trim_end_matches('.');
-        if s == "-0" {
-            "0".to_string()
+        return "0".to_string();
+    }
+    let close = |s: &str| s.parse::<f64>().is_ok_and(|x| (x - v).abs() <= tolerance);
+    let scientific = !(1e-3..1e5).contains(&a);
+    for digits in if scientific { 1..=16 } else { 0..=17 } {
+        let s = if scientific {
+            format!("{v:.digits$e}")
         } else {
-            s.to_string()
+            format!("{v:.digits$}")
+        };
+        if close(&s) {
+            return if s == "-0" { "0".to_string() } else { s };
         }
     }
+    // Not reached: 17 digits round-trip every f64.
+    format!("{v:e}")
 }
 
 #[cfg(test)]
@@ -577,5 +604,32 @@ mod tests {
         assert_eq!(tick(-0.0001, 1e-3), "-1.0e-4");
         assert_eq!(tick(1.0, 2.0), "1");
         assert_eq!(tick(-5.6e-17, 2.0), "0");
+    }
+
+    /// The time axis of a run over [0, 1] printed `0.6000000000000001`;
+    /// neighbouring ticks closer than 1e-3 printed alike (`1` and `1`).
+    #[test]
+    fn ticks_are_the_shortest_decimal_that_tells_neighbours_apart() {
+        let sixth = 6.0 * 0.1;
+        assert_ne!(sixth, 0.6, "the floating-point tick of the bug");
+        assert_eq!(tick(sixth, 1.0), "0.6");
+        assert_eq!(tick(0.1 + 0.2, 1.0), "0.3");
+        let (a, b) = (1.0 + 1e-4, 1.0 + 2e-4);
+        assert_eq!(
+            (tick(a, 1e-3).as_str(), tick(b, 1e-3).as_str()),
+            ("1.0001", "1.0002")
+        );
+        assert_eq!(tick(125_000.0, 1e5), "1.25e5");
+        assert_eq!(tick(120_000.000_000_001, 1e5), "1.2e5");
+        // Every tick of a range, as plotters makes them, distinct.
+        let axis = SafeAxis::new([0.0, 1.3]);
+        let points = axis.key_points(12);
+        let labels: Vec<String> = points.iter().map(|v| axis.format_ext(v)).collect();
+        for (v, l) in points.iter().zip(&labels) {
+            assert!(l.len() <= 4, "{v} as {l}");
+        }
+        let mut unique = labels.clone();
+        unique.dedup();
+        assert_eq!(unique, labels);
     }
 }
