@@ -5,13 +5,13 @@
 
 use std::fmt::Write as _;
 
-use kinema::equilibrium::Stability;
+use kinema::equilibrium::{Equilibrium, Stability};
 use kinema::{Dynamics, System};
 
 use super::args::RunArgs;
-use super::columns::Selection;
+use super::files::RunFiles;
 use super::load::{Loaded, load_with};
-use super::output::{CsvSink, Destination, Outputs};
+use super::output::Destination;
 use super::{Failure, print_stderr, print_stdout};
 
 /// Rule: kinematic analysis (and inverse dynamics) needs NDOF = 0; a model
@@ -41,6 +41,63 @@ pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
 /// dynamics), model errors, and [`Failure::Analysis`] when no equilibrium
 /// is found.
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    refuse_motion_options(args)?;
+    let loaded = load_with(&args.model, None, false)?;
+    loaded.print_warnings();
+    let d = loaded.model.derivation();
+    if d.dynamics.is_none() {
+        return Err(Failure::usage(format_args!(
+            "`{}` has no inertia, gravity or forces: --equilibrium needs a model with dynamics \
+             (`mass`, `inertia`, `gravity`, `force`)",
+            loaded.file
+        )));
+    }
+    let system = loaded.model.system();
+    let dynamics = super::dynamics::column_names(&system, d.rows.len(), loaded.adm.is_some());
+    let mut sink = RunFiles::create(args, d, &dynamics)?.csv;
+
+    let eq = loaded
+        .model
+        .equilibrium(0.0)
+        .map_err(|e| Failure::analysis(format_args!("error: no equilibrium: {e}")))?;
+    let zeros = vec![0.0; d.nc()];
+    let out = dynamics_row(&loaded, &system, &eq);
+    // Named points and measures at rest.
+    let m = d.outputs.len();
+    let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    kinema::Outputs::outputs(
+        &system,
+        &mut system.scratch(),
+        eq.t,
+        &eq.q,
+        &zeros,
+        &zeros,
+        &mut y,
+        &mut yd,
+        &mut ydd,
+    );
+    sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [&y, &yd, &ydd], &out)?;
+    let destination = sink.destination().clone();
+    sink.finish()?;
+
+    if eq.stability != Stability::Stable {
+        print_stderr(&format!(
+            "warning: the equilibrium found is {}: a small disturbance moves the mechanism away",
+            eq.stability
+        ));
+    }
+    let summary = summary(&loaded, &eq, &destination);
+    if destination == Destination::Stdout {
+        print_stderr(&summary);
+        Ok(())
+    } else {
+        print_stdout(&summary)
+    }
+}
+
+/// Rule: `--equilibrium` is one configuration; options that describe a
+/// motion are refused.
+fn refuse_motion_options(args: &RunArgs) -> Result<(), Failure> {
     for (given, option) in [
         (args.t_end.is_some(), "--t-end"),
         (args.steps.is_some(), "--steps"),
@@ -54,35 +111,16 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             )));
         }
     }
-    let loaded = load_with(&args.model, None, false)?;
-    loaded.print_warnings();
-    let d = loaded.model.derivation();
-    if d.dynamics.is_none() {
-        return Err(Failure::usage(format_args!(
-            "`{}` has no inertia, gravity or forces: --equilibrium needs a model with dynamics \
-             (`mass`, `inertia`, `gravity`, `force`)",
-            loaded.file
-        )));
-    }
-    let system = loaded.model.system();
-    let rows = d.rows.len();
-    let selection = Selection::of_option(args.columns.as_deref(), d)?;
-    let mut header = selection.header(d);
-    header.extend(super::dynamics::column_names(
-        &system,
-        rows,
-        loaded.adm.is_some(),
-    ));
-    let mut outputs = Outputs::new();
-    outputs.input("the model", &args.model);
-    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
+    Ok(())
+}
 
-    let eq = loaded
-        .model
-        .equilibrium(0.0)
-        .map_err(|e| Failure::analysis(format_args!("error: no equilibrium: {e}")))?;
-    // Reactions and efforts as a dynamics run computes them.
-    let n = d.nc();
+/// The dynamics columns at the equilibrium, as a dynamics run computes
+/// them: λ; per reaction the force −Σ Φ_q[row, body]ᵀ λ[row] over its rows
+/// on its body and the torque about the body's frame (g_φ − s × g with the
+/// arm s); the drivers' efforts −λ.
+fn dynamics_row(loaded: &Loaded, system: &kinema::TapeSystem, eq: &Equilibrium) -> Vec<f64> {
+    let d = loaded.model.derivation();
+    let (n, rows) = (d.nc(), d.rows.len());
     let mut values = vec![0.0; system.dynamics_len()];
     let zeros = vec![0.0; n];
     system.dynamics(&mut system.scratch(), &eq.q, &zeros, eq.t, &mut values);
@@ -105,28 +143,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     let start = system.driving_start().min(rows);
     out.extend(eq.lambda[start..].iter().map(|l| -l));
-    // Named points and measures at rest.
-    let m = d.outputs.len();
-    let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
-    {
-        let [y, yd, ydd] = &mut results;
-        kinema::Outputs::outputs(
-            &system,
-            &mut system.scratch(),
-            eq.t,
-            &eq.q,
-            &zeros,
-            &zeros,
-            y,
-            yd,
-            ydd,
-        );
-    }
-    let [y, yd, ydd] = &results;
-    sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [y, yd, ydd], &out)?;
-    let destination = sink.destination().clone();
-    sink.finish()?;
+    out
+}
 
+/// The summary: descent steps, stability with the reduced Hessian's
+/// eigenvalues, residuals, where the row went.
+fn summary(loaded: &Loaded, eq: &Equilibrium, destination: &Destination) -> String {
     let mut summary = format!(
         "{} ({}): equilibrium at t = 0 after {} descent step{}\n",
         loaded.checked.name,
@@ -156,21 +178,10 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let _ = write!(
         summary,
         "  wrote {}",
-        match &destination {
+        match destination {
             Destination::Stdout => "standard output (1 row)".to_owned(),
             Destination::File(p) => format!("`{}` (1 row)", p.display()),
         }
     );
-    if eq.stability != Stability::Stable {
-        print_stderr(&format!(
-            "warning: the equilibrium found is {}: a small disturbance moves the mechanism away",
-            eq.stability
-        ));
-    }
-    if destination == Destination::Stdout {
-        print_stderr(&summary);
-        Ok(())
-    } else {
-        print_stdout(&summary)
-    }
+    summary
 }

@@ -13,9 +13,9 @@ use kinema::forward::TapeForward;
 use kinema::{Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
 
 use super::args::{Integrator, RunArgs};
-use super::columns::Selection;
+use super::files::RunFiles;
 use super::load::Loaded;
-use super::output::{CsvSink, Destination, Outputs, duration, time};
+use super::output::{CsvSink, Destination, duration, time};
 use super::{Failure, print_stderr, print_stdout};
 
 /// Default step of a `.kin` model's forward dynamics.
@@ -224,35 +224,20 @@ pub fn run(
     }
 
     let system = loaded.model.system();
-    let selection = Selection::of_option(args.columns.as_deref(), d)?;
-    let mut header = selection.header(d);
-    header.extend(super::dynamics::column_names(
-        &system,
-        rows,
-        loaded.adm.is_some(),
-    ));
-    if args.energy {
-        header.extend(ENERGY_COLUMNS.map(String::from));
-    }
-    let mut outputs = Outputs::new();
-    outputs.input("the model", &args.model);
-    if let Some(acf) = &args.acf {
-        outputs.input("the analysis file", acf);
-    }
-    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
-    let plot_target = args
-        .plot
-        .as_deref()
-        .map(|p| super::plot::Target::create(&mut outputs, p))
-        .transpose()?;
-    let page_target = args
-        .animate
-        .as_deref()
-        .map(|p| super::animate::Target::create(&mut outputs, p))
-        .transpose()?;
     let dyn_names = super::dynamics::column_names(&system, rows, loaded.adm.is_some());
-    let mut samples = (plot_target.is_some() || page_target.is_some())
+    let mut extra = dyn_names.clone();
+    if args.energy {
+        extra.extend(ENERGY_COLUMNS.map(String::from));
+    }
+    let files = RunFiles::create(args, d, &extra)?;
+    let mut samples = files
+        .keep_states()
         .then(|| super::plot::Samples::new(n).with_dynamics(&dyn_names));
+    let RunFiles {
+        csv: mut sink,
+        plot: plot_target,
+        page: page_target,
+    } = files;
     let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
 
     let analysis_start = Instant::now();

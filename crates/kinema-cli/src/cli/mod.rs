@@ -8,6 +8,7 @@
 //! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
 //! | [`run`] | `kinema run`: the time loop and its summary |
 //! | [`columns`] | `run --columns`: which quantities the CSV holds |
+//! | [`files`] | a run's CSV (its header: the selected columns, then the run's own), figure and page, created before the analysis |
 //! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
 //! | [`progress`] | the progress bar on standard error |
 //! | [`scene`] | what to draw: bodies, joint points, ground pivots, driven coordinates |
@@ -28,6 +29,7 @@ pub mod check;
 pub mod columns;
 pub mod dynamics;
 pub mod equilibrium;
+pub mod files;
 pub mod forward;
 pub mod load;
 pub mod output;

@@ -10,10 +10,10 @@ use kinema_adm::Analysis;
 
 use super::args::{Backend, RunArgs};
 use super::check::run_error;
-use super::columns::Selection;
+use super::files::RunFiles;
 use super::load::{Format, Loaded, load};
-use super::output::{CsvSink, Destination, Outputs, duration, time};
-use super::plot::{self, Samples};
+use super::output::{CsvSink, Destination, duration, time};
+use super::plot::Samples;
 use super::progress::Progress;
 use super::{Failure, adm, animate};
 
@@ -292,58 +292,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let Backend::Tape = args.backend;
     let steps = check_grid_args(args.t_end, args.steps)?;
     let (grid, analysis) = match Format::of(&args.model)? {
-        Format::Kin => {
-            if args.acf.is_some() {
-                return Err(Failure::usage(
-                    "--acf is for simEngine2D models (.adm); a .kin model takes --t-end and --steps",
-                ));
-            }
-            let grid = Grid::uniform(
-                args.t_end.unwrap_or(DEFAULT_T_END),
-                steps.unwrap_or(DEFAULT_STEPS),
-            )?;
-            (grid, None)
-        }
+        Format::Kin => (kin_grid(args, steps)?, None),
         Format::Adm => {
-            let mut analysis = adm::read_analysis(args.acf.as_deref())?;
-            if let Some(t) = args.t_end {
-                analysis.tend = t;
-            }
-            if let Some(n) = steps {
-                analysis.output_steps = n;
-            }
-            check_analysis_size(&analysis)?;
-            let source = || analysis_source(args, &analysis);
-            if let Err(e) = analysis.check_times() {
-                return Err(Failure::usage(format_args!("{}: {e}", source())));
-            }
+            let analysis = adm_analysis(args, steps)?;
             if analysis.simulation == kinema_adm::Simulation::Dynamics {
-                refuse_positions_only(args, true)?;
-                let loaded = super::load::load_with(&args.model, None, false)?;
-                loaded.print_warnings();
-                if loaded.model.derivation().dynamics.is_none() {
-                    return Err(Failure::usage(format_args!(
-                        "`{}` cannot run a Dynamics analysis: it has no inertia (every body \
-                         needs `mass` and `jbar`)",
-                        loaded.file
-                    )));
-                }
-                let description = format!(
-                    "{} outputs from t = 0 to {} (outputSteps {}, stepSize {})",
-                    analysis.output_steps + 1,
-                    time(analysis.tend),
-                    analysis.output_steps,
-                    analysis.step_size
-                );
-                let times = analysis.output_times();
-                return super::forward::run(
-                    args,
-                    &loaded,
-                    &times,
-                    Some(analysis.step_size),
-                    &description,
-                );
+                return adm_dynamics(args, &analysis);
             }
+            let source = || analysis_source(args, &analysis);
             (Grid::simengine(&analysis, &source)?, Some(analysis))
         }
     };
@@ -355,46 +310,86 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     super::forward::refuse_options(args)?;
     super::equilibrium::refuse_free_dof(&loaded)?;
+    kinematics(args, &loaded, &grid, start)
+}
 
+/// The grid of a `.kin` model: `--t-end` and `--steps` (no ACF).
+fn kin_grid(args: &RunArgs, steps: Option<usize>) -> Result<Grid, Failure> {
+    if args.acf.is_some() {
+        return Err(Failure::usage(
+            "--acf is for simEngine2D models (.adm); a .kin model takes --t-end and --steps",
+        ));
+    }
+    Grid::uniform(
+        args.t_end.unwrap_or(DEFAULT_T_END),
+        steps.unwrap_or(DEFAULT_STEPS),
+    )
+}
+
+/// The analysis of an `.adm` model: its ACF (or the default), with
+/// `--t-end` and `--steps` overriding `tend` and `outputSteps`, checked.
+fn adm_analysis(args: &RunArgs, steps: Option<usize>) -> Result<Analysis, Failure> {
+    let mut analysis = adm::read_analysis(args.acf.as_deref())?;
+    if let Some(t) = args.t_end {
+        analysis.tend = t;
+    }
+    if let Some(n) = steps {
+        analysis.output_steps = n;
+    }
+    check_analysis_size(&analysis)?;
+    if let Err(e) = analysis.check_times() {
+        return Err(Failure::usage(format_args!(
+            "{}: {e}",
+            analysis_source(args, &analysis)
+        )));
+    }
+    Ok(analysis)
+}
+
+/// A simEngine2D Dynamics analysis: forward dynamics at the ACF's
+/// `stepSize`, output every `outputSteps`.
+fn adm_dynamics(args: &RunArgs, analysis: &Analysis) -> Result<(), Failure> {
+    refuse_positions_only(args, true)?;
+    let loaded = super::load::load_with(&args.model, None, false)?;
+    loaded.print_warnings();
+    if loaded.model.derivation().dynamics.is_none() {
+        return Err(Failure::usage(format_args!(
+            "`{}` cannot run a Dynamics analysis: it has no inertia (every body needs `mass` and \
+             `jbar`)",
+            loaded.file
+        )));
+    }
+    let description = format!(
+        "{} outputs from t = 0 to {} (outputSteps {}, stepSize {})",
+        analysis.output_steps + 1,
+        time(analysis.tend),
+        analysis.output_steps,
+        analysis.step_size
+    );
+    let times = analysis.output_times();
+    super::forward::run(
+        args,
+        &loaded,
+        &times,
+        Some(analysis.step_size),
+        &description,
+    )
+}
+
+/// Kinematic analysis (and inverse dynamics for a model with inertia)
+/// over `grid`: the files created first, then the time loop, then the
+/// figure, the page and the summary.
+fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> Result<(), Failure> {
     // Outputs are created before the analysis: a bad path fails at once.
     let system = loaded.model.system();
-    let names: Vec<String> = loaded
-        .model
-        .derivation()
-        .coordinates
-        .iter()
-        .map(|c| c.name.clone())
-        .collect();
-    let mut outputs = Outputs::new();
-    outputs.input("the model", &args.model);
-    if let Some(acf) = &args.acf {
-        outputs.input("the analysis file", acf);
-    }
     let derivation = loaded.model.derivation();
-    let selection = Selection::of_option(args.columns.as_deref(), derivation)?
-        .with_positions_only(args.positions_only);
     // Inverse dynamics needs the accelerations: no such columns with
     // positions only.
-    let mut dynamics =
+    let dynamics =
         super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some())
             .filter(|_| !args.positions_only);
-    let mut header = selection.header(derivation);
-    if let Some(d) = &dynamics {
-        header.extend(d.names().iter().cloned());
-    }
-    let mut sink = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
-    let m = derivation.outputs.len();
-    let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
-    let plot_target = args
-        .plot
-        .as_deref()
-        .map(|p| plot::Target::create(&mut outputs, p))
-        .transpose()?;
-    let page_target = args
-        .animate
-        .as_deref()
-        .map(|p| animate::Target::create(&mut outputs, p))
-        .transpose()?;
+    let extra = dynamics.as_ref().map_or(&[][..], |d| d.names());
+    let files = RunFiles::create(args, derivation, extra)?;
 
     let analysis_start = Instant::now();
     let options = Options::default()
@@ -402,71 +397,19 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .with_positions_only(args.positions_only);
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options)
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
-    let mut result_scratch = kinema::System::scratch(solver.system());
-    let keep = plot_target.is_some() || page_target.is_some();
-    let mut samples = keep.then(|| {
-        let s = Samples::new(names.len());
-        match &dynamics {
-            Some(d) => s.with_dynamics(d.names()),
-            None => s,
-        }
-    });
-    // The last output state's time if thinning left it out of `samples`.
-    let mut skipped: Option<f64> = None;
-    let mut flagged: Vec<f64> = Vec::new();
+    let keep = files.keep_states();
+    let RunFiles {
+        csv,
+        plot: plot_target,
+        page: page_target,
+    } = files;
+    let mut rows = Rows::new(csv, &solver, derivation, dynamics, keep, grid);
     let mut stats = Stats::default();
     let mut progress = Progress::new(grid.times.len());
-    let mut write_time = Duration::ZERO;
-    let outputs = grid.output.iter().filter(|&&o| o).count();
-    let stride = outputs.div_ceil(MAX_PLOT_STATES).max(1);
-    let mut written = 0usize;
     for (k, (&t, &is_output)) in grid.times.iter().zip(&grid.output).enumerate() {
-        match solver.step(t) {
-            Ok(_) => {}
-            Err(e) => {
-                progress.finish();
-                let passed: Vec<SingularEvent> = solver
-                    .events()
-                    .iter()
-                    .filter(|e| e.kind != SingularKind::LockUp)
-                    .cloned()
-                    .collect();
-                print_singular_warnings(&passed, &flagged);
-                // The rows before the failure are the CSV (the plot, not
-                // drawn, leaves any earlier file in place).
-                let rows = sink.rows();
-                let destination = sink.destination().clone();
-                let kept = match sink.finish() {
-                    Ok(()) => rows,
-                    // The analysis error is the one to report, even when
-                    // standard output's reader has gone too.
-                    Err(_) => 0,
-                };
-                let failure = run_error(&loaded, &e);
-                let mut message = format!("error: {failure}");
-                if let (Some(target), Some(samples)) = (page_target, &mut samples) {
-                    let note = failed_page(
-                        target,
-                        &solver,
-                        &loaded,
-                        samples,
-                        skipped,
-                        (&passed, &failure),
-                        &plot_title(&loaded, &grid),
-                    );
-                    message.push_str(&note);
-                }
-                if kept > 0
-                    && let Destination::File(p) = &destination
-                {
-                    let _ = write!(
-                        message,
-                        "\n  = note: the {kept} rows computed before the failure are in `{}`",
-                        p.display()
-                    );
-                }
-                return Err(Failure::Analysis(message));
-            }
+        if let Err(e) = solver.step(t) {
+            progress.finish();
+            return Err(step_failure(&solver, rows, loaded, page_target, grid, &e));
         }
         // A state exists after a successful step.
         let Some(state) = solver.state() else {
@@ -474,105 +417,55 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         };
         stats.record(k == 0, state);
         if k == 0 {
-            for w in super::check::assembly_warnings(&loaded, solver.system(), state.q()) {
+            for w in super::check::assembly_warnings(loaded, solver.system(), state.q()) {
                 eprintln!("{w}");
             }
         }
-        if is_output && state.near_singular() {
-            flagged.push(state.t());
-        }
         if is_output {
-            let extra = match &mut dynamics {
-                Some(d) => match d.compute(&mut solver) {
-                    Ok(v) => v,
-                    Err(e) => {
-                        progress.finish();
-                        let _ = sink.finish();
-                        return Err(Failure::Analysis(format!(
-                            "error: inverse dynamics: {}",
-                            run_error(&loaded, &e)
-                        )));
-                    }
-                },
-                None => &[],
-            };
-            let Some(state) = solver.state() else {
-                continue;
-            };
-            let w = Instant::now();
-            if sink.wants_outputs() {
-                kinema::Outputs::outputs_of(
-                    solver.system(),
-                    &mut result_scratch,
-                    state,
-                    &mut results,
-                );
+            if state.near_singular() {
+                rows.flagged.push(state.t());
             }
-            let [y, yd, ydd] = &results;
-            if let Err(failure) = sink.write_with(state, [y, yd, ydd], extra) {
-                // A write error, standard output closed, or a value that
-                // overflowed: the run stops, keeping the rows written.
+            if let Err(failure) = rows.write(&mut solver, loaded, t) {
                 progress.finish();
-                if matches!(failure, Failure::Analysis(_)) {
-                    let _ = sink.finish();
-                }
-                return Err(failure);
+                return Err(rows.stop(failure));
             }
-            skipped = Some(t);
-            if let Some(s) = &mut samples
-                && (written.is_multiple_of(stride) || written + 1 == outputs)
-            {
-                s.push(state);
-                s.push_dynamics(extra);
-                skipped = None;
-            }
-            written += 1;
-            write_time += w.elapsed();
         }
         progress.update(k + 1, t);
     }
     progress.finish();
     let events = solver.close_events().to_vec();
-    print_singular_warnings(&events, &flagged);
+    print_singular_warnings(&events, &rows.flagged);
     stats.events = events.len();
     let w = Instant::now();
-    let (rows, columns, destination) = (sink.rows(), sink.columns(), sink.destination().clone());
-    sink.finish()?;
-    write_time += w.elapsed();
-    let analysis_time = analysis_start.elapsed().saturating_sub(write_time);
+    let sink = &rows.sink;
+    let csv = (sink.destination().clone(), sink.rows(), sink.columns());
+    rows.sink.finish()?;
+    let write_time = rows.write_time + w.elapsed();
+    let analysis = analysis_start.elapsed().saturating_sub(write_time);
 
+    let title = plot_title(loaded, grid);
     let plot_start = Instant::now();
-    if let (Some(target), Some(samples)) = (plot_target, &samples) {
-        target.write(
-            &loaded,
-            solver.system(),
-            samples,
-            &plot_title(&loaded, &grid),
-        )?;
+    if let (Some(target), Some(samples)) = (plot_target, &rows.samples) {
+        target.write(loaded, solver.system(), samples, &title)?;
     }
     let plot_time = args.plot.as_ref().map(|_| plot_start.elapsed());
     let page_start = Instant::now();
-    if let (Some(target), Some(samples)) = (page_target, &samples) {
+    if let (Some(target), Some(samples)) = (page_target, &rows.samples) {
         let markers: Vec<animate::Marker> = events.iter().map(event_marker).collect();
-        target.write(
-            &loaded,
-            solver.system(),
-            samples,
-            &markers,
-            &plot_title(&loaded, &grid),
-        )?;
+        target.write(loaded, solver.system(), samples, &markers, &title)?;
     }
     let page_time = args.animate.as_ref().map(|_| page_start.elapsed());
 
+    let destination = csv.0.clone();
     let summary = summary(&SummaryInput {
-        loaded: &loaded,
-        grid: &grid,
+        loaded,
+        grid,
         stats: &stats,
-        csv: (&destination, rows, columns),
+        csv: (&csv.0, csv.1, csv.2),
         plot: args.plot.as_deref(),
         page: args.animate.as_deref(),
         total: start.elapsed(),
-        analysis: analysis_time,
+        analysis,
         write: write_time,
         plot_time,
         page_time,
@@ -583,6 +476,173 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     } else {
         super::print_stdout(&summary)
     }
+}
+
+/// The rows of a kinematic run: the CSV, inverse dynamics' columns, the
+/// results' buffers, the states kept for a figure or page (thinned evenly
+/// to at most [`MAX_PLOT_STATES`], the last one always kept), and the
+/// output times flagged near singular.
+struct Rows {
+    sink: CsvSink,
+    dynamics: Option<super::dynamics::DynamicsColumns>,
+    results: [Vec<f64>; 3],
+    scratch: <TapeSystem as kinema::System>::Scratch,
+    samples: Option<Samples>,
+    /// The last output state's time if thinning left it out of `samples`.
+    skipped: Option<f64>,
+    flagged: Vec<f64>,
+    /// Output times in the grid, every how many one is kept, how many are
+    /// written.
+    outputs: usize,
+    stride: usize,
+    written: usize,
+    write_time: Duration,
+}
+
+impl Rows {
+    fn new(
+        sink: CsvSink,
+        solver: &Solver<TapeSystem, Auto>,
+        derivation: &kinema_model::Derivation,
+        dynamics: Option<super::dynamics::DynamicsColumns>,
+        keep: bool,
+        grid: &Grid,
+    ) -> Rows {
+        let m = derivation.outputs.len();
+        let samples = keep.then(|| {
+            let s = Samples::new(derivation.coordinates.len());
+            match &dynamics {
+                Some(d) => s.with_dynamics(d.names()),
+                None => s,
+            }
+        });
+        let outputs = grid.output.iter().filter(|&&o| o).count();
+        Rows {
+            sink,
+            dynamics,
+            results: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
+            scratch: kinema::System::scratch(solver.system()),
+            samples,
+            skipped: None,
+            flagged: Vec::new(),
+            outputs,
+            stride: outputs.div_ceil(MAX_PLOT_STATES).max(1),
+            written: 0,
+            write_time: Duration::ZERO,
+        }
+    }
+
+    /// Writes the row of the solver's state at output time `t` (inverse
+    /// dynamics, results) and keeps it for the figure when its turn.
+    ///
+    /// # Errors
+    /// Inverse dynamics failing, a write error, standard output closed, a
+    /// value that overflowed: the run stops (see [`Rows::stop`]).
+    fn write(
+        &mut self,
+        solver: &mut Solver<TapeSystem, Auto>,
+        loaded: &Loaded,
+        t: f64,
+    ) -> Result<(), Failure> {
+        let extra = match &mut self.dynamics {
+            Some(d) => d.compute(solver).map_err(|e| {
+                Failure::Analysis(format!(
+                    "error: inverse dynamics: {}",
+                    run_error(loaded, &e)
+                ))
+            })?,
+            None => &[],
+        };
+        let Some(state) = solver.state() else {
+            return Ok(());
+        };
+        let w = Instant::now();
+        if self.sink.wants_outputs() {
+            kinema::Outputs::outputs_of(
+                solver.system(),
+                &mut self.scratch,
+                state,
+                &mut self.results,
+            );
+        }
+        let [y, yd, ydd] = &self.results;
+        self.sink.write_with(state, [y, yd, ydd], extra)?;
+        self.skipped = Some(t);
+        if let Some(s) = &mut self.samples
+            && (self.written.is_multiple_of(self.stride) || self.written + 1 == self.outputs)
+        {
+            s.push(state);
+            s.push_dynamics(extra);
+            self.skipped = None;
+        }
+        self.written += 1;
+        self.write_time += w.elapsed();
+        Ok(())
+    }
+
+    /// After [`Rows::write`] failed: the rows written are kept (the CSV
+    /// closed) unless standard output is gone; the failure to report.
+    fn stop(self, failure: Failure) -> Failure {
+        if matches!(failure, Failure::Analysis(_)) {
+            let _ = self.sink.finish();
+        }
+        failure
+    }
+}
+
+/// A step failed: the singular passages before it are reported, the rows
+/// before it are the CSV, the page (when asked) shows the states before
+/// it with the failure marked. The error to report, with where the rows
+/// went.
+fn step_failure(
+    solver: &Solver<TapeSystem, Auto>,
+    mut rows: Rows,
+    loaded: &Loaded,
+    page_target: Option<animate::Target>,
+    grid: &Grid,
+    e: &kinema::Error,
+) -> Failure {
+    let passed: Vec<SingularEvent> = solver
+        .events()
+        .iter()
+        .filter(|e| e.kind != SingularKind::LockUp)
+        .cloned()
+        .collect();
+    print_singular_warnings(&passed, &rows.flagged);
+    // The rows before the failure are the CSV (the plot, not drawn, leaves
+    // any earlier file in place).
+    let written = rows.sink.rows();
+    let destination = rows.sink.destination().clone();
+    let kept = match rows.sink.finish() {
+        Ok(()) => written,
+        // The analysis error is the one to report, even when standard
+        // output's reader has gone too.
+        Err(_) => 0,
+    };
+    let failure = run_error(loaded, e);
+    let mut message = format!("error: {failure}");
+    if let (Some(target), Some(samples)) = (page_target, &mut rows.samples) {
+        let note = failed_page(
+            target,
+            solver,
+            loaded,
+            samples,
+            rows.skipped,
+            (&passed, &failure),
+            &plot_title(loaded, grid),
+        );
+        message.push_str(&note);
+    }
+    if kept > 0
+        && let Destination::File(p) = &destination
+    {
+        let _ = write!(
+            message,
+            "\n  = note: the {kept} rows computed before the failure are in `{}`",
+            p.display()
+        );
+    }
+    Failure::Analysis(message)
 }
 
 /// After a failed run: the page with the states computed before the
