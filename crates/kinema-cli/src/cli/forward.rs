@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use kinema::forward::TapeForward;
+use kinema::integrate::Consistency;
 use kinema::{Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
 
 use super::args::{Integrator, RunArgs};
@@ -169,6 +170,73 @@ pub fn run(
 ) -> Result<(), Failure> {
     let start = Instant::now();
     let rtol = args.rtol.unwrap_or(DEFAULT_RTOL);
+    let h = check_options(args, rtol, acf_step)?;
+    let d = loaded.model.derivation();
+    let Some(fwd) = loaded.model.forward_system() else {
+        return Err(Failure::usage(format_args!(
+            "`{}` has no inertia: forward dynamics needs `mass` and `inertia` on every body",
+            loaded.file
+        )));
+    };
+    let n = d.nc();
+    let q0 = loaded.model.initial_configuration();
+    let qd0 = initial_velocities(loaded, n);
+
+    let system = loaded.model.system();
+    let dyn_names = super::dynamics::column_names(&system, d.rows.len(), loaded.adm.is_some());
+    let mut extra = dyn_names.clone();
+    if args.energy {
+        extra.extend(ENERGY_COLUMNS.map(String::from));
+    }
+    let files = RunFiles::create(args, d, &extra)?;
+    let mut samples = files
+        .keep_states()
+        .then(|| super::plot::Samples::new(n).with_dynamics(&dyn_names));
+    let RunFiles {
+        csv: sink,
+        plot: plot_target,
+        page: page_target,
+    } = files;
+
+    let analysis_start = Instant::now();
+    let t0 = outputs_t.first().copied().unwrap_or(0.0);
+    let (mut motion, consistency) = Motion::start(args, fwd, [&q0, &qd0], t0, rtol)?;
+    let sink = motion.integrate(args, loaded, &system, (outputs_t, h), sink, &mut samples)?;
+    let csv = (sink.destination().clone(), sink.rows(), sink.columns());
+    sink.finish()?;
+    let analysis = analysis_start.elapsed();
+    let title = format!("{}: forward dynamics", loaded.checked.name);
+    if let (Some(target), Some(samples)) = (plot_target, &samples) {
+        target.write(loaded, &system, samples, &title)?;
+    }
+    if let (Some(target), Some(samples)) = (page_target, &samples) {
+        target.write(loaded, &system, samples, &[], &title)?;
+    }
+    let s = summary(
+        &Summary {
+            args,
+            loaded,
+            grid,
+            h,
+            rtol,
+            consistency: &consistency,
+            t0,
+            times: (start.elapsed(), analysis),
+            csv: (&csv.0, csv.1, csv.2),
+        },
+        &mut motion,
+    );
+    if csv.0 == Destination::Stdout {
+        print_stderr(&s);
+        Ok(())
+    } else {
+        print_stdout(&s)
+    }
+}
+
+/// Checks the integrator's options against each other; the step: `--step`,
+/// or the ACF's, or [`DEFAULT_STEP`].
+fn check_options(args: &RunArgs, rtol: f64, acf_step: Option<f64>) -> Result<f64, Failure> {
     match args.integrator {
         Integrator::Hht if args.rtol.is_some() => {
             return Err(Failure::usage(
@@ -205,15 +273,11 @@ pub fn run(
             "the step must be positive and finite, not {h}"
         )));
     }
-    let d = loaded.model.derivation();
-    let Some(fwd) = loaded.model.forward_system() else {
-        return Err(Failure::usage(format_args!(
-            "`{}` has no inertia: forward dynamics needs `mass` and `inertia` on every body",
-            loaded.file
-        )));
-    };
-    let (n, rows) = (d.nc(), d.rows.len());
-    let q0 = loaded.model.initial_configuration();
+    Ok(h)
+}
+
+/// q̇ at the start: zero, or a simEngine2D body's initial velocities.
+fn initial_velocities(loaded: &Loaded, n: usize) -> Vec<f64> {
     let mut qd0 = vec![0.0; n];
     if let Some(adm) = &loaded.adm {
         for (k, b) in adm.model.bodies.iter().enumerate() {
@@ -222,140 +286,212 @@ pub fn run(
             }
         }
     }
+    qd0
+}
 
-    let system = loaded.model.system();
-    let dyn_names = super::dynamics::column_names(&system, rows, loaded.adm.is_some());
-    let mut extra = dyn_names.clone();
-    if args.energy {
-        extra.extend(ENERGY_COLUMNS.map(String::from));
-    }
-    let files = RunFiles::create(args, d, &extra)?;
-    let mut samples = files
-        .keep_states()
-        .then(|| super::plot::Samples::new(n).with_dynamics(&dyn_names));
-    let RunFiles {
-        csv: mut sink,
-        plot: plot_target,
-        page: page_target,
-    } = files;
-    let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
+/// The integration: the integrator, a copy of the system for the gravity
+/// potential, and the energies at the start (for the work of the other
+/// forces and the balance).
+struct Motion {
+    engine: Engine,
+    gravity_of: TapeForward,
+    v0: f64,
+    ke0: f64,
+}
 
-    let analysis_start = Instant::now();
-    let t0 = outputs_t.first().copied().unwrap_or(0.0);
-    let mut gravity_of = fwd.clone();
-    let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
-    let start_failure =
-        |e: IntegrateError| Failure::analysis(format_args!("forward dynamics cannot start: {e}"));
-    let options = HhtOptions {
-        project_velocity: args.project_velocity,
-        ..HhtOptions::default()
-    };
-    let (hht, consistency) = Hht::new(fwd, &q0, &qd0, t0, options).map_err(start_failure)?;
-    let mut hht = match accurate_system {
-        None => Engine::Hht(Box::new(hht)),
-        Some(system) => Engine::Accurate(Box::new(
-            Accurate::new(system, hht.q(), hht.qd(), t0, rtol).map_err(start_failure)?,
-        )),
-    };
-    if consistency.dq > 0.0 || consistency.dqd > 0.0 {
-        print_stderr(&format!(
-            "note: the initial conditions were made consistent: q moved by ‖Δq‖∞ = {:.3e} \
-             (‖Φ‖∞ was {:.3e}), q̇ by ‖Δq̇‖∞ = {:.3e} (‖Φ_q q̇ − ν‖∞ was {:.3e}), \
-             minimum-norm projections",
-            consistency.dq, consistency.phi, consistency.dqd, consistency.velocity
-        ));
+impl Motion {
+    /// HHT from (q₀, q̇₀) made consistent (the accurate mode then starts
+    /// from HHT's consistent state); a note when they were corrected.
+    fn start(
+        args: &RunArgs,
+        fwd: TapeForward,
+        [q0, qd0]: [&[f64]; 2],
+        t0: f64,
+        rtol: f64,
+    ) -> Result<(Motion, Consistency), Failure> {
+        let mut gravity_of = fwd.clone();
+        let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
+        let start_failure = |e: IntegrateError| {
+            Failure::analysis(format_args!("forward dynamics cannot start: {e}"))
+        };
+        let options = HhtOptions {
+            project_velocity: args.project_velocity,
+            ..HhtOptions::default()
+        };
+        let (hht, consistency) = Hht::new(fwd, q0, qd0, t0, options).map_err(start_failure)?;
+        let mut engine = match accurate_system {
+            None => Engine::Hht(Box::new(hht)),
+            Some(system) => Engine::Accurate(Box::new(
+                Accurate::new(system, hht.q(), hht.qd(), t0, rtol).map_err(start_failure)?,
+            )),
+        };
+        if consistency.dq > 0.0 || consistency.dqd > 0.0 {
+            print_stderr(&format!(
+                "note: the initial conditions were made consistent: q moved by ‖Δq‖∞ = {:.3e} \
+                 (‖Φ‖∞ was {:.3e}), q̇ by ‖Δq̇‖∞ = {:.3e} (‖Φ_q q̇ − ν‖∞ was {:.3e}), \
+                 minimum-norm projections",
+                consistency.dq, consistency.phi, consistency.dqd, consistency.velocity
+            ));
+        }
+        let v0 = gravity_of.gravity_potential(engine.q()) + 0.0;
+        let ke0 = engine.kinetic_energy();
+        let motion = Motion {
+            engine,
+            gravity_of,
+            v0,
+            ke0,
+        };
+        Ok((motion, consistency))
     }
-    let mut row = RowBuffers::new(&system, n, rows, d.phi_q.entries.len(), d.outputs.len());
-    let v0 = gravity_of.gravity_potential(hht.q()) + 0.0;
-    let ke0 = hht.kinetic_energy();
-    // The row's extra columns with the energies appended (`--energy`).
-    let mut extra = Vec::new();
-    for (k, &t) in outputs_t.iter().enumerate() {
-        if k > 0
-            && let Err(e) = hht.advance_to(t, h)
-        {
-            return Err(step_failure(sink, &e, loaded));
-        }
-        row.fill(&system, &mut hht)?;
-        extra.clear();
-        extra.extend_from_slice(&row.extra);
-        let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
-        let energy = (args.energy || (samples.is_some() && sampled)).then(|| {
-            let v = gravity_of.gravity_potential(hht.q()) + 0.0;
-            let work = hht.work() - (v0 - v);
-            [hht.kinetic_energy(), v, work]
-        });
-        if args.energy
-            && let Some(e) = energy
-        {
-            extra.extend(e);
-        }
-        let (q, qd, qdd) = (hht.q(), hht.qd(), hht.qdd());
-        let [y, yd, ydd] = &row.results;
-        sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &extra)?;
-        if let Some(samples) = &mut samples
-            && sampled
-        {
-            samples.push_values(t, [q, qd, qdd]);
-            samples.push_dynamics(&row.extra);
-            if let Some([kinetic, potential, work]) = energy {
-                samples.push_energy(kinetic, potential, work);
+
+    /// [kinetic T, potential V (gravity), work W of the other forces and
+    /// drivers since the start] now: W = (T + V) − (T₀ + V₀) for a
+    /// conservative model, from the integrator's own work account.
+    fn energies(&mut self) -> [f64; 3] {
+        let v = self.gravity_of.gravity_potential(self.engine.q()) + 0.0;
+        let work = self.engine.work() - (self.v0 - v);
+        [self.engine.kinetic_energy(), v, work]
+    }
+
+    /// Integrates to every output time in turn (step `h`), writing each
+    /// row and keeping the states the figure or the page draws (thinned
+    /// to at most [`super::run::MAX_PLOT_STATES`]). The CSV, to finish.
+    ///
+    /// # Errors
+    /// A failed step (the rows before it kept), a failed write.
+    fn integrate(
+        &mut self,
+        args: &RunArgs,
+        loaded: &Loaded,
+        system: &kinema::TapeSystem,
+        (outputs_t, h): (&[f64], f64),
+        mut sink: CsvSink,
+        samples: &mut Option<super::plot::Samples>,
+    ) -> Result<CsvSink, Failure> {
+        let d = loaded.model.derivation();
+        let (n, rows) = (d.nc(), d.rows.len());
+        let mut row = RowBuffers::new(system, n, rows, d.phi_q.entries.len(), d.outputs.len());
+        let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
+        // The row's extra columns with the energies appended (`--energy`).
+        let mut extra = Vec::new();
+        for (k, &t) in outputs_t.iter().enumerate() {
+            if k > 0
+                && let Err(e) = self.engine.advance_to(t, h)
+            {
+                return Err(step_failure(sink, &e, loaded));
+            }
+            row.fill(system, &mut self.engine)?;
+            extra.clear();
+            extra.extend_from_slice(&row.extra);
+            let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
+            let energy = (args.energy || (samples.is_some() && sampled)).then(|| self.energies());
+            if args.energy
+                && let Some(e) = energy
+            {
+                extra.extend(e);
+            }
+            let (q, qd, qdd) = (self.engine.q(), self.engine.qd(), self.engine.qdd());
+            let [y, yd, ydd] = &row.results;
+            sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &extra)?;
+            if let Some(samples) = samples
+                && sampled
+            {
+                samples.push_values(t, [q, qd, qdd]);
+                samples.push_dynamics(&row.extra);
+                if let Some([kinetic, potential, work]) = energy {
+                    samples.push_energy(kinetic, potential, work);
+                }
             }
         }
+        Ok(sink)
     }
-    let (out_rows, columns, destination) =
-        (sink.rows(), sink.columns(), sink.destination().clone());
-    sink.finish()?;
-    let analysis = analysis_start.elapsed();
-    let title = format!("{}: forward dynamics", loaded.checked.name);
-    if let (Some(target), Some(samples)) = (plot_target, &samples) {
-        target.write(loaded, &system, samples, &title)?;
-    }
-    if let (Some(target), Some(samples)) = (page_target, &samples) {
-        target.write(loaded, &system, samples, &[], &title)?;
-    }
+}
 
-    let ke = hht.kinetic_energy();
-    let v = gravity_of.gravity_potential(hht.q()) + 0.0;
-    let other = hht.work() - (v0 - v);
-    let mut s = String::new();
+/// What the summary of a forward-dynamics run reports.
+struct Summary<'a> {
+    args: &'a RunArgs,
+    loaded: &'a Loaded,
+    /// The grid's description.
+    grid: &'a str,
+    h: f64,
+    rtol: f64,
+    consistency: &'a Consistency,
+    t0: f64,
+    /// Total and analysis time.
+    times: (std::time::Duration, std::time::Duration),
+    /// Where the CSV went, its rows and columns.
+    csv: (&'a Destination, usize, usize),
+}
+
+/// The summary: the model, grid, integrator, consistency corrections, the
+/// energies at both ends and the balance (with a warning on standard error
+/// when it is off by more than 1 % of the energies), times, files.
+fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
+    let (args, loaded) = (s.args, s.loaded);
+    let d = loaded.model.derivation();
+    let (n, rows) = (d.nc(), d.rows.len());
+    let [ke, v, other] = motion.energies();
+    let (ke0, v0) = (motion.ke0, motion.v0);
+    let mut out = String::new();
     let nb = d.bodies.len();
     let _ = writeln!(
-        s,
+        out,
         "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, forward dynamics (tape back \
          end)",
         loaded.checked.name,
         loaded.file,
         if nb == 1 { "y" } else { "ies" },
     );
-    let _ = writeln!(s, "  grid: {grid}");
+    let _ = writeln!(out, "  grid: {}", s.grid);
     let _ = writeln!(
-        s,
+        out,
         "  integrator: {}",
-        hht.describe(h, rtol, args.project_velocity)
+        motion.engine.describe(s.h, s.rtol, args.project_velocity)
     );
     let _ = writeln!(
-        s,
+        out,
         "  start: ‖Δq‖∞ = {:.2e}, ‖Δq̇‖∞ = {:.2e} (consistency projections)",
-        consistency.dq, consistency.dqd
+        s.consistency.dq, s.consistency.dqd
     );
     let _ = writeln!(
-        s,
+        out,
         "  energy at t = {}: kinetic {ke:.9e}, potential (gravity) {v:.9e}; at t = {}: kinetic \
          {ke0:.9e}, potential {v0:.9e}",
-        time(hht.t()),
-        time(t0)
+        time(motion.engine.t()),
+        time(s.t0)
     );
     let balance = (ke + v) - (ke0 + v0) - other;
     let _ = writeln!(
-        s,
+        out,
         "  work of the other forces and drivers {other:.9e}; balance error {balance:.3e}"
     );
-    // The balance is the run's own accuracy check: a large error is said,
-    // not left in a number of the summary.
-    let scale = [ke, v, ke0, v0, other]
-        .iter()
-        .fold(0.0_f64, |m, x| m.max(x.abs()));
+    warn_balance(args, balance, [ke, v, ke0, v0, other]);
+    let _ = writeln!(
+        out,
+        "  time: {} (model {}, analysis {})",
+        duration(s.times.0),
+        duration(loaded.elapsed),
+        duration(s.times.1)
+    );
+    let (destination, out_rows, columns) = s.csv;
+    let csv = match destination {
+        Destination::Stdout => "standard output".to_string(),
+        Destination::File(p) => format!("`{}`", p.display()),
+    };
+    let _ = write!(out, "  wrote {csv} ({out_rows} rows × {columns} columns)");
+    for p in [args.plot.as_deref(), args.animate.as_deref()]
+        .into_iter()
+        .flatten()
+    {
+        let _ = write!(out, " and `{}`", p.display());
+    }
+    out
+}
+
+/// The balance is the run's own accuracy check: a large error is said, not
+/// left in a number of the summary.
+fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
+    let scale = energies.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     if balance.is_nan() || balance.abs() > 1e-2 * scale {
         print_stderr(&format!(
             "warning: the energy balance is off by {balance:.3e} ({:.1}% of the energies): the \
@@ -366,30 +502,6 @@ pub fn run(
                 Integrator::Accurate => "try a smaller --rtol",
             }
         ));
-    }
-    let _ = writeln!(
-        s,
-        "  time: {} (model {}, analysis {})",
-        duration(start.elapsed()),
-        duration(loaded.elapsed),
-        duration(analysis)
-    );
-    let csv = match &destination {
-        Destination::Stdout => "standard output".to_string(),
-        Destination::File(p) => format!("`{}`", p.display()),
-    };
-    let _ = write!(s, "  wrote {csv} ({out_rows} rows × {columns} columns)");
-    for p in [args.plot.as_deref(), args.animate.as_deref()]
-        .into_iter()
-        .flatten()
-    {
-        let _ = write!(s, " and `{}`", p.display());
-    }
-    if destination == Destination::Stdout {
-        print_stderr(&s);
-        Ok(())
-    } else {
-        print_stdout(&s)
     }
 }
 
