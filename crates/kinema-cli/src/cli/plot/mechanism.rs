@@ -291,11 +291,9 @@ impl Mechanism<'_> {
     ) -> Drawn {
         let Mechanism {
             scene,
-            samples,
-            paths,
             fixed,
-            instants,
             bounds: b,
+            ..
         } = *self;
 
         let area = view.titled(
@@ -341,8 +339,18 @@ impl Mechanism<'_> {
             .y_label_formatter(&|v| tick(*v, yr[1] - yr[0]))
             .draw()?;
 
-        // Paths first, under the bodies.
-        for s in paths {
+        self.draw_paths(&mut chart)?;
+        self.draw_bodies(&mut chart, size)?;
+        for f in fixed {
+            draw_ground(&mut chart, *f, 0.035 * size)?;
+        }
+        draw_legend_column(legend, &self.legend_entries())
+    }
+
+    /// The paths of the joint points, first, under the bodies.
+    fn draw_paths(&self, chart: &mut MechChart<'_, '_>) -> Drawn {
+        let samples = self.samples;
+        for s in self.paths {
             let line: Vec<(f64, f64)> = thinned(samples.len())
                 .into_iter()
                 .map(|k| samples.position(k, s.body, s.local))
@@ -354,73 +362,82 @@ impl Mechanism<'_> {
                 s.color.stroke_width(2),
             )))?;
         }
+        Ok(())
+    }
 
-        // Bodies at each instant, earliest (lightest) first.
+    /// The bodies at each instant, earliest (lightest) first; `size`: the
+    /// extent of what is drawn, which symbol sizes follow.
+    fn draw_bodies(&self, chart: &mut MechChart<'_, '_>, size: f64) -> Drawn {
         let block = [0.07 * size, 0.04 * size];
-        let m = instants.len();
-        for (j, &k) in instants.iter().enumerate() {
+        let m = self.instants.len();
+        for (j, &k) in self.instants.iter().enumerate() {
             let grey = instant_color(j, m);
             let last = j + 1 == m;
             let width = if last { 3 } else { 2 };
-            for (i, body) in scene.bodies.iter().enumerate() {
-                draw_body(&mut chart, samples, k, i, body, grey, width, block, last)?;
+            for (i, body) in self.scene.bodies.iter().enumerate() {
+                draw_body(chart, self.samples, k, i, body, grey, width, block, last)?;
             }
         }
+        Ok(())
+    }
 
-        // Ground pivots and fixed points: a hatched triangle below each.
-        let s = 0.035 * size;
-        for f in fixed {
-            let (x, y) = (f[0], f[1]);
-            let base = y - 0.9 * s;
-            chart.draw_series(std::iter::once(Polygon::new(
-                vec![(x, y), (x - 0.55 * s, base), (x + 0.55 * s, base)],
-                RGBColor(120, 120, 120).mix(0.35).filled(),
-            )))?;
-            chart.draw_series(std::iter::once(PathElement::new(
-                vec![(x, y), (x - 0.55 * s, base), (x + 0.55 * s, base), (x, y)],
-                BLACK.stroke_width(1),
-            )))?;
-            chart.draw_series(std::iter::once(PathElement::new(
-                vec![(x - 0.8 * s, base), (x + 0.8 * s, base)],
-                BLACK.stroke_width(2),
-            )))?;
-            for h in 0..5 {
-                let x0 = x - 0.8 * s + f64::from(h) * 0.4 * s;
-                chart.draw_series(std::iter::once(PathElement::new(
-                    vec![(x0, base), (x0 - 0.25 * s, base - 0.3 * s)],
-                    BLACK.stroke_width(1),
-                )))?;
-            }
-            chart.draw_series(std::iter::once(Circle::new((x, y), 4, WHITE.filled())))?;
-            chart.draw_series(std::iter::once(Circle::new(
-                (x, y),
-                4,
-                BLACK.stroke_width(2),
-            )))?;
-        }
-
-        // The legend, in its own strip.
+    /// The legend: the instants' times and shades, the paths, the symbols.
+    fn legend_entries(&self) -> Vec<(String, Swatch)> {
+        let m = self.instants.len();
         let mut entries: Vec<(String, Swatch)> = vec![("Instants".to_string(), Swatch::Heading)];
-        for (j, &k) in instants.iter().enumerate() {
-            let t = samples.t.get(k).copied().unwrap_or(f64::NAN);
+        for (j, &k) in self.instants.iter().enumerate() {
+            let t = self.samples.t.get(k).copied().unwrap_or(f64::NAN);
             entries.push((
                 format!("t = {} s", time(t)),
                 Swatch::Line(instant_color(j, m), 3),
             ));
         }
-        if !paths.is_empty() {
+        if !self.paths.is_empty() {
             entries.push(("Paths of points".to_string(), Swatch::Heading));
         }
-        for p in paths {
+        for p in self.paths {
             entries.push((p.label.clone(), Swatch::Line(p.color, 2)));
         }
         entries.push(("Symbols".to_string(), Swatch::Heading));
-        if !fixed.is_empty() {
+        if !self.fixed.is_empty() {
             entries.push(("fixed point".to_string(), Swatch::Pivot));
         }
         entries.push(("joint point".to_string(), Swatch::Joint));
-        draw_legend_column(legend, &entries)
+        entries
     }
+}
+
+/// A ground pivot or fixed point at `f`: a hatched triangle of size `s`
+/// below it and a joint circle on it.
+fn draw_ground(chart: &mut MechChart<'_, '_>, f: [f64; 2], s: f64) -> Drawn {
+    let (x, y) = (f[0], f[1]);
+    let base = y - 0.9 * s;
+    chart.draw_series(std::iter::once(Polygon::new(
+        vec![(x, y), (x - 0.55 * s, base), (x + 0.55 * s, base)],
+        RGBColor(120, 120, 120).mix(0.35).filled(),
+    )))?;
+    chart.draw_series(std::iter::once(PathElement::new(
+        vec![(x, y), (x - 0.55 * s, base), (x + 0.55 * s, base), (x, y)],
+        BLACK.stroke_width(1),
+    )))?;
+    chart.draw_series(std::iter::once(PathElement::new(
+        vec![(x - 0.8 * s, base), (x + 0.8 * s, base)],
+        BLACK.stroke_width(2),
+    )))?;
+    for h in 0..5 {
+        let x0 = x - 0.8 * s + f64::from(h) * 0.4 * s;
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(x0, base), (x0 - 0.25 * s, base - 0.3 * s)],
+            BLACK.stroke_width(1),
+        )))?;
+    }
+    chart.draw_series(std::iter::once(Circle::new((x, y), 4, WHITE.filled())))?;
+    chart.draw_series(std::iter::once(Circle::new(
+        (x, y),
+        4,
+        BLACK.stroke_width(2),
+    )))?;
+    Ok(())
 }
 
 pub(super) fn rect_corners(loc: [f64; 2], size: [f64; 2]) -> [[f64; 2]; 4] {
