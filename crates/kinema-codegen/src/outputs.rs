@@ -9,7 +9,7 @@ use kinema_model::Derivation;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::emit;
+use crate::emit::{self, Used};
 
 /// A model name as an upper-case constant name (`crank.pin.x` →
 /// `CRANK_PIN_X`); `None` when it does not make an identifier.
@@ -56,11 +56,10 @@ fn index_constants<'a>(
         .collect()
 }
 
-/// The constants, `results` and the `Outputs` impl of the mechanism `name`.
-pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Path) -> TokenStream {
-    let m = d.outputs.len();
-    let m_lit = Literal::usize_unsuffixed(m);
-    let nc = d.nc();
+/// The index constants of the coordinates and of the result columns (a
+/// result's also carries its declaration's doc comment), none that would
+/// clash with the type's own constants or with each other.
+fn constants(d: &Derivation) -> Vec<TokenStream> {
     let mut taken: HashMap<String, usize> = [
         "COORDINATES",
         "COORDINATE_NAMES",
@@ -101,14 +100,22 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
             },
         )
         .collect();
-    let consts = coordinates.iter().chain(&results).map(|(c, k, doc)| {
-        let k = Literal::usize_unsuffixed(*k);
-        quote! { #[doc = #doc] pub const #c: usize = #k; }
-    });
-    let output_names = d.outputs.iter().map(|o| o.name.as_str());
+    coordinates
+        .iter()
+        .chain(&results)
+        .map(|(c, k, doc)| {
+            let k = Literal::usize_unsuffixed(*k);
+            quote! { #[doc = #doc] pub const #c: usize = #k; }
+        })
+        .collect()
+}
 
-    // One body: y, ẏ and c into the outputs, the y_q entries into `j`;
-    // then ÿ = c + Σ y_q q̈ in the order of the entries (as the tape does).
+/// The body of `write_results`: y, ẏ and c into the outputs and the y_q
+/// entries into a local `j`, from one schedule; then ÿ = c + Σ y_q q̈ in the
+/// order of the entries (as the tape does). With the inputs it reads and
+/// the number of y_q entries.
+fn results_body(d: &Derivation, params: &[Ident]) -> (TokenStream, Used, usize) {
+    let m = d.outputs.len();
     let mut exprs = Vec::with_capacity(3 * m);
     exprs.extend(d.outputs.iter().map(|o| o.value));
     exprs.extend(d.outputs.iter().map(|o| o.velocity));
@@ -120,7 +127,6 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
             exprs.push(e);
         }
     }
-    let nj = sums.len();
     let (y, yd, ydd, j) = (
         format_ident!("y"),
         format_ident!("yd"),
@@ -139,7 +145,6 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
         cached: &no_cache,
     };
     let (body, used) = emit::body(&d.arena, &exprs, &target, &inputs);
-    let nj_lit = Literal::usize_unsuffixed(nj);
     let accumulate = sums.iter().map(|&(i, k, jk)| {
         let (i, k, jk) = (
             Literal::usize_unsuffixed(i),
@@ -148,7 +153,17 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
         );
         quote! { ydd[#i] += j[#jk] * qdd[#k]; }
     });
-    let nc_lit = Literal::usize_unsuffixed(nc);
+    let body = quote! { #body #(#accumulate)* };
+    (body, used, sums.len())
+}
+
+/// `fn write_results`: the arguments it does not read prefixed `_`, the
+/// slices it reads converted once to arrays of n (a wrong length leaves
+/// the outputs as they are: NaN), the body of [`results_body`].
+fn write_results(d: &Derivation, params: &[Ident]) -> TokenStream {
+    let (body, used, nj) = results_body(d, params);
+    let m_lit = Literal::usize_unsuffixed(d.outputs.len());
+    let nc_lit = Literal::usize_unsuffixed(d.nc());
     let arg = |used: bool, n: &str| {
         if used {
             format_ident!("{}", n)
@@ -170,11 +185,41 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
         sized(&qd_arg, used.qd),
         sized(&qdd_arg, nj > 0),
     );
+    let nj_lit = Literal::usize_unsuffixed(nj);
     let j_decl = if nj > 0 {
         quote! { let mut j = [0.0f64; #nj_lit]; }
     } else {
         quote!()
     };
+    quote! {
+        #[allow(clippy::too_many_arguments, unused_variables)]
+        fn write_results(
+            &self,
+            #t_arg: f64,
+            #q_arg: &[f64],
+            #qd_arg: &[f64],
+            #qdd_arg: &[f64],
+            y: &mut [f64; #m_lit],
+            yd: &mut [f64; #m_lit],
+            ydd: &mut [f64; #m_lit],
+        ) {
+            #q_sized
+            #qd_sized
+            #qdd_sized
+            #j_decl
+            #body
+        }
+    }
+}
+
+/// The constants, `results` and the `Outputs` impl of the mechanism `name`.
+pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Path) -> TokenStream {
+    let m = d.outputs.len();
+    let m_lit = Literal::usize_unsuffixed(m);
+    let nc_lit = Literal::usize_unsuffixed(d.nc());
+    let consts = constants(d);
+    let output_names = d.outputs.iter().map(|o| o.name.as_str());
+    let write_results = write_results(d, params);
     let m_doc =
         format!(" Number of result columns (named points' components, then measures): {m}.");
     quote! {
@@ -197,24 +242,7 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
                 out
             }
 
-            #[allow(clippy::too_many_arguments, unused_variables)]
-            fn write_results(
-                &self,
-                #t_arg: f64,
-                #q_arg: &[f64],
-                #qd_arg: &[f64],
-                #qdd_arg: &[f64],
-                y: &mut [f64; #m_lit],
-                yd: &mut [f64; #m_lit],
-                ydd: &mut [f64; #m_lit],
-            ) {
-                #q_sized
-                #qd_sized
-                #qdd_sized
-                #j_decl
-                #body
-                #(#accumulate)*
-            }
+            #write_results
         }
 
         impl #rt::Outputs for #name {
