@@ -506,9 +506,7 @@ fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
 }
 
 fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded) -> Failure {
-    let rows = sink.rows();
-    let destination = sink.destination().clone();
-    let kept = if sink.finish().is_ok() { rows } else { 0 };
+    let note = sink.finish_after_failure();
     let mut message = format!("error: forward dynamics of `{}`: {e}", loaded.file);
     if let Some(adm) = &loaded.adm
         && let IntegrateError::NoConvergence { equation, .. } = e
@@ -518,15 +516,7 @@ fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded) -> Failure {
     {
         message.push_str(&adm.explain(&[name]));
     }
-    if kept > 0
-        && let Destination::File(p) = &destination
-    {
-        let _ = write!(
-            message,
-            "\n  = note: the {kept} rows computed before the failure are in `{}`",
-            p.display()
-        );
-    }
+    message.push_str(&note);
     Failure::Analysis(message)
 }
 

@@ -502,6 +502,23 @@ impl CsvSink {
         Sink::finish(out, &destination)
     }
 
+    /// After the analysis failed: closes the CSV, keeping the rows written
+    /// before the failure; a note for the error message that says where
+    /// they are (none when there are none, when they went to standard
+    /// output, or when closing failed: the analysis error is the one to
+    /// report then).
+    pub fn finish_after_failure(self) -> String {
+        let rows = self.rows;
+        let destination = self.destination.clone();
+        match (self.finish(), &destination) {
+            (Ok(()), Destination::File(p)) if rows > 0 => format!(
+                "\n  = note: the {rows} rows computed before the failure are in `{}`",
+                p.display()
+            ),
+            _ => String::new(),
+        }
+    }
+
     /// Rows written so far (the header not counted).
     pub fn rows(&self) -> usize {
         self.rows

@@ -611,14 +611,7 @@ fn step_failure(
     print_singular_warnings(&passed, &rows.flagged);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
-    let written = rows.sink.rows();
-    let destination = rows.sink.destination().clone();
-    let kept = match rows.sink.finish() {
-        Ok(()) => written,
-        // The analysis error is the one to report, even when standard
-        // output's reader has gone too.
-        Err(_) => 0,
-    };
+    let rows_note = rows.sink.finish_after_failure();
     let failure = run_error(loaded, e);
     let mut message = format!("error: {failure}");
     if let (Some(target), Some(samples)) = (page_target, &mut rows.samples) {
@@ -633,15 +626,7 @@ fn step_failure(
         );
         message.push_str(&note);
     }
-    if kept > 0
-        && let Destination::File(p) = &destination
-    {
-        let _ = write!(
-            message,
-            "\n  = note: the {kept} rows computed before the failure are in `{}`",
-            p.display()
-        );
-    }
+    message.push_str(&rows_note);
     Failure::Analysis(message)
 }
 
