@@ -164,25 +164,14 @@ fn build(
 
 fn call(arena: &mut Arena, f: Func, a: ExprId) -> ExprId {
     match f {
-        Func::Sin => arena.sin(a),
-        Func::Cos => arena.cos(a),
-        Func::Tan => arena.tan(a),
-        Func::Asin => arena.asin(a),
-        Func::Acos => arena.acos(a),
-        Func::Atan => arena.atan(a),
-        Func::Sinh => arena.sinh(a),
-        Func::Cosh => arena.cosh(a),
-        Func::Tanh => arena.tanh(a),
-        Func::Exp => arena.exp(a),
-        Func::Log => arena.ln(a),
+        Func::Unary(op) => arena.unary(op, a),
+        Func::Sqrt => arena.sqrt(a),
         Func::Log10 => {
             let ln = arena.ln(a);
             let ten = arena.num(10.0);
             let ln10 = arena.ln(ten);
             arena.div(ln, ln10)
         }
-        Func::Sqrt => arena.sqrt(a),
-        Func::Abs => arena.abs(a),
     }
 }
 

@@ -18,6 +18,7 @@
 //!   argument (a corner within the stencil), or a large intermediate.
 
 use kinema_adm::fun::{BinOp, Expr, Func, Func2, Node};
+use kinema_expr::UnaryOp;
 
 /// One evaluation of a `fun` at `t`, with what the oracles need to know.
 pub(crate) struct Trace {
@@ -82,7 +83,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
                 op.apply(a, b)
             }
             Node::Call(f, a) => {
-                if f == Func::Abs {
+                if f == Func::Unary(UnaryOp::Abs) {
                     abs_args.push(get(a));
                 }
                 f.apply(get(a))
@@ -110,7 +111,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
             node,
             Node::Bin(BinOp::Mul | BinOp::Div | BinOp::Pow, _, _)
                 | Node::Call2(Func2::Power, _, _)
-                | Node::Call(Func::Exp, _)
+                | Node::Call(Func::Unary(UnaryOp::Exp), _)
         );
         // Underflow: flushed to 0, or into the subnormals where precision is
         // lost (5e-324·π is 1.5e-323, and / 5e-324 gives 3, not π).
@@ -134,7 +135,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
 /// the reals, not an overflow.
 fn domain_pole(node: Node, ops: &[f64]) -> bool {
     match node {
-        Node::Call(Func::Log | Func::Log10, _) => ops.first() == Some(&0.0),
+        Node::Call(Func::Unary(UnaryOp::Ln) | Func::Log10, _) => ops.first() == Some(&0.0),
         Node::Bin(BinOp::Pow, _, _) | Node::Call2(Func2::Power, _, _) => {
             ops.first() == Some(&0.0) && ops.get(1).is_some_and(|&p| p < 0.0)
         }

@@ -26,7 +26,7 @@
 
 use std::fmt;
 
-use kinema_expr::UnaryOp;
+use kinema_expr::{FunctionKind, UnaryOp};
 
 mod parse;
 
@@ -85,112 +85,84 @@ impl Fun {
     }
 }
 
-/// A one-argument function of the `fun` language.
+/// A one-argument function of the `fun` language, as one of kinema's own
+/// (the engine's function table, [`kinema_expr::FUNCTIONS`]): its scalar
+/// functions of one scalar under their MATLAB names (`log` is kinema's
+/// `ln`) and `sqrt`; and `log10`, which kinema writes as `ln(x) / ln(10)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Func {
-    /// `sin`
-    Sin,
-    /// `cos`
-    Cos,
-    /// `tan`
-    Tan,
-    /// `asin`
-    Asin,
-    /// `acos`
-    Acos,
-    /// `atan`
-    Atan,
-    /// `sinh`
-    Sinh,
-    /// `cosh`
-    Cosh,
-    /// `tanh`
-    Tanh,
-    /// `exp`
-    Exp,
-    /// `log`: natural logarithm (kinema's `ln`).
-    Log,
+    /// One of the engine's scalar functions (`sin`, …, `exp`, `log`, `abs`).
+    Unary(UnaryOp),
+    /// `sqrt` (a power in the engine).
+    Sqrt,
     /// `log10`: decimal logarithm (printed as `ln(x) / ln(10)`).
     Log10,
-    /// `sqrt`
-    Sqrt,
-    /// `abs`
-    Abs,
 }
 
 impl Func {
-    const ALL: [(&'static str, Func); 14] = [
-        ("sin", Func::Sin),
-        ("cos", Func::Cos),
-        ("tan", Func::Tan),
-        ("asin", Func::Asin),
-        ("acos", Func::Acos),
-        ("atan", Func::Atan),
-        ("sinh", Func::Sinh),
-        ("cosh", Func::Cosh),
-        ("tanh", Func::Tanh),
-        ("exp", Func::Exp),
-        ("log", Func::Log),
-        ("log10", Func::Log10),
-        ("sqrt", Func::Sqrt),
-        ("abs", Func::Abs),
-    ];
+    /// The MATLAB name of kinema's `ln`.
+    const LOG: &'static str = "log";
 
     fn from_name(name: &str) -> Option<Func> {
-        Func::ALL.iter().find(|(n, _)| *n == name).map(|&(_, f)| f)
+        match name {
+            Func::LOG => return Some(Func::Unary(UnaryOp::Ln)),
+            "log10" => return Some(Func::Log10),
+            // MATLAB's natural logarithm is `log`.
+            "ln" => return None,
+            _ => {}
+        }
+        match kinema_expr::function(name)?.kind {
+            FunctionKind::Unary(op) => Some(Func::Unary(op)),
+            FunctionKind::Sqrt => Some(Func::Sqrt),
+            _ => None,
+        }
     }
 
     /// The MATLAB name.
     #[must_use]
     pub fn name(self) -> &'static str {
-        Func::ALL
-            .iter()
-            .find(|(_, f)| *f == self)
-            .map_or("?", |&(n, _)| n)
+        match self {
+            Func::Unary(UnaryOp::Ln) => Func::LOG,
+            Func::Log10 => "log10",
+            Func::Unary(_) | Func::Sqrt => self.kin_name(),
+        }
     }
 
-    /// Every function of the `fun` language, by its MATLAB name.
+    /// Every function of the `fun` language, in the engine table's order
+    /// (`log10` after `log`).
     pub fn all() -> impl Iterator<Item = Func> {
-        Func::ALL.iter().map(|&(_, f)| f)
-    }
-
-    /// The engine's function of one argument this is; `None` for `log10`
-    /// (kinema writes `ln(x) / ln(10)`) and `sqrt` (a power in the engine).
-    fn op(self) -> Option<UnaryOp> {
-        Some(match self {
-            Func::Sin => UnaryOp::Sin,
-            Func::Cos => UnaryOp::Cos,
-            Func::Tan => UnaryOp::Tan,
-            Func::Asin => UnaryOp::Asin,
-            Func::Acos => UnaryOp::Acos,
-            Func::Atan => UnaryOp::Atan,
-            Func::Sinh => UnaryOp::Sinh,
-            Func::Cosh => UnaryOp::Cosh,
-            Func::Tanh => UnaryOp::Tanh,
-            Func::Exp => UnaryOp::Exp,
-            Func::Log => UnaryOp::Ln,
-            Func::Abs => UnaryOp::Abs,
-            Func::Log10 | Func::Sqrt => return None,
-        })
+        kinema_expr::FUNCTIONS
+            .iter()
+            .filter_map(|f| match f.kind {
+                FunctionKind::Unary(UnaryOp::Ln) => {
+                    Some([Some(Func::Unary(UnaryOp::Ln)), Some(Func::Log10)])
+                }
+                FunctionKind::Unary(op) => Some([Some(Func::Unary(op)), None]),
+                FunctionKind::Sqrt => Some([Some(Func::Sqrt), None]),
+                _ => None,
+            })
+            .flatten()
+            .flatten()
     }
 
     /// The function's value at `x` (the engine's [`UnaryOp::apply`] for
     /// those it has).
     #[must_use]
     pub fn apply(self, x: f64) -> f64 {
-        match (self, self.op()) {
-            (_, Some(op)) => op.apply(x),
-            (Func::Log10, None) => x.log10(),
-            (_, None) => x.sqrt(),
+        match self {
+            Func::Unary(op) => op.apply(x),
+            Func::Sqrt => x.sqrt(),
+            Func::Log10 => x.log10(),
         }
     }
 
-    /// kinema's name of the function (all the same except `log` → `ln`).
+    /// kinema's name of the function (all the same except `log` → `ln`;
+    /// `log10` is written with `ln`).
     pub(crate) fn kin_name(self) -> &'static str {
-        match (self, self.op()) {
-            (_, Some(op)) => op.name(),
-            (Func::Log10, None) => "ln",
-            (_, None) => "sqrt",
+        match self {
+            Func::Unary(op) => op.name(),
+            Func::Sqrt => "sqrt",
+            Func::Log10 => "ln",
         }
     }
 }
@@ -535,6 +507,48 @@ pub fn format_number(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `fun` functions are kinema's table under MATLAB's names: the same
+    /// fourteen as before the table, in the same order, `ln` refused
+    /// (MATLAB writes `log`), and each with the value of its `std` function.
+    #[test]
+    fn functions_are_the_engines_under_matlab_names() {
+        let names: Vec<&str> = Func::all().map(Func::name).collect();
+        assert_eq!(
+            names,
+            [
+                "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log",
+                "log10", "sqrt", "abs"
+            ]
+        );
+        for f in Func::all() {
+            assert_eq!(Func::from_name(f.name()), Some(f));
+        }
+        assert_eq!(Func::from_name("ln"), None);
+        assert_eq!(Func::from_name("atan2"), None);
+        let x: f64 = 0.37;
+        let want = [
+            x.sin(),
+            x.cos(),
+            x.tan(),
+            x.asin(),
+            x.acos(),
+            x.atan(),
+            x.sinh(),
+            x.cosh(),
+            x.tanh(),
+            x.exp(),
+            x.ln(),
+            x.log10(),
+            x.sqrt(),
+            x.abs(),
+        ];
+        for (f, w) in Func::all().zip(want) {
+            assert_eq!(f.apply(x).to_bits(), w.to_bits(), "{}", f.name());
+            let e = Expr::parse(&format!("{}(t)", f.name())).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(e.eval(x).to_bits(), w.to_bits(), "{}", f.name());
+        }
+    }
 
     fn eval(s: &str, t: f64) -> f64 {
         Expr::parse(s)
