@@ -4,7 +4,7 @@
 
 use kinema::{Accurate, Hht, HhtOptions, Model};
 
-#[path = "common/counting.rs"]
+#[path = "../crates/kinema-runtime/tests/common/counting.rs"]
 mod counting;
 use counting::allocations;
 

@@ -1,8 +1,11 @@
 //! A counting global allocator for the allocation tests: it forwards to the
 //! system allocator and counts this thread's allocations and reallocations
-//! (other threads, such as the test harness's, are not counted). Included
-//! with `#[path = "common/counting.rs"] mod counting;`; it installs itself
-//! as the test binary's global allocator.
+//! (other threads, such as the test harness's, are not counted). It
+//! installs itself as the test binary's global allocator. One file for
+//! every crate's allocation tests, included by path: `#[path =
+//! "common/counting.rs"] mod counting;` here (tests/allocations.rs), and
+//! from the repository root's tests with the path to this file (no crate
+//! of its own for a test helper).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
