@@ -792,3 +792,51 @@ fn doc_attrs(docs: &[String]) -> TokenStream {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::{build::derive_source, emit};
+
+    /// What chunking costs at run time: the nodes that two chunks of one
+    /// method both compute. On the chain N = 1000 (the model chunking is
+    /// for) every method is split, and the chunks together compute under
+    /// 1 % more operations than the method as one body.
+    #[test]
+    fn chunks_of_a_long_chain_share_almost_nothing() {
+        let d = derive_source(&kinema_model::chain::chain_kin(1000), "chain1000.kin")
+            .expect("the chain derives");
+        let jacobian: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
+        let both: Vec<_> = d.phi.iter().chain(&jacobian).copied().collect();
+        let everything: Vec<_> = both.iter().chain(&d.nu).chain(&d.gamma).copied().collect();
+        let cache = crate::cache::Cache::find(&d.arena, &everything);
+        let stop = |e| cache.lookup(e).is_some();
+        // Operations: numbers and symbols are read, not computed.
+        let operations = |outputs: &[kinema_expr::ExprId]| {
+            emit::reachable(&d.arena, outputs, &stop)
+                .into_iter()
+                .filter(|&e| {
+                    !stop(e)
+                        && !matches!(
+                            d.arena.node(e),
+                            kinema_expr::NodeRef::Num(_) | kinema_expr::NodeRef::Sym(_)
+                        )
+                })
+                .count()
+        };
+        for outputs in [&d.phi, &jacobian, &both, &d.nu, &d.gamma] {
+            let whole = operations(outputs);
+            let ranges = emit::chunks(&d.arena, outputs, &stop, emit::CHUNK_NODES);
+            assert!(ranges.len() > 1, "{whole} nodes in one chunk");
+            let chunked: usize = ranges.iter().map(|r| operations(&outputs[r.clone()])).sum();
+            assert!(
+                chunked as f64 <= 1.01 * whole as f64,
+                "{chunked} nodes in {} chunks against {whole}",
+                ranges.len()
+            );
+            let sizes = ranges
+                .iter()
+                .map(|r| emit::reachable(&d.arena, &outputs[r.clone()], &stop).len());
+            assert!(sizes.into_iter().all(|s| s <= emit::CHUNK_NODES));
+        }
+    }
+}
