@@ -1,11 +1,13 @@
 //! The tape back end's forward dynamics: a [`ForwardSystem`] whose every
 //! matrix comes from the symbolic derivation (Φ, Φ_q, ν, γ, M, Q_A,
 //! ∂Q_A/∂q, ∂Q_A/∂q̇ and the second derivatives of Φ for ∂(Φ_qᵀλ)/∂q),
-//! compiled to tapes once.
+//! compiled to tapes once. The sparse matrices' tapes write their values
+//! straight into the `*_values` outputs HHT's sparse Newton matrix reads
+//! (in the order of [`ForwardSystem::structure`]).
 
 use kinema_expr::{ExprId, SymId, Tape, TapeInputs};
 use kinema_model::Derivation;
-use kinema_runtime::{ForwardStructure, ForwardSystem};
+use kinema_runtime::{DenseScratch, ForwardStructure, ForwardSystem};
 
 use crate::Model;
 
@@ -263,24 +265,6 @@ impl ForwardSystem for TapeForward {
     fn applied_qd(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]) {
         self.dense(2, q, qd, t, out);
     }
-    fn structure(&self) -> Option<ForwardStructure> {
-        let n = self.n;
-        if n == 0 {
-            return None;
-        }
-        let entry =
-            |slot: usize| Some((u32::try_from(slot / n).ok()?, u32::try_from(slot % n).ok()?));
-        let entries = |parts: &[&Part]| -> Option<Vec<(u32, u32)>> {
-            parts
-                .iter()
-                .flat_map(|p| p.slots.iter().map(|&(_, slot)| entry(slot)))
-                .collect()
-        };
-        Some(ForwardStructure {
-            jacobian: entries(&[&self.jac])?,
-            block: entries(&[&self.applied_q, &self.applied_qd, &self.hessian])?,
-        })
-    }
     fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]) {
         let inputs = TapeInputs {
             q,
@@ -304,6 +288,86 @@ impl ForwardSystem for TapeForward {
             if let (Some(o), Some(&l)) = (out.get_mut(slot), lambda.get(row)) {
                 *o += l * v;
             }
+        }
+    }
+    fn structure(&self) -> Option<ForwardStructure> {
+        let n = self.n;
+        if n == 0 {
+            return None;
+        }
+        let entries = |part: &Part| -> Option<Vec<(u32, u32)>> {
+            part.slots
+                .iter()
+                .map(|&(_, slot)| {
+                    Some((u32::try_from(slot / n).ok()?, u32::try_from(slot % n).ok()?))
+                })
+                .collect()
+        };
+        Some(ForwardStructure {
+            jacobian: entries(&self.jac)?,
+            applied_q: entries(&self.applied_q)?,
+            applied_qd: entries(&self.applied_qd)?,
+            hessian: entries(&self.hessian)?,
+        })
+    }
+    fn jacobian_values(&mut self, q: &[f64], t: f64, _: DenseScratch<'_>, out: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        run(&self.jac.tape, &inputs, &mut self.registers, out);
+    }
+    fn applied_q_values(
+        &mut self,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        _: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        let inputs = TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        };
+        run(&self.applied_q.tape, &inputs, &mut self.registers, out);
+    }
+    fn applied_qd_values(
+        &mut self,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        _: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        let inputs = TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        };
+        run(&self.applied_qd.tape, &inputs, &mut self.registers, out);
+    }
+    fn constraint_hessian_values(
+        &mut self,
+        q: &[f64],
+        lambda: &[f64],
+        t: f64,
+        _: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        run(&self.hessian.tape, &inputs, &mut self.registers, out);
+        for (o, &(row, _)) in out.iter_mut().zip(&self.hessian.slots) {
+            *o *= lambda.get(row).copied().unwrap_or(f64::NAN);
         }
     }
 }

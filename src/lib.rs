@@ -34,9 +34,9 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Accurate, Auto, CsvLine, CsvWriter, DenseLu, Dependency, DynDenseLu, Dynamics, Error,
-    ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError, InverseDynamics, LinalgError,
-    LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport,
+    Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, DynDenseLu, Dynamics,
+    Error, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError, InverseDynamics,
+    LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport,
     PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu, State,
     StepStats, System, Trajectory, diagnose, integrate, point_kinematics,
 };
@@ -62,9 +62,9 @@ pub mod sweep;
 pub mod __private {
     pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
-        Auto, DenseLu, Dynamics, Error, ForwardStructure, ForwardSystem, LinalgError, LinearSolver,
-        LinearSolverFor, Options, Outputs, PivotReport, ReactionSpec, Solver, SparseLu, State,
-        System,
+        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, LinalgError,
+        LinearSolver, LinearSolverFor, Options, Outputs, PivotReport, ReactionSpec, Solver,
+        SparseLu, State, System,
     };
 }
 

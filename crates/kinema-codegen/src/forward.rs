@@ -3,9 +3,11 @@
 //! runtime's `ForwardSystem`, so `Hht` and `Accurate` integrate generated
 //! code. Every matrix the integrators need — Φ, Φ_q, ν, γ, M, Q_A, ∂Q_A/∂q,
 //! ∂Q_A/∂q̇ and the second derivatives of Φ behind ∂(Φ_qᵀλ)/∂q — is
-//! straight-line code from the derivation, written into the dense
-//! row-major outputs the trait asks for (structural zeros filled once per
-//! call). The sums into ∂(Φ_qᵀλ)/∂q go in the order of the tape back end's
+//! straight-line code from the derivation. The sparse matrices are written
+//! as values in the order of the system's `structure()` (the `*_values`
+//! methods HHT's sparse Newton matrix reads); the dense methods scatter
+//! those values (structural zeros filled once per call). The terms of
+//! ∂(Φ_qᵀλ)/∂q are listed in the tape back end's order
 //! (`kinema::forward::TapeForward`), so the two agree to rounding of the
 //! entries alone.
 
@@ -28,17 +30,57 @@ pub(crate) struct Names<'a> {
     pub rt: &'a syn::Path,
 }
 
-/// One generated evaluation: its method name, outputs (dense slots), the
-/// inputs it takes and statements around the expressions.
+/// One generated evaluation: its method name, the expressions it writes to
+/// `out` in order, the inputs it takes and the statements after them.
 struct Eval {
     name: &'static str,
     exprs: Vec<ExprId>,
-    /// Dense slot of each expression in `out` (or in the local `h`).
-    slots: Vec<usize>,
-    out_len: usize,
     inputs: &'static [&'static str],
-    /// Whether `out` is zero-filled first (a sparse matrix written dense).
-    zero: bool,
+    /// Statements run after the expressions are written.
+    then: TokenStream,
+}
+
+/// A sparse matrix as the generated code lists it: its entries'
+/// expressions and (row, column) positions, in one order.
+struct Sparse {
+    exprs: Vec<ExprId>,
+    positions: Vec<(usize, usize)>,
+}
+
+impl Sparse {
+    fn of(s: &kinema_expr::SparseMatrix) -> Sparse {
+        let (exprs, positions) = s
+            .entries
+            .iter()
+            .map(|e| (e.expr, (e.row as usize, e.col as usize)))
+            .unzip();
+        Sparse { exprs, positions }
+    }
+}
+
+/// The terms of ∂(Φ_qᵀλ)/∂q: for every entry (r, c) of Φ_q and coordinate
+/// k with ∂(Φ_q)_{rc}/∂q_k not zero, that derivative, its row r of Φ and
+/// its position (c, k) — in the tape back end's order (Φ_q's entries, then
+/// k). Differentiates in a copy of the arena, returned with them.
+fn hessian_terms(d: &Derivation) -> (kinema_expr::Arena, Sparse, Vec<usize>) {
+    let mut arena = d.arena.clone();
+    let q_syms: Vec<SymId> = d.coordinates.iter().map(|c| c.sym).collect();
+    let mut terms = Sparse {
+        exprs: Vec::new(),
+        positions: Vec::new(),
+    };
+    let mut rows = Vec::new();
+    for e in &d.phi_q.entries {
+        for (k, &s) in q_syms.iter().enumerate() {
+            let x = arena.diff(e.expr, s);
+            if !arena.is_zero(x) {
+                terms.exprs.push(x);
+                terms.positions.push((e.col as usize, k));
+                rows.push(e.row as usize);
+            }
+        }
+    }
+    (arena, terms, rows)
 }
 
 /// The `{Name}Forward` type, `{Name}::forward()` and the `ForwardSystem`
@@ -51,131 +93,76 @@ pub(crate) fn forward_items(
     let Some(dy) = &d.dynamics else {
         return quote!();
     };
-    let (n, m) = (d.nc(), d.rows.len());
-    let rt = names.rt;
-    // The second derivatives of Φ: ∂(Φ_q)_{rc}/∂q_k, nonzeros only, in the
-    // tape back end's order (Φ_q's entries, then k).
-    let mut arena = d.arena.clone();
-    let q_syms: Vec<SymId> = d.coordinates.iter().map(|c| c.sym).collect();
-    let mut hess = Vec::new();
-    let mut hess_slots = Vec::new();
-    for e in &d.phi_q.entries {
-        for (k, &s) in q_syms.iter().enumerate() {
-            let x = arena.diff(e.expr, s);
-            if !arena.is_zero(x) {
-                hess.push((e.row as usize, x));
-                hess_slots.push(e.col as usize * n + k);
-            }
-        }
-    }
-    let dense = |s: &kinema_expr::SparseMatrix| -> (Vec<ExprId>, Vec<usize>) {
-        s.entries
-            .iter()
-            .map(|e| (e.expr, e.row as usize * n + e.col as usize))
-            .unzip()
+    let lens = Lens {
+        n: d.nc(),
+        m: d.rows.len(),
     };
-    let plain = |v: &[ExprId]| (v.to_vec(), (0..v.len()).collect::<Vec<_>>());
-    let (jac_e, jac_s) = dense(&d.phi_q);
-    let (aq_e, aq_s) = dense(&dy.applied_q);
-    let (aqd_e, aqd_s) = dense(&dy.applied_qd);
-    let evals = [
-        ("forward_phi", plain(&d.phi), m, &["q"][..], false),
-        ("forward_jacobian", (jac_e, jac_s), m * n, &["q"], true),
-        ("forward_nu", plain(&d.nu), m, &["q"], false),
-        ("forward_gamma", plain(&d.gamma), m, &["q", "qd"], false),
-        ("forward_mass", plain(&dy.mass), n, &["q"], false),
-        (
-            "forward_applied",
-            plain(&dy.applied),
-            n,
-            &["q", "qd"],
-            false,
-        ),
-        ("forward_applied_q", (aq_e, aq_s), n * n, &["q", "qd"], true),
-        (
-            "forward_applied_qd",
-            (aqd_e, aqd_s),
-            n * n,
-            &["q", "qd"],
-            true,
+    let (arena, hessian, hessian_rows) = hessian_terms(d);
+    let sparse = [
+        Sparse::of(&d.phi_q),
+        Sparse::of(&dy.applied_q),
+        Sparse::of(&dy.applied_qd),
+        hessian,
+    ];
+    let evals = evaluations(d, &sparse, &hessian_rows);
+    let methods = evals.iter().map(|e| method(&arena, e, names, cache, lens));
+    let positions = position_consts(&sparse);
+    wrapper(names, lens, quote!(#(#methods)*), &positions)
+}
+
+/// The evaluations of the mechanism behind the trait's methods: the
+/// vectors (Φ, ν, γ, M, Q_A) and the sparse matrices' values (`sparse`:
+/// Φ_q, ∂Q_A/∂q, ∂Q_A/∂q̇, the terms of ∂(Φ_qᵀλ)/∂q, each term times λ
+/// of its row in `hessian_rows`).
+fn evaluations(d: &Derivation, sparse: &[Sparse; 4], hessian_rows: &[usize]) -> Vec<Eval> {
+    let Some(dy) = &d.dynamics else {
+        return Vec::new();
+    };
+    let scale = hessian_rows.iter().enumerate().map(|(k, &row)| {
+        let (k, row) = (Literal::usize_unsuffixed(k), Literal::usize_unsuffixed(row));
+        quote!(out[#k] *= lambda[#row];)
+    });
+    let scale = quote!(#(#scale)*);
+    let eval = |name, exprs: &[ExprId], inputs, then: &TokenStream| Eval {
+        name,
+        exprs: exprs.to_vec(),
+        inputs,
+        then: then.clone(),
+    };
+    let none = quote!();
+    let [jac, aq, aqd, hess] = sparse;
+    vec![
+        eval("forward_phi", &d.phi, &["q"], &none),
+        eval("forward_nu", &d.nu, &["q"], &none),
+        eval("forward_gamma", &d.gamma, &["q", "qd"], &none),
+        eval("forward_mass", &dy.mass, &["q"], &none),
+        eval("forward_applied", &dy.applied, &["q", "qd"], &none),
+        eval("forward_jacobian_values", &jac.exprs, &["q"], &none),
+        eval("forward_applied_q_values", &aq.exprs, &["q", "qd"], &none),
+        eval("forward_applied_qd_values", &aqd.exprs, &["q", "qd"], &none),
+        eval(
+            "forward_hessian_values",
+            &hess.exprs,
+            &["q", "lambda"],
+            &scale,
         ),
     ]
-    .map(|(name, (exprs, slots), out_len, inputs, zero)| Eval {
-        name,
-        exprs,
-        slots,
-        out_len,
-        inputs,
-        zero,
-    });
-    let lens = Lens { n, m };
-    let methods = evals
-        .iter()
-        .map(|e| method(&arena, e, names, cache, lens, None));
-    let hess_eval = Eval {
-        name: "forward_hessian",
-        exprs: hess.iter().map(|h| h.1).collect(),
-        slots: (0..hess.len()).collect(),
-        out_len: n * n,
-        inputs: &["q", "lambda"],
-        zero: true,
-    };
-    let accumulate = hess
-        .iter()
-        .zip(&hess_slots)
-        .enumerate()
-        .map(|(k, ((row, _), slot))| {
-            let (k, row, slot) = (
-                Literal::usize_unsuffixed(k),
-                Literal::usize_unsuffixed(*row),
-                Literal::usize_unsuffixed(*slot),
-            );
-            quote!(out[#slot] += lambda[#row] * h[#k];)
-        });
-    let hess_method = method(
-        &arena,
-        &hess_eval,
-        names,
-        cache,
-        lens,
-        Some(quote!(#(#accumulate)*)),
-    );
-    let pairs = |entries: &mut dyn Iterator<Item = (usize, usize)>| {
-        let v: std::collections::BTreeSet<(usize, usize)> = entries.collect();
-        let items = v.into_iter().map(|(r, c)| {
+}
+
+/// The positions of the sparse matrices' values, as associated constants
+/// of the wrapper (`JACOBIAN`, `APPLIED_Q`, `APPLIED_QD`, `HESSIAN`).
+fn position_consts(sparse: &[Sparse; 4]) -> TokenStream {
+    let names = ["JACOBIAN", "APPLIED_Q", "APPLIED_QD", "HESSIAN"];
+    let consts = sparse.iter().zip(names).map(|(s, name)| {
+        let items = s.positions.iter().map(|&(r, c)| {
             let lit = |v: usize| Literal::u32_unsuffixed(u32::try_from(v).unwrap_or(u32::MAX));
             let (r, c) = (lit(r), lit(c));
             quote!((#r, #c))
         });
-        quote!(&[#(#items),*])
-    };
-    let jacobian = pairs(
-        &mut d
-            .phi_q
-            .entries
-            .iter()
-            .map(|e| (e.row as usize, e.col as usize)),
-    );
-    let block = pairs(
-        &mut dy
-            .applied_q
-            .entries
-            .iter()
-            .chain(&dy.applied_qd.entries)
-            .map(|e| (e.row as usize, e.col as usize))
-            .chain(hess_slots.iter().map(|s| (s / n.max(1), s % n.max(1)))),
-    );
-    let structure = quote! {
-        fn structure(&self) -> ::core::option::Option<#rt::ForwardStructure> {
-            const JACOBIAN: &[(u32, u32)] = #jacobian;
-            const BLOCK: &[(u32, u32)] = #block;
-            ::core::option::Option::Some(#rt::ForwardStructure {
-                jacobian: JACOBIAN.to_vec(),
-                block: BLOCK.to_vec(),
-            })
-        }
-    };
-    wrapper(names, lens, quote!(#(#methods)* #hess_method), &structure)
+        let name = format_ident!("{}", name);
+        quote!(const #name: &'static [(u32, u32)] = &[#(#items),*];)
+    });
+    quote!(#(#consts)*)
 }
 
 /// The counts n (coordinates) and m (rows of Φ).
@@ -187,36 +174,26 @@ struct Lens {
 
 /// One private evaluation method of the mechanism, with every argument the
 /// trait's methods have (unused ones ignored), lengths checked by
-/// [`Method::wrap`]. With `accumulate`, the expressions go to a local `h`
-/// and those statements move them into `out`.
+/// [`Method::wrap`]: the expressions into `out` in order, then the
+/// evaluation's closing statements.
 fn method(
     arena: &kinema_expr::Arena,
     e: &Eval,
     names: &Names<'_>,
     cache: &cache::Cache,
     lens: Lens,
-    accumulate: Option<TokenStream>,
 ) -> TokenStream {
     let out = format_ident!("out");
-    let h = format_ident!("h");
     let lookup = |x| cache.lookup(x);
     let inputs = emit::Inputs {
         params: names.params,
         cached: &lookup,
     };
-    let slots = &e.slots;
-    let to_out = |k: usize| emit::index(&out, slots.get(k).copied().unwrap_or(0));
-    let to_h = |k: usize| emit::index(&h, k);
-    let target: &dyn Fn(usize) -> TokenStream = if accumulate.is_some() { &to_h } else { &to_out };
+    let target = |k: usize| emit::index(&out, k);
     let (refresh, reads_q, reads_t) = cache.refresh(arena, &e.exprs);
-    let (body, mut used) = emit::body(arena, &e.exprs, target, &inputs);
+    let (body, mut used) = emit::body(arena, &e.exprs, &target, &inputs);
     used.q |= reads_q;
     used.t |= reads_t;
-    let zero = e.zero.then(|| quote!(out.fill(0.0);));
-    let local = accumulate.as_ref().map(|_| {
-        let len = Literal::usize_unsuffixed(e.exprs.len());
-        quote!(let mut h = [0.0_f64; #len];)
-    });
     let reads = |name: &str| match name {
         "q" => used.q,
         "qd" => used.qd,
@@ -227,12 +204,13 @@ fn method(
         .iter()
         .map(|&i| (i, reads(i), if i == "lambda" { lens.m } else { lens.n }))
         .collect();
+    let then = &e.then;
     let wrapped = Method {
-        body: quote!(#zero #local #refresh #body #accumulate),
+        body: quote!(#refresh #body #then),
         used,
         scratch: reads_q || reads_t,
     }
-    .wrap(&listed, &[("out", e.out_len)]);
+    .wrap(&listed, &[("out", e.exprs.len())]);
     let fname = format_ident!("{}", e.name);
     let scratch = names.scratch;
     quote! {
@@ -258,20 +236,15 @@ fn wrapper(
     names: &Names<'_>,
     lens: Lens,
     methods: TokenStream,
-    structure: &TokenStream,
+    positions: &TokenStream,
 ) -> TokenStream {
-    let Names {
-        name, scratch, rt, ..
-    } = *names;
+    let Names { name, scratch, .. } = *names;
     let fwd = format_ident!("{}Forward", name);
-    let (n, m) = (
-        Literal::usize_unsuffixed(lens.n),
-        Literal::usize_unsuffixed(lens.m),
-    );
     let doc = format!(
         " The forward dynamics of [`{name}`] (`ForwardSystem`): the mechanism and its \
          evaluation cache, for the runtime's `Hht` and `Accurate` integrators."
     );
+    let system = system_impl(names, lens, &fwd);
     quote! {
         #[doc = #doc]
         #[derive(Clone)]
@@ -279,6 +252,10 @@ fn wrapper(
             /// The mechanism (its parameters).
             pub mechanism: #name,
             scratch: #scratch,
+        }
+
+        impl #fwd {
+            #positions
         }
 
         impl #name {
@@ -295,6 +272,54 @@ fn wrapper(
             #methods
         }
 
+        #system
+    }
+}
+
+/// The `ForwardSystem` impl of `fwd`: the vectors and the sparse values
+/// straight from the evaluation methods, the dense matrices as those values
+/// scattered.
+fn system_impl(names: &Names<'_>, lens: Lens, fwd: &Ident) -> TokenStream {
+    let Names { name, rt, .. } = *names;
+    let (n, m) = (
+        Literal::usize_unsuffixed(lens.n),
+        Literal::usize_unsuffixed(lens.m),
+    );
+    // A dense method: the values into a local array, scattered into `out`.
+    let dense = |eval: &str, positions: &str, rows: &Literal, args: TokenStream| {
+        let (eval, positions) = (format_ident!("{}", eval), format_ident!("{}", positions));
+        quote! {
+            let mut values = [0.0_f64; #fwd::#positions.len()];
+            self.mechanism.#eval(&mut self.scratch, #args, &mut values);
+            #rt::DenseScratch::scatter(&values, Self::#positions, (#rows, #n), out);
+        }
+    };
+    let jacobian = dense(
+        "forward_jacobian_values",
+        "JACOBIAN",
+        &m,
+        quote!(q, &[], t, &[]),
+    );
+    let applied_q = dense(
+        "forward_applied_q_values",
+        "APPLIED_Q",
+        &n,
+        quote!(q, qd, t, &[]),
+    );
+    let applied_qd = dense(
+        "forward_applied_qd_values",
+        "APPLIED_QD",
+        &n,
+        quote!(q, qd, t, &[]),
+    );
+    let hessian = dense(
+        "forward_hessian_values",
+        "HESSIAN",
+        &n,
+        quote!(q, &[], t, lambda),
+    );
+    let values = values_methods(rt);
+    quote! {
         impl #rt::ForwardSystem for #fwd {
             fn coords(&self) -> usize {
                 #n
@@ -312,7 +337,7 @@ fn wrapper(
                 self.mechanism.forward_phi(&mut self.scratch, q, &[], t, &[], out);
             }
             fn jacobian(&mut self, q: &[f64], t: f64, out: &mut [f64]) {
-                self.mechanism.forward_jacobian(&mut self.scratch, q, &[], t, &[], out);
+                #jacobian
             }
             fn nu(&mut self, q: &[f64], t: f64, out: &mut [f64]) {
                 self.mechanism.forward_nu(&mut self.scratch, q, &[], t, &[], out);
@@ -327,15 +352,69 @@ fn wrapper(
                 self.mechanism.forward_applied(&mut self.scratch, q, qd, t, &[], out);
             }
             fn applied_q(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]) {
-                self.mechanism.forward_applied_q(&mut self.scratch, q, qd, t, &[], out);
+                #applied_q
             }
             fn applied_qd(&mut self, q: &[f64], qd: &[f64], t: f64, out: &mut [f64]) {
-                self.mechanism.forward_applied_qd(&mut self.scratch, q, qd, t, &[], out);
+                #applied_qd
             }
             fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]) {
-                self.mechanism.forward_hessian(&mut self.scratch, q, &[], t, lambda, out);
+                #hessian
             }
-            #structure
+            fn structure(&self) -> ::core::option::Option<#rt::ForwardStructure> {
+                ::core::option::Option::Some(#rt::ForwardStructure {
+                    jacobian: Self::JACOBIAN.to_vec(),
+                    applied_q: Self::APPLIED_Q.to_vec(),
+                    applied_qd: Self::APPLIED_QD.to_vec(),
+                    hessian: Self::HESSIAN.to_vec(),
+                })
+            }
+            #values
         }
+    }
+}
+
+/// The trait's `*_values` methods: the evaluation methods writing the
+/// sparse values straight into `out` (the dense scratch unused).
+fn values_methods(rt: &syn::Path) -> TokenStream {
+    quote! {
+            fn jacobian_values(
+                &mut self,
+                q: &[f64],
+                t: f64,
+                _dense: #rt::DenseScratch<'_>,
+                out: &mut [f64],
+            ) {
+                self.mechanism.forward_jacobian_values(&mut self.scratch, q, &[], t, &[], out);
+            }
+            fn applied_q_values(
+                &mut self,
+                q: &[f64],
+                qd: &[f64],
+                t: f64,
+                _dense: #rt::DenseScratch<'_>,
+                out: &mut [f64],
+            ) {
+                self.mechanism.forward_applied_q_values(&mut self.scratch, q, qd, t, &[], out);
+            }
+            fn applied_qd_values(
+                &mut self,
+                q: &[f64],
+                qd: &[f64],
+                t: f64,
+                _dense: #rt::DenseScratch<'_>,
+                out: &mut [f64],
+            ) {
+                self.mechanism.forward_applied_qd_values(&mut self.scratch, q, qd, t, &[], out);
+            }
+            fn constraint_hessian_values(
+                &mut self,
+                q: &[f64],
+                lambda: &[f64],
+                t: f64,
+                _dense: #rt::DenseScratch<'_>,
+                out: &mut [f64],
+            ) {
+                self.mechanism.forward_hessian_values(&mut self.scratch, q, &[], t, lambda, out);
+            }
     }
 }

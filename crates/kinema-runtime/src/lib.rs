@@ -65,7 +65,9 @@ pub use diagnose::{Rank, RankError};
 pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
 pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
-pub use integrate::{Accurate, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError};
+pub use integrate::{
+    Accurate, DenseScratch, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
+};
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{
     Auto, DenseLu, DynDenseLu, LinalgError, LinearSolver, LinearSolverFor, PivotReport, SparseLu,

@@ -24,8 +24,9 @@
 //! [M Φ_qᵀ; Φ_q 0][q̈; λ] = [Q_A; γ].
 
 use super::dense::Lu;
-use super::{ForwardStructure, ForwardSystem, IntegrateError};
-use crate::linalg::{LinalgError, LinearSolver, SparseLu};
+use super::kkt::{Scratch, SparseKkt};
+use super::{ForwardSystem, IntegrateError};
+use crate::linalg::{LinalgError, LinearSolver};
 
 /// HHT-α's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,8 +53,9 @@ pub struct HhtOptions {
     /// measure).
     pub project_velocity: bool,
     /// Factor Newton's matrix with the sparse LU on its fixed pattern
-    /// (the runtime's [`SparseLu`]: COLAMD ordering, partial pivoting, the
-    /// elimination recorded and replayed) when the system gives its
+    /// (the runtime's [`SparseLu`](crate::SparseLu): COLAMD ordering,
+    /// partial pivoting, the elimination recorded and replayed), assembled
+    /// from the system's `*_values` methods, when the system gives its
     /// [`structure`](ForwardSystem::structure) and n + m is at least this;
     /// below it (default 64: the course's models) or without a structure,
     /// the dense LU. `usize::MAX` always dense, 0 always sparse.
@@ -144,80 +146,6 @@ pub struct Hht<S> {
     ys: Vec<f64>,
 }
 
-/// Where an entry of Newton's matrix comes from (dense row-major indices
-/// into the integrator's buffers).
-#[derive(Clone, Copy, Debug)]
-enum Source {
-    /// The n × n block at k = i n + j; `diagonal`: M's entry i is added.
-    Block { k: u32, diagonal: Option<u32> },
-    /// Φ_q at k = r n + c (row n + r, column c).
-    Jacobian(u32),
-    /// (1 + α) Φ_q at k = r n + c (row c, column n + r).
-    Transposed(u32),
-}
-
-/// Newton's matrix on its fixed sparsity pattern: the values gathered from
-/// the dense buffers in pattern order, factored by [`SparseLu`].
-#[derive(Debug)]
-struct SparseKkt {
-    lu: SparseLu,
-    sources: Vec<Source>,
-    values: Vec<f64>,
-    /// Φ_q's structural nonzeros (row, column), sorted: Φ_qᵀλ over them
-    /// adds in the dense loop's order.
-    jacobian: Vec<(u32, u32)>,
-}
-
-impl SparseKkt {
-    /// The pattern [M + block, Φ_qᵀ; Φ_q, 0] of `structure` (allocates;
-    /// once), or `None` when the structure does not fit n and m.
-    fn new(structure: &ForwardStructure, n: usize, m: usize) -> Option<SparseKkt> {
-        let inside = |&(r, c): &(u32, u32), rows: usize| (r as usize) < rows && (c as usize) < n;
-        if !structure.jacobian.iter().all(|e| inside(e, m))
-            || !structure.block.iter().all(|e| inside(e, n))
-        {
-            return None;
-        }
-        let mut entries = std::collections::BTreeMap::new();
-        for i in 0..n {
-            entries.insert((i, i), ());
-        }
-        for &(r, c) in &structure.block {
-            entries.insert((r as usize, c as usize), ());
-        }
-        let block: Vec<(usize, usize)> = entries.into_keys().collect();
-        let mut pattern = Vec::with_capacity(block.len() + 2 * structure.jacobian.len());
-        let mut sources = Vec::with_capacity(pattern.capacity());
-        let index = |v: usize| u32::try_from(v).ok();
-        for (i, j) in block {
-            pattern.push((index(i)?, index(j)?));
-            let diagonal = if i == j { Some(index(i)?) } else { None };
-            sources.push(Source::Block {
-                k: index(i * n + j)?,
-                diagonal,
-            });
-        }
-        let mut jacobian = structure.jacobian.clone();
-        jacobian.sort_unstable();
-        jacobian.dedup();
-        for &(r, c) in &jacobian {
-            let k = index(r as usize * n + c as usize)?;
-            let row = index(n + r as usize)?;
-            pattern.push((row, c));
-            sources.push(Source::Jacobian(k));
-            pattern.push((c, row));
-            sources.push(Source::Transposed(k));
-        }
-        let lu = SparseLu::analyze(n + m, &pattern).ok()?;
-        Some(SparseKkt {
-            lu,
-            values: vec![0.0; sources.len()],
-            sources,
-            jacobian,
-        })
-    }
-}
-
 fn amax(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
 }
@@ -292,10 +220,7 @@ impl<S: ForwardSystem> Hht<S> {
             ys: vec![0.0; m],
         };
         if n + m >= options.sparse_from {
-            hht.kkt = hht
-                .system
-                .structure()
-                .and_then(|s| SparseKkt::new(&s, n, m));
+            hht.kkt = hht.system.structure().and_then(|s| SparseKkt::new(s, n, m));
         }
         let consistency = hht.make_consistent()?;
         hht.index1()?;
@@ -448,6 +373,9 @@ impl<S: ForwardSystem> Hht<S> {
         if !finite(&self.rhs) {
             return Err(self.non_finite("q̈ or λ at the start"));
         }
+        if let Some(kkt) = &mut self.kkt {
+            kkt.eval_jacobian(&mut self.system, &self.q, t, &mut self.jac);
+        }
         self.store_force_and_power();
         Ok(())
     }
@@ -466,6 +394,10 @@ impl<S: ForwardSystem> Hht<S> {
         }
         if let Some(i) = first(&self.phi) {
             return Some(format!("Φ of `{}`", self.system.equation_name(i)));
+        }
+        if let Some(kkt) = &self.kkt {
+            let equation = |i: usize| self.system.equation_name(i).to_owned();
+            return kkt.first_non_finite(&equation, &coord);
         }
         if let Some(k) = first(&self.jac) {
             return Some(format!(
@@ -498,8 +430,8 @@ impl<S: ForwardSystem> Hht<S> {
         }
     }
 
-    /// f = Φ_qᵀλ − Q_A and the power at the current state, from `jac`,
-    /// `qa` evaluated there.
+    /// f = Φ_qᵀλ − Q_A and the power at the current state, from Φ_q (`jac`,
+    /// or the sparse values) and `qa` evaluated there.
     fn store_force_and_power(&mut self) {
         let n = self.n;
         self.f.copy_from_slice(&self.qa);
@@ -507,12 +439,7 @@ impl<S: ForwardSystem> Hht<S> {
             *v = -*v;
         }
         match &self.kkt {
-            Some(kkt) => {
-                for &(r, c) in &kkt.jacobian {
-                    let (r, c) = (r as usize, c as usize);
-                    self.f[c] += self.jac[r * n + c] * self.lambda[r];
-                }
-            }
+            Some(kkt) => kkt.add_transposed_product(&self.lambda, 1.0, &mut self.f),
             None => {
                 for (r, &l) in self.lambda.iter().enumerate() {
                     for (fc, &a) in self.f.iter_mut().zip(&self.jac[r * n..(r + 1) * n]) {
@@ -621,16 +548,31 @@ impl<S: ForwardSystem> Hht<S> {
         s.mass(&self.qn, &mut self.mass);
         s.applied(&self.qn, &self.qdn, t1, &mut self.qa);
         s.phi(&self.qn, t1, &mut self.phi);
-        s.jacobian(&self.qn, t1, &mut self.jac);
-        if refactor {
-            s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
-            s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
-            s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
+        match &mut self.kkt {
+            Some(kkt) => {
+                kkt.eval_jacobian(s, &self.qn, t1, &mut self.jac);
+                if refactor {
+                    let dense = Scratch {
+                        applied_q: &mut self.kq,
+                        applied_qd: &mut self.cqd,
+                        hessian: &mut self.hess,
+                    };
+                    let at = (&self.qn[..], &self.qdn[..], &self.lambdan[..], t1);
+                    kkt.eval_block(s, at, dense);
+                }
+            }
+            None => {
+                s.jacobian(&self.qn, t1, &mut self.jac);
+                if refactor {
+                    s.applied_q(&self.qn, &self.qdn, t1, &mut self.kq);
+                    s.applied_qd(&self.qn, &self.qdn, t1, &mut self.cqd);
+                    s.constraint_hessian(&self.qn, &self.lambdan, t1, &mut self.hess);
+                }
+            }
         }
-        // With the sparse Newton matrix, the dense matrices are checked
-        // where they are read: their gathered values (factor_newton) and
-        // the residual and correction (step); a full scan here would cost
-        // more than the sparse factorization.
+        // With the sparse Newton matrix, the sparse values are checked
+        // where they are read: the assembled matrix (factor_newton) and
+        // the residual and correction (step).
         let checked =
             self.kkt.is_none() || !(finite(&self.mass) && finite(&self.qa) && finite(&self.phi));
         match checked.then(|| self.first_non_finite()).flatten() {
@@ -648,12 +590,7 @@ impl<S: ForwardSystem> Hht<S> {
                 self.mass[i] * self.qddn[i] - (1.0 + alpha) * self.qa[i] - alpha * self.f[i];
         }
         match &self.kkt {
-            Some(kkt) => {
-                for &(r, c) in &kkt.jacobian {
-                    let (r, c) = (r as usize, c as usize);
-                    self.rhs[c] += (1.0 + alpha) * self.jac[r * n + c] * self.lambdan[r];
-                }
-            }
+            Some(kkt) => kkt.add_transposed_product(&self.lambdan, 1.0 + alpha, &mut self.rhs[..n]),
             None => {
                 for (r, &l) in self.lambdan.iter().enumerate() {
                     let row = &self.jac[r * n..(r + 1) * n];
@@ -679,17 +616,7 @@ impl<S: ForwardSystem> Hht<S> {
         let (n, m, alpha) = (self.n, self.m, self.alpha);
         let (bh2, gh) = (self.beta * h * h, self.gamma * h);
         if let Some(kkt) = &mut self.kkt {
-            for (v, source) in kkt.values.iter_mut().zip(&kkt.sources) {
-                *v = match *source {
-                    Source::Block { k, diagonal } => {
-                        let k = k as usize;
-                        let d = diagonal.map_or(0.0, |i| self.mass[i as usize]);
-                        d + (1.0 + alpha) * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh)
-                    }
-                    Source::Jacobian(k) => self.jac[k as usize],
-                    Source::Transposed(k) => (1.0 + alpha) * self.jac[k as usize],
-                };
-            }
+            kkt.assemble(&self.mass, (1.0 + alpha, bh2, gh));
             if !finite(&kkt.values) {
                 let what = self
                     .first_non_finite()
@@ -701,9 +628,17 @@ impl<S: ForwardSystem> Hht<S> {
                     self.dense_active = false;
                     return Ok(());
                 }
-                // The dense LU below decides (and names the unknown
-                // without a pivot), this iteration solving with it.
-                Err(LinalgError::Singular { .. }) => {}
+                // The dense LU decides (and names the unknown without a
+                // pivot), this iteration solving with it.
+                Err(LinalgError::Singular { .. }) => {
+                    kkt.to_dense(self.lu.matrix_mut());
+                    self.dense_active = true;
+                    return self.lu.factor().map_err(|k| IntegrateError::Singular {
+                        t: self.t,
+                        what: "HHT's Newton matrix",
+                        at: self.unknown_name(k),
+                    });
+                }
                 Err(e) => {
                     return Err(IntegrateError::Setup(format!("HHT's Newton matrix: {e}")));
                 }
@@ -770,8 +705,15 @@ impl<S: ForwardSystem> Hht<S> {
         std::mem::swap(&mut self.lambda, &mut self.lambdan);
         self.t = t1;
         let p0 = self.power;
-        self.system.jacobian(&self.q, t1, &mut self.jac);
+        if let Some(kkt) = &mut self.kkt {
+            kkt.eval_jacobian(&mut self.system, &self.q, t1, &mut self.jac);
+        } else {
+            self.system.jacobian(&self.q, t1, &mut self.jac);
+        }
         if self.options.project_velocity && m > 0 {
+            if self.kkt.is_some() {
+                self.system.jacobian(&self.q, t1, &mut self.jac);
+            }
             self.system.nu(&self.q, t1, &mut self.nu);
             self.velocity_residual();
             self.factor_gram("Φ_q Φ_qᵀ (velocity projection)")?;

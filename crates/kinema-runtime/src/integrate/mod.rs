@@ -2,7 +2,8 @@
 //! from initial conditions (DYNAMICS.md).
 //!
 //! The integrators see the model through [`ForwardSystem`] (dense
-//! matrices: the models of the course engine have tens of coordinates) and
+//! matrices for the models of the course engine, which have tens of
+//! coordinates; values on a fixed sparse structure for large ones) and
 //! keep every buffer they need from construction on, so a step does not
 //! allocate.
 //!
@@ -11,9 +12,11 @@
 //! | [`hht`] | [`Hht`]: fixed-step HHT-α on the index-3 DAE, Newton on [q̈; λ] |
 //! | [`rk`] | [`Accurate`]: error-controlled Dormand–Prince 5(4) on the index-1 form with projection |
 //! | [`dense`] | the dense LU they factor with |
+//! | `kkt` | HHT's Newton matrix on a sparse pattern, from the system's sparse values |
 
 pub mod dense;
 pub mod hht;
+mod kkt;
 pub mod rk;
 
 pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
@@ -61,22 +64,132 @@ pub trait ForwardSystem {
     /// Where the matrices can be nonzero, for a sparse factorization of
     /// HHT's Newton matrix ([`HhtOptions::sparse_from`]); `None` (the
     /// default): dense. Called once, at the integrator's construction (it
-    /// may allocate).
+    /// may allocate). With a structure, HHT's sparse path reads the
+    /// matrices through the `*_values` methods below, in the order of the
+    /// structure's lists.
     fn structure(&self) -> Option<ForwardStructure> {
         None
     }
+
+    /// Φ_q's values at the positions of [`ForwardStructure::jacobian`], in
+    /// its order. The default evaluates the dense [`jacobian`] into the
+    /// scratch and gathers from it; a sparse system overrides it (so no
+    /// m × n buffer is touched).
+    ///
+    /// [`jacobian`]: ForwardSystem::jacobian
+    fn jacobian_values(&mut self, q: &[f64], t: f64, dense: DenseScratch<'_>, out: &mut [f64]) {
+        self.jacobian(q, t, dense.buffer);
+        dense.gather(out);
+    }
+    /// ∂Q_A/∂q's values at the positions of [`ForwardStructure::applied_q`]
+    /// (default: the dense [`applied_q`](ForwardSystem::applied_q) gathered).
+    fn applied_q_values(
+        &mut self,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        dense: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        self.applied_q(q, qd, t, dense.buffer);
+        dense.gather(out);
+    }
+    /// ∂Q_A/∂q̇'s values at the positions of
+    /// [`ForwardStructure::applied_qd`] (default: the dense
+    /// [`applied_qd`](ForwardSystem::applied_qd) gathered).
+    fn applied_qd_values(
+        &mut self,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        dense: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        self.applied_qd(q, qd, t, dense.buffer);
+        dense.gather(out);
+    }
+    /// ∂(Φ_qᵀλ)/∂q's terms at the positions of
+    /// [`ForwardStructure::hessian`] (terms at a repeated position add up;
+    /// default: the dense
+    /// [`constraint_hessian`](ForwardSystem::constraint_hessian) gathered).
+    fn constraint_hessian_values(
+        &mut self,
+        q: &[f64],
+        lambda: &[f64],
+        t: f64,
+        dense: DenseScratch<'_>,
+        out: &mut [f64],
+    ) {
+        self.constraint_hessian(q, lambda, t, dense.buffer);
+        dense.gather(out);
+    }
 }
 
-/// The structural nonzeros of a [`ForwardSystem`]'s matrices; entries
-/// outside them must be zero at every state.
+/// The structural nonzeros of a [`ForwardSystem`]'s matrices, each list in
+/// the order of its `*_values` method; entries outside them must be zero at
+/// every state. A position may repeat in the lists of the n × n matrices
+/// (the values there add up), not in Φ_q's.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ForwardStructure {
-    /// (row, column) of Φ_q's nonzeros (m × n).
+    /// (row, column) of Φ_q's nonzeros (m × n), distinct.
     pub jacobian: Vec<(u32, u32)>,
-    /// (row, column) of the n × n block's nonzeros off the diagonal of M:
-    /// every entry where ∂Q_A/∂q, ∂Q_A/∂q̇ or ∂(Φ_qᵀλ)/∂q (any λ) can be
-    /// nonzero. Repeats are allowed.
-    pub block: Vec<(u32, u32)>,
+    /// (row, column) of ∂Q_A/∂q's nonzeros (n × n).
+    pub applied_q: Vec<(u32, u32)>,
+    /// (row, column) of ∂Q_A/∂q̇'s nonzeros (n × n).
+    pub applied_qd: Vec<(u32, u32)>,
+    /// (row, column) of ∂(Φ_qᵀλ)/∂q's terms (n × n, any λ).
+    pub hessian: Vec<(u32, u32)>,
+}
+
+/// A dense row-major matrix buffer and the positions to gather from it:
+/// the scratch of [`ForwardSystem`]'s default `*_values` methods (a system
+/// that writes its values directly ignores it).
+#[derive(Debug)]
+pub struct DenseScratch<'a> {
+    /// The dense matrix (rows × `cols`), written by the dense method.
+    pub buffer: &'a mut [f64],
+    /// Its number of columns.
+    pub cols: usize,
+    /// The positions to gather, in the values' order.
+    pub positions: &'a [(u32, u32)],
+}
+
+impl DenseScratch<'_> {
+    /// `out[k]` ← the buffer at `positions[k]`; a repeated position gives
+    /// its value once (later repeats 0, as the values add up). A position
+    /// outside the buffer gives NaN.
+    pub fn gather(self, out: &mut [f64]) {
+        for (o, &(r, c)) in out.iter_mut().zip(self.positions) {
+            let k = r as usize * self.cols + c as usize;
+            *o = match self.buffer.get_mut(k) {
+                Some(v) => std::mem::take(v),
+                None => f64::NAN,
+            };
+        }
+    }
+
+    /// The other way: `out` (rows × cols, row-major) ← zero, plus each of
+    /// `values` at its position (repeats add up), as a sparse system's dense
+    /// methods write. A wrong length of `out` or `values`, or a position
+    /// outside, gives NaN throughout.
+    pub fn scatter(
+        values: &[f64],
+        positions: &[(u32, u32)],
+        (rows, cols): (usize, usize),
+        out: &mut [f64],
+    ) {
+        let inside = positions
+            .iter()
+            .all(|&(r, c)| (r as usize) < rows && (c as usize) < cols);
+        if out.len() != rows * cols || values.len() != positions.len() || !inside {
+            out.fill(f64::NAN);
+            return;
+        }
+        out.fill(0.0);
+        for (&v, &(r, c)) in values.iter().zip(positions) {
+            out[r as usize * cols + c as usize] += v;
+        }
+    }
 }
 
 /// Why forward dynamics stopped.
