@@ -3,24 +3,71 @@
 //! (Ir at 2R − Ir at R) / R, the set-up cancelling.
 //!
 //! `valgrind --tool=callgrind target/release/examples/fd_profile fd_chain100 generated 20`
+//! (a fourth argument sets `HhtOptions::sparse_from`; the steps' allocations
+//! are counted and printed).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use kinema::{ForwardSystem, Hht, HhtOptions};
+
+/// Counts allocations (the steps' count is printed).
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+#[allow(
+    unsafe_code,
+    reason = "a GlobalAlloc impl is unsafe by definition; it only forwards"
+)]
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: the caller's contract, passed on.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: the caller's contract, passed on.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
 use kinema_bench::{forward_model, generated_forward};
 
 fn run<S: ForwardSystem>(system: S, q0: &[f64], steps: usize) {
     let qd0 = vec![0.0; q0.len()];
-    let (mut hht, _) =
-        Hht::new(system, q0, &qd0, 0.0, HhtOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    // A fourth argument: HhtOptions::sparse_from.
+    let sparse_from = std::env::args()
+        .nth(4)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(HhtOptions::default().sparse_from);
+    let options = HhtOptions {
+        sparse_from,
+        ..HhtOptions::default()
+    };
+    let (mut hht, _) = Hht::new(system, q0, &qd0, 0.0, options).unwrap_or_else(|e| panic!("{e}"));
+    let allocations = ALLOCATIONS.load(Ordering::Relaxed);
     let start = std::time::Instant::now();
-    for _ in 0..steps {
+    let mut slowest = (0, std::time::Duration::ZERO);
+    for k in 0..steps {
+        let t = std::time::Instant::now();
         hht.step(1e-3).unwrap_or_else(|e| panic!("{e}"));
+        if t.elapsed() > slowest.1 {
+            slowest = (k, t.elapsed());
+        }
     }
+    let elapsed = start.elapsed();
+    let allocations = ALLOCATIONS.load(Ordering::Relaxed) - allocations;
     let s = hht.stats();
     eprintln!(
-        "{steps} steps: {:.2?} per step, {} iterations, {} factorizations",
-        start.elapsed() / steps.max(1) as u32,
+        "{steps} steps: {:.2?} per step, {} iterations, {} factorizations; slowest step {} ({:.2?}); {allocations} allocations",
+        elapsed / steps.max(1) as u32,
         s.iterations,
-        s.factorizations
+        s.factorizations,
+        slowest.0,
+        slowest.1
     );
     std::hint::black_box(hht.q());
 }
