@@ -28,7 +28,13 @@ fn kinetic_energy(mass: &[f64], qd: &[f64]) -> f64 {
 }
 
 /// A constrained mechanical system with inertia, as forward dynamics needs
-/// it: n coordinates, m ≤ n rows of Φ. Every matrix is dense, row-major.
+/// it: n coordinates, m ≤ n rows of Φ. The matrix methods write dense
+/// row-major matrices; a system that gives its [`structure`] also writes
+/// the sparse matrices' values in that structure's order (the `*_values`
+/// methods, which HHT's sparse Newton matrix reads; their defaults gather
+/// from the dense methods).
+///
+/// [`structure`]: ForwardSystem::structure
 ///
 /// Methods take `&mut self` so an implementation keeps its evaluation
 /// registers in itself; they must not allocate. A slice of the wrong length
