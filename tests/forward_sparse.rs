@@ -20,7 +20,7 @@ use fd_slider_crank::FdSliderCrank;
 const SLIDER_CRANK: &str = include_str!("forward_backends/fd_slider_crank.kin");
 const CHAIN10: &str = include_str!("forward_backends/fd_chain10.kin");
 
-#[path = "common/counting.rs"]
+#[path = "../crates/kinema-runtime/tests/common/counting.rs"]
 mod counting;
 use counting::allocations;
 
