@@ -3,17 +3,20 @@
 use crate::diagnose::{MAX_DENSE_DIAGNOSIS, rank};
 use crate::error::{Error, Quantity};
 use crate::event::{SingularEvent, SingularKind};
-use crate::linalg::{Auto, LinalgError, LinearSolver, LinearSolverFor, scale_and_finite};
+use crate::linalg::{Auto, LinalgError, LinearSolver, LinearSolverFor};
 use crate::newton::{
-    DIAGNOSES_PER_STEP, Factorization, Scaling, Travel, Workspace, check_coordinates,
-    check_equations, factor, inf_norm, solve_position,
+    DIAGNOSES_PER_STEP, Factorization, Travel, Workspace, check_coordinates, factor, inf_norm,
+    solve_position,
 };
 use crate::options::Options;
 use crate::state::State;
 use crate::system::System;
 use crate::trajectory::Trajectory;
 
+mod checked;
 mod passage;
+
+use checked::{solve_checked, velocity_overflow};
 
 use passage::Zone;
 
@@ -831,83 +834,4 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
         Ok((&self.system, &self.ws.jac))
     }
-}
-
-/// A velocity this large has a square within a factor 10⁶ of overflow: a
-/// non-finite γ next to it comes from the velocities, not from its equation.
-const OVERFLOWING_VELOCITY: f64 = 1.3e151;
-
-/// Names the root cause of a non-finite γ when the velocities are so large
-/// that γ's products of them overflow: the largest velocity and the equation
-/// of ν behind it ([`Error::VelocityOverflow`]). Other errors pass through.
-/// Runs on the error path only (it evaluates ν again).
-#[cold]
-fn velocity_overflow<S: System>(
-    system: &S,
-    scratch: &mut S::Scratch,
-    q: &[f64],
-    qd: &[f64],
-    t: f64,
-    e: Error,
-) -> Error {
-    let Error::NonFinite {
-        quantity: Quantity::Gamma,
-        name,
-        ..
-    } = &e
-    else {
-        return e;
-    };
-    let largest = |v: &[f64]| {
-        v.iter()
-            .enumerate()
-            .filter(|(_, x)| x.is_finite())
-            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-            .map(|(i, &x)| (i, x))
-    };
-    let Some((k, velocity)) = largest(qd) else {
-        return e;
-    };
-    if velocity.abs() < OVERFLOWING_VELOCITY {
-        return e;
-    }
-    let mut nu = vec![0.0; qd.len()];
-    system.nu(scratch, q, t, &mut nu);
-    let Some((j, source_value)) = largest(&nu) else {
-        return e;
-    };
-    Error::VelocityOverflow {
-        t,
-        equation: name.clone(),
-        coordinate: system.coordinate_name(k).to_owned(),
-        velocity,
-        source_equation: system.equation_name(j).to_owned(),
-        source_value,
-    }
-}
-
-/// Fills `x` with a right-hand side (`fill`), solves Φ_q x = rhs in place,
-/// and only if x is not finite evaluates the right-hand side again to name
-/// the culprit: a non-finite equation (`quantities.0`) or else a solution
-/// that overflowed (`quantities.1`).
-#[allow(clippy::too_many_arguments)]
-fn solve_checked<S: System, L: LinearSolver>(
-    system: &S,
-    scratch: &mut S::Scratch,
-    lu: &mut L,
-    scaling: &Scaling,
-    t: f64,
-    x: &mut [f64],
-    quantities: (Quantity, Quantity),
-    mut fill: impl FnMut(&mut S::Scratch, &mut [f64]),
-) -> Result<(), Error> {
-    fill(scratch, x);
-    scaling.solve(lu, x)?;
-    if !scale_and_finite(x).1 {
-        fill(scratch, x);
-        check_equations(system, t, quantities.0, x)?;
-        scaling.solve(lu, x)?;
-        check_coordinates(system, t, quantities.1, x)?;
-    }
-    Ok(())
 }
