@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use kinema_expr::{ExprId, Tape, TapeInputs};
+use kinema_expr::{ExprId, NodeRef, Tape, TapeInputs};
 use kinema_model::{Derivation, Diagnostics, Severity};
 use kinema_runtime::{Auto, Error, ModelDiagnostic, ModelError, Options, Solver, System};
 
@@ -211,6 +211,9 @@ pub struct TapeSystem {
     param_names: Vec<String>,
     pub(crate) params: Vec<f64>,
     pattern: Vec<(u32, u32)>,
+    /// The value of each Φ_q entry that is a number (see
+    /// [`System::jacobian_constant`]).
+    constants: Vec<Option<f64>>,
     guess: Tape,
     phi: Tape,
     jacobian: Tape,
@@ -259,6 +262,15 @@ impl TapeSystem {
             param_names: d.params.iter().map(|p| p.name.clone()).collect(),
             params: d.param_values(),
             pattern: d.phi_q.entries.iter().map(|e| (e.row, e.col)).collect(),
+            constants: d
+                .phi_q
+                .entries
+                .iter()
+                .map(|e| match a.node(e.expr) {
+                    NodeRef::Num(v) => Some(v),
+                    _ => None,
+                })
+                .collect(),
             zeros: vec![0.0; n],
             guess,
             phi,
@@ -374,6 +386,10 @@ impl System for TapeSystem {
 
     fn jacobian_pattern(&self) -> &[(u32, u32)] {
         &self.pattern
+    }
+
+    fn jacobian_constant(&self, k: usize) -> Option<f64> {
+        self.constants.get(k).copied().flatten()
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
