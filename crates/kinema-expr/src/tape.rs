@@ -56,26 +56,111 @@ type Reg = u32;
 
 #[derive(Clone, Copy, Debug)]
 enum Instr {
-    Const { dst: Reg, v: f64 },
-    Copy { dst: Reg, a: Reg },
-    Neg { dst: Reg, a: Reg },
-    Scale { dst: Reg, a: Reg, k: f64 },
-    Add { dst: Reg, a: Reg, b: Reg },
-    Sub { dst: Reg, a: Reg, b: Reg },
-    MulAdd { dst: Reg, acc: Reg, a: Reg, k: f64 },
-    AddConst { dst: Reg, a: Reg, c: f64 },
-    Mul { dst: Reg, a: Reg, b: Reg },
-    Div { dst: Reg, a: Reg, b: Reg },
-    Recip { dst: Reg, a: Reg },
-    Square { dst: Reg, a: Reg },
-    Sqrt { dst: Reg, a: Reg },
-    PowI { dst: Reg, a: Reg, n: i32 },
-    PowF { dst: Reg, a: Reg, p: f64 },
-    Sin { dst: Reg, a: Reg },
-    Cos { dst: Reg, a: Reg },
-    Unary { dst: Reg, op: UnaryOp, a: Reg },
-    Pow { dst: Reg, a: Reg, b: Reg },
-    Atan2 { dst: Reg, y: Reg, x: Reg },
+    Const {
+        dst: Reg,
+        v: f64,
+    },
+    Copy {
+        dst: Reg,
+        a: Reg,
+    },
+    Neg {
+        dst: Reg,
+        a: Reg,
+    },
+    Scale {
+        dst: Reg,
+        a: Reg,
+        k: f64,
+    },
+    Add {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Sub {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    MulAdd {
+        dst: Reg,
+        acc: Reg,
+        a: Reg,
+        k: f64,
+    },
+    AddConst {
+        dst: Reg,
+        a: Reg,
+        c: f64,
+    },
+    Mul {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Div {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Recip {
+        dst: Reg,
+        a: Reg,
+    },
+    Square {
+        dst: Reg,
+        a: Reg,
+    },
+    Sqrt {
+        dst: Reg,
+        a: Reg,
+    },
+    PowI {
+        dst: Reg,
+        a: Reg,
+        n: i32,
+    },
+    PowF {
+        dst: Reg,
+        a: Reg,
+        p: f64,
+    },
+    Sin {
+        dst: Reg,
+        a: Reg,
+    },
+    Cos {
+        dst: Reg,
+        a: Reg,
+    },
+    /// sin of coordinate `k` (in register `a`), through the caller's cache.
+    SinQ {
+        dst: Reg,
+        a: Reg,
+        k: u32,
+    },
+    /// cos of coordinate `k` (in register `a`), through the caller's cache.
+    CosQ {
+        dst: Reg,
+        a: Reg,
+        k: u32,
+    },
+    Unary {
+        dst: Reg,
+        op: UnaryOp,
+        a: Reg,
+    },
+    Pow {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Atan2 {
+        dst: Reg,
+        y: Reg,
+        x: Reg,
+    },
 }
 
 /// A compiled list of instructions computing a vector of outputs.
@@ -339,12 +424,21 @@ impl Tape {
                     regs.free(r);
                 }
             }
-            NodeRef::Unary(op, a) => {
-                let a = reg(a);
-                self.instrs.push(match op {
-                    UnaryOp::Sin => Instr::Sin { dst, a },
-                    UnaryOp::Cos => Instr::Cos { dst, a },
-                    op => Instr::Unary { dst, op, a },
+            NodeRef::Unary(op, x) => {
+                let a = reg(x);
+                let coordinate = match arena.node(x) {
+                    NodeRef::Sym(s) => match arena.symbol(s).kind {
+                        SymKind::Coordinate(k) => Some(k),
+                        _ => None,
+                    },
+                    _ => None,
+                };
+                self.instrs.push(match (op, coordinate) {
+                    (UnaryOp::Sin, Some(k)) => Instr::SinQ { dst, a, k },
+                    (UnaryOp::Cos, Some(k)) => Instr::CosQ { dst, a, k },
+                    (UnaryOp::Sin, None) => Instr::Sin { dst, a },
+                    (UnaryOp::Cos, None) => Instr::Cos { dst, a },
+                    (op, _) => Instr::Unary { dst, op, a },
                 });
             }
             NodeRef::Pow(a, b) => self.instrs.push(Instr::Pow {
@@ -403,9 +497,28 @@ impl Tape {
         registers: &mut [f64],
         out: &mut [f64],
     ) -> Result<(), TapeError> {
+        self.eval_with_cache(inputs, registers, &mut [], out)
+    }
+
+    /// [`eval`](Self::eval) with a cache of the sines and cosines of the
+    /// coordinates, shared by the tapes of one system: `trig[3k..3k + 3]` =
+    /// (q_k, sin q_k, cos q_k) of the last q_k seen. An evaluation at an
+    /// angle already seen (bit for bit) reuses its sin and cos, so results
+    /// do not change; a coordinate beyond `trig` is computed directly. Fill
+    /// a new cache with NaN. Does not allocate.
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_with_cache(
+        &self,
+        inputs: &TapeInputs<'_>,
+        registers: &mut [f64],
+        trig: &mut [f64],
+        out: &mut [f64],
+    ) -> Result<(), TapeError> {
         self.check_inputs(inputs, registers)?;
         check("outputs", self.outputs, out.len())?;
-        self.run(inputs, registers);
+        self.run(inputs, registers, trig);
         out[..self.outputs].copy_from_slice(&registers[..self.outputs]);
         Ok(())
     }
@@ -421,8 +534,22 @@ impl Tape {
         inputs: &TapeInputs<'_>,
         registers: &'r mut [f64],
     ) -> Result<&'r [f64], TapeError> {
+        self.eval_in_registers_with_cache(inputs, registers, &mut [])
+    }
+
+    /// [`eval_in_registers`](Self::eval_in_registers) with the cache of
+    /// [`eval_with_cache`](Self::eval_with_cache).
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_in_registers_with_cache<'r>(
+        &self,
+        inputs: &TapeInputs<'_>,
+        registers: &'r mut [f64],
+        trig: &mut [f64],
+    ) -> Result<&'r [f64], TapeError> {
         self.check_inputs(inputs, registers)?;
-        self.run(inputs, registers);
+        self.run(inputs, registers, trig);
         Ok(&registers[..self.outputs])
     }
 
@@ -435,7 +562,7 @@ impl Tape {
 
     /// Loads the inputs and constants, then runs the instructions (slices
     /// checked by the caller).
-    fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64]) {
+    fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64], trig: &mut [f64]) {
         let (q, qd, p) = (
             self.outputs,
             self.outputs + self.need_q,
@@ -472,12 +599,34 @@ impl Tape {
                 Instr::PowF { dst, a, p } => r[dst as usize] = r[a as usize].powf(p),
                 Instr::Sin { dst, a } => r[dst as usize] = r[a as usize].sin(),
                 Instr::Cos { dst, a } => r[dst as usize] = r[a as usize].cos(),
+                Instr::SinQ { dst, a, k } => {
+                    let x = r[a as usize];
+                    r[dst as usize] = cached(trig, k, x).map_or_else(|| x.sin(), |c| c.0);
+                }
+                Instr::CosQ { dst, a, k } => {
+                    let x = r[a as usize];
+                    r[dst as usize] = cached(trig, k, x).map_or_else(|| x.cos(), |c| c.1);
+                }
                 Instr::Unary { dst, op, a } => r[dst as usize] = op.apply(r[a as usize]),
                 Instr::Pow { dst, a, b } => r[dst as usize] = r[a as usize].powf(r[b as usize]),
                 Instr::Atan2 { dst, y, x } => r[dst as usize] = r[y as usize].atan2(r[x as usize]),
             }
         }
     }
+}
+
+/// (sin x, cos x) of coordinate k = x through the cache (see
+/// [`Tape::eval_with_cache`]); `None` when the cache has no room for k.
+#[inline]
+fn cached(trig: &mut [f64], k: u32, x: f64) -> Option<(f64, f64)> {
+    let at = 3 * k as usize;
+    let c = trig.get_mut(at..at + 3)?;
+    if c[0].to_bits() != x.to_bits() {
+        c[0] = x;
+        c[1] = x.sin();
+        c[2] = x.cos();
+    }
+    Some((c[1], c[2]))
 }
 
 fn check(which: &'static str, needed: usize, given: usize) -> Result<(), TapeError> {
