@@ -9,7 +9,7 @@
 
 use crate::arena::Arena;
 use crate::build::is_int;
-use crate::node::{ExprId, NodeRef, SymKind, UnaryOp};
+use crate::node::{ExprId, Factor, NodeRef, SymKind, Term, UnaryOp};
 
 /// Where a tape reads its inputs from.
 #[derive(Clone, Copy, Debug)]
@@ -330,100 +330,8 @@ impl Tape {
         match arena.node(n) {
             // Leaves live in reserved registers (see `compile`).
             NodeRef::Num(_) | NodeRef::Sym(_) => {}
-            NodeRef::Add { constant, terms } => {
-                let first = terms[0];
-                let mut acc = reg(first.expr);
-                if first.coeff != 1.0 {
-                    self.instrs.push(scale(dst, acc, first.coeff));
-                    acc = dst;
-                }
-                for t in &terms[1..] {
-                    self.instrs
-                        .push(accumulate_into(dst, acc, reg(t.expr), t.coeff));
-                    acc = dst;
-                }
-                if constant != 0.0 {
-                    self.instrs.push(Instr::AddConst {
-                        dst,
-                        a: acc,
-                        c: constant,
-                    });
-                    acc = dst;
-                }
-                if acc != dst {
-                    self.instrs.push(Instr::Copy { dst, a: acc });
-                }
-            }
-            NodeRef::Mul { coeff, factors } => {
-                // Numerator into dst, denominator into a scratch register.
-                let mut num: Option<Reg> = None;
-                let mut den: Option<Reg> = None;
-                let mut den_reg: Option<Reg> = None;
-                let mut tmp: Option<Reg> = None;
-                for f in factors {
-                    let base = reg(f.base);
-                    let into_num = f.exp > 0.0;
-                    let p = f.exp.abs();
-                    let cur = if into_num { num } else { den };
-                    let target = if into_num {
-                        dst
-                    } else {
-                        *den_reg.get_or_insert_with(|| regs.take())
-                    };
-                    let value = if p == 1.0 {
-                        base
-                    } else {
-                        // The power goes straight into the target when it is the
-                        // first factor, else into a temporary.
-                        let into = if cur.is_none() {
-                            target
-                        } else {
-                            *tmp.get_or_insert_with(|| regs.take())
-                        };
-                        self.instrs.push(power(into, base, p));
-                        into
-                    };
-                    let next = match cur {
-                        None => value,
-                        Some(c) => {
-                            self.instrs.push(Instr::Mul {
-                                dst: target,
-                                a: c,
-                                b: value,
-                            });
-                            target
-                        }
-                    };
-                    if into_num {
-                        num = Some(next);
-                    } else {
-                        den = Some(next);
-                    }
-                }
-                let r = match (num, den) {
-                    (Some(a), None) => a,
-                    (Some(a), Some(b)) => {
-                        self.instrs.push(Instr::Div { dst, a, b });
-                        dst
-                    }
-                    (None, Some(b)) => {
-                        self.instrs.push(Instr::Recip { dst, a: b });
-                        dst
-                    }
-                    (None, None) => {
-                        self.instrs.push(Instr::Const { dst, v: 1.0 });
-                        dst
-                    }
-                };
-                if coeff != 1.0 {
-                    self.instrs.push(scale(dst, r, coeff));
-                } else if r != dst {
-                    self.instrs.push(Instr::Copy { dst, a: r });
-                }
-                for r in den_reg.into_iter().chain(tmp) {
-                    regs.free(r);
-                }
-            }
+            NodeRef::Add { constant, terms } => self.sum(dst, constant, terms, reg),
+            NodeRef::Mul { coeff, factors } => self.product(dst, coeff, factors, reg, regs),
             NodeRef::Unary(op, x) => {
                 let a = reg(x);
                 let coordinate = match arena.node(x) {
@@ -451,6 +359,112 @@ impl Tape {
                 y: reg(y),
                 x: reg(x),
             }),
+        }
+    }
+
+    /// Emits `dst = constant + Σ coeff · term` (the order of [`crate::eval`]).
+    fn sum(&mut self, dst: Reg, constant: f64, terms: &[Term], reg: &dyn Fn(ExprId) -> Reg) {
+        let first = terms[0];
+        let mut acc = reg(first.expr);
+        if first.coeff != 1.0 {
+            self.instrs.push(scale(dst, acc, first.coeff));
+            acc = dst;
+        }
+        for t in &terms[1..] {
+            self.instrs
+                .push(accumulate_into(dst, acc, reg(t.expr), t.coeff));
+            acc = dst;
+        }
+        if constant != 0.0 {
+            self.instrs.push(Instr::AddConst {
+                dst,
+                a: acc,
+                c: constant,
+            });
+            acc = dst;
+        }
+        if acc != dst {
+            self.instrs.push(Instr::Copy { dst, a: acc });
+        }
+    }
+
+    /// Emits `dst = coeff · Π base^exp`: the numerator into `dst`, the
+    /// denominator into a scratch register.
+    fn product(
+        &mut self,
+        dst: Reg,
+        coeff: f64,
+        factors: &[Factor],
+        reg: &dyn Fn(ExprId) -> Reg,
+        regs: &mut Regs,
+    ) {
+        // Numerator into dst, denominator into a scratch register.
+        let mut num: Option<Reg> = None;
+        let mut den: Option<Reg> = None;
+        let mut den_reg: Option<Reg> = None;
+        let mut tmp: Option<Reg> = None;
+        for f in factors {
+            let base = reg(f.base);
+            let into_num = f.exp > 0.0;
+            let p = f.exp.abs();
+            let cur = if into_num { num } else { den };
+            let target = if into_num {
+                dst
+            } else {
+                *den_reg.get_or_insert_with(|| regs.take())
+            };
+            let value = if p == 1.0 {
+                base
+            } else {
+                // The power goes straight into the target when it is the
+                // first factor, else into a temporary.
+                let into = if cur.is_none() {
+                    target
+                } else {
+                    *tmp.get_or_insert_with(|| regs.take())
+                };
+                self.instrs.push(power(into, base, p));
+                into
+            };
+            let next = match cur {
+                None => value,
+                Some(c) => {
+                    self.instrs.push(Instr::Mul {
+                        dst: target,
+                        a: c,
+                        b: value,
+                    });
+                    target
+                }
+            };
+            if into_num {
+                num = Some(next);
+            } else {
+                den = Some(next);
+            }
+        }
+        let r = match (num, den) {
+            (Some(a), None) => a,
+            (Some(a), Some(b)) => {
+                self.instrs.push(Instr::Div { dst, a, b });
+                dst
+            }
+            (None, Some(b)) => {
+                self.instrs.push(Instr::Recip { dst, a: b });
+                dst
+            }
+            (None, None) => {
+                self.instrs.push(Instr::Const { dst, v: 1.0 });
+                dst
+            }
+        };
+        if coeff != 1.0 {
+            self.instrs.push(scale(dst, r, coeff));
+        } else if r != dst {
+            self.instrs.push(Instr::Copy { dst, a: r });
+        }
+        for r in den_reg.into_iter().chain(tmp) {
+            regs.free(r);
         }
     }
 
