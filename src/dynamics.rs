@@ -112,7 +112,7 @@ impl Dynamics for TapeSystem {
             params: self.params(),
             t,
         };
-        TapeSystem::run(tape, registers, &inputs, out);
+        self.run(tape, registers, &inputs, out);
     }
 
     fn driving_start(&self) -> usize {

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use kinema_expr::{ExprId, Tape, TapeInputs};
+use kinema_expr::{ExprId, NodeRef, Tape, TapeInputs};
 use kinema_model::{Derivation, Diagnostics, Severity};
 use kinema_runtime::{Auto, Error, ModelDiagnostic, ModelError, Options, Solver, System};
 
@@ -211,6 +211,9 @@ pub struct TapeSystem {
     param_names: Vec<String>,
     pub(crate) params: Vec<f64>,
     pattern: Vec<(u32, u32)>,
+    /// The value of each Φ_q entry that is a number (see
+    /// [`System::jacobian_constant`]).
+    constants: Vec<Option<f64>>,
     guess: Tape,
     phi: Tape,
     jacobian: Tape,
@@ -259,6 +262,15 @@ impl TapeSystem {
             param_names: d.params.iter().map(|p| p.name.clone()).collect(),
             params: d.param_values(),
             pattern: d.phi_q.entries.iter().map(|e| (e.row, e.col)).collect(),
+            constants: d
+                .phi_q
+                .entries
+                .iter()
+                .map(|e| match a.node(e.expr) {
+                    NodeRef::Num(v) => Some(v),
+                    _ => None,
+                })
+                .collect(),
             zeros: vec![0.0; n],
             guess,
             phi,
@@ -311,26 +323,39 @@ impl TapeSystem {
     /// slice of the wrong length), writes NaN so the caller sees non-finite
     /// values instead of going on silently (the `System` trait's rule).
     pub(crate) fn run(
+        &self,
         tape: &Tape,
-        registers: &mut Vec<f64>,
+        scratch: &mut Vec<f64>,
         inputs: &TapeInputs<'_>,
         out: &mut [f64],
     ) {
-        if tape
-            .eval(inputs, Self::registers(registers, tape), out)
-            .is_err()
-        {
+        let (trig, registers) = self.split(scratch, tape);
+        if tape.eval_with_cache(inputs, registers, trig, out).is_err() {
             out.fill(f64::NAN);
         }
     }
 
-    /// The register file, grown if it came from another system (a scratch
-    /// kept while the solver's system was replaced); no allocation otherwise.
-    pub(crate) fn registers<'a>(registers: &'a mut Vec<f64>, tape: &Tape) -> &'a mut [f64] {
-        if registers.len() < tape.registers() {
-            registers.resize(tape.registers(), 0.0);
+    /// The register file for `tape` in the scratch (see [`Self::split`]).
+    pub(crate) fn registers<'a>(&self, scratch: &'a mut Vec<f64>, tape: &Tape) -> &'a mut [f64] {
+        self.split(scratch, tape).1
+    }
+
+    /// The scratch as the sin/cos cache of the coordinates (3 values per
+    /// coordinate, see [`Tape::eval_with_cache`]) and the register file after
+    /// it, grown if it came from another system (a scratch kept while the
+    /// solver's system was replaced; the cache depends on the angles alone,
+    /// so another system's stays valid); no allocation otherwise.
+    fn split<'a>(&self, scratch: &'a mut Vec<f64>, tape: &Tape) -> (&'a mut [f64], &'a mut [f64]) {
+        let cache = self.trig_len();
+        if scratch.len() < cache + tape.registers() {
+            scratch.resize(cache + tape.registers(), f64::NAN);
         }
-        registers
+        scratch.split_at_mut(cache)
+    }
+
+    /// Length of the sin/cos cache at the start of the scratch.
+    fn trig_len(&self) -> usize {
+        3 * self.coordinate_names.len()
     }
 }
 
@@ -345,7 +370,8 @@ impl System for TapeSystem {
     type Scratch = Vec<f64>;
 
     fn scratch(&self) -> Vec<f64> {
-        vec![0.0; self.registers]
+        // The cache's angles NaN: no angle seen yet.
+        vec![f64::NAN; self.trig_len() + self.registers]
     }
 
     fn len(&self) -> usize {
@@ -369,11 +395,15 @@ impl System for TapeSystem {
             params: &self.params,
             t: 0.0,
         };
-        Self::run(&self.guess, &mut registers, &inputs, q);
+        self.run(&self.guess, &mut registers, &inputs, q);
     }
 
     fn jacobian_pattern(&self) -> &[(u32, u32)] {
         &self.pattern
+    }
+
+    fn jacobian_constant(&self, k: usize) -> Option<f64> {
+        self.constants.get(k).copied().flatten()
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
@@ -383,7 +413,7 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        Self::run(&self.phi, registers, &inputs, phi);
+        self.run(&self.phi, registers, &inputs, phi);
     }
 
     fn jacobian(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, values: &mut [f64]) {
@@ -393,7 +423,7 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        Self::run(&self.jacobian, registers, &inputs, values);
+        self.run(&self.jacobian, registers, &inputs, values);
     }
 
     fn phi_and_jacobian(
@@ -411,8 +441,10 @@ impl System for TapeSystem {
             t,
         };
         // The outputs are Φ then Φ_q's values, read where the tape left them.
-        let registers = Self::registers(registers, &self.both);
-        let outputs = self.both.eval_in_registers(&inputs, registers);
+        let (trig, registers) = self.split(registers, &self.both);
+        let outputs = self
+            .both
+            .eval_in_registers_with_cache(&inputs, registers, trig);
         match outputs {
             Ok(out) if out.len() == phi.len() + values.len() => {
                 let (p, j) = out.split_at(phi.len());
@@ -433,7 +465,7 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        Self::run(&self.nu, registers, &inputs, nu);
+        self.run(&self.nu, registers, &inputs, nu);
     }
 
     fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
@@ -443,6 +475,6 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        Self::run(&self.gamma, registers, &inputs, gamma);
+        self.run(&self.gamma, registers, &inputs, gamma);
     }
 }

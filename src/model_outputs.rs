@@ -75,7 +75,7 @@ impl Outputs for TapeSystem {
             params: &self.params,
             t,
         };
-        let registers = TapeSystem::registers(registers, &o.tape);
+        let registers = self.registers(registers, &o.tape);
         let values = match o.tape.eval_in_registers(&inputs, registers) {
             Ok(v) if sizes_ok && v.len() >= 3 * m => v,
             _ => {

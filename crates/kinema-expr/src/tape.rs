@@ -9,7 +9,7 @@
 
 use crate::arena::Arena;
 use crate::build::is_int;
-use crate::node::{ExprId, NodeRef, SymKind, UnaryOp};
+use crate::node::{ExprId, Factor, NodeRef, SymKind, Term, UnaryOp};
 
 /// Where a tape reads its inputs from.
 #[derive(Clone, Copy, Debug)]
@@ -56,26 +56,111 @@ type Reg = u32;
 
 #[derive(Clone, Copy, Debug)]
 enum Instr {
-    Const { dst: Reg, v: f64 },
-    Copy { dst: Reg, a: Reg },
-    Neg { dst: Reg, a: Reg },
-    Scale { dst: Reg, a: Reg, k: f64 },
-    Add { dst: Reg, a: Reg, b: Reg },
-    Sub { dst: Reg, a: Reg, b: Reg },
-    MulAdd { dst: Reg, acc: Reg, a: Reg, k: f64 },
-    AddConst { dst: Reg, a: Reg, c: f64 },
-    Mul { dst: Reg, a: Reg, b: Reg },
-    Div { dst: Reg, a: Reg, b: Reg },
-    Recip { dst: Reg, a: Reg },
-    Square { dst: Reg, a: Reg },
-    Sqrt { dst: Reg, a: Reg },
-    PowI { dst: Reg, a: Reg, n: i32 },
-    PowF { dst: Reg, a: Reg, p: f64 },
-    Sin { dst: Reg, a: Reg },
-    Cos { dst: Reg, a: Reg },
-    Unary { dst: Reg, op: UnaryOp, a: Reg },
-    Pow { dst: Reg, a: Reg, b: Reg },
-    Atan2 { dst: Reg, y: Reg, x: Reg },
+    Const {
+        dst: Reg,
+        v: f64,
+    },
+    Copy {
+        dst: Reg,
+        a: Reg,
+    },
+    Neg {
+        dst: Reg,
+        a: Reg,
+    },
+    Scale {
+        dst: Reg,
+        a: Reg,
+        k: f64,
+    },
+    Add {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Sub {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    MulAdd {
+        dst: Reg,
+        acc: Reg,
+        a: Reg,
+        k: f64,
+    },
+    AddConst {
+        dst: Reg,
+        a: Reg,
+        c: f64,
+    },
+    Mul {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Div {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Recip {
+        dst: Reg,
+        a: Reg,
+    },
+    Square {
+        dst: Reg,
+        a: Reg,
+    },
+    Sqrt {
+        dst: Reg,
+        a: Reg,
+    },
+    PowI {
+        dst: Reg,
+        a: Reg,
+        n: i32,
+    },
+    PowF {
+        dst: Reg,
+        a: Reg,
+        p: f64,
+    },
+    Sin {
+        dst: Reg,
+        a: Reg,
+    },
+    Cos {
+        dst: Reg,
+        a: Reg,
+    },
+    /// sin of coordinate `k` (in register `a`), through the caller's cache.
+    SinQ {
+        dst: Reg,
+        a: Reg,
+        k: u32,
+    },
+    /// cos of coordinate `k` (in register `a`), through the caller's cache.
+    CosQ {
+        dst: Reg,
+        a: Reg,
+        k: u32,
+    },
+    Unary {
+        dst: Reg,
+        op: UnaryOp,
+        a: Reg,
+    },
+    Pow {
+        dst: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    Atan2 {
+        dst: Reg,
+        y: Reg,
+        x: Reg,
+    },
 }
 
 /// A compiled list of instructions computing a vector of outputs.
@@ -245,106 +330,23 @@ impl Tape {
         match arena.node(n) {
             // Leaves live in reserved registers (see `compile`).
             NodeRef::Num(_) | NodeRef::Sym(_) => {}
-            NodeRef::Add { constant, terms } => {
-                let first = terms[0];
-                let mut acc = reg(first.expr);
-                if first.coeff != 1.0 {
-                    self.instrs.push(scale(dst, acc, first.coeff));
-                    acc = dst;
-                }
-                for t in &terms[1..] {
-                    self.instrs
-                        .push(accumulate_into(dst, acc, reg(t.expr), t.coeff));
-                    acc = dst;
-                }
-                if constant != 0.0 {
-                    self.instrs.push(Instr::AddConst {
-                        dst,
-                        a: acc,
-                        c: constant,
-                    });
-                    acc = dst;
-                }
-                if acc != dst {
-                    self.instrs.push(Instr::Copy { dst, a: acc });
-                }
-            }
-            NodeRef::Mul { coeff, factors } => {
-                // Numerator into dst, denominator into a scratch register.
-                let mut num: Option<Reg> = None;
-                let mut den: Option<Reg> = None;
-                let mut den_reg: Option<Reg> = None;
-                let mut tmp: Option<Reg> = None;
-                for f in factors {
-                    let base = reg(f.base);
-                    let into_num = f.exp > 0.0;
-                    let p = f.exp.abs();
-                    let cur = if into_num { num } else { den };
-                    let target = if into_num {
-                        dst
-                    } else {
-                        *den_reg.get_or_insert_with(|| regs.take())
-                    };
-                    let value = if p == 1.0 {
-                        base
-                    } else {
-                        // The power goes straight into the target when it is the
-                        // first factor, else into a temporary.
-                        let into = if cur.is_none() {
-                            target
-                        } else {
-                            *tmp.get_or_insert_with(|| regs.take())
-                        };
-                        self.instrs.push(power(into, base, p));
-                        into
-                    };
-                    let next = match cur {
-                        None => value,
-                        Some(c) => {
-                            self.instrs.push(Instr::Mul {
-                                dst: target,
-                                a: c,
-                                b: value,
-                            });
-                            target
-                        }
-                    };
-                    if into_num {
-                        num = Some(next);
-                    } else {
-                        den = Some(next);
-                    }
-                }
-                let r = match (num, den) {
-                    (Some(a), None) => a,
-                    (Some(a), Some(b)) => {
-                        self.instrs.push(Instr::Div { dst, a, b });
-                        dst
-                    }
-                    (None, Some(b)) => {
-                        self.instrs.push(Instr::Recip { dst, a: b });
-                        dst
-                    }
-                    (None, None) => {
-                        self.instrs.push(Instr::Const { dst, v: 1.0 });
-                        dst
-                    }
+            NodeRef::Add { constant, terms } => self.sum(dst, constant, terms, reg),
+            NodeRef::Mul { coeff, factors } => self.product(dst, coeff, factors, reg, regs),
+            NodeRef::Unary(op, x) => {
+                let a = reg(x);
+                let coordinate = match arena.node(x) {
+                    NodeRef::Sym(s) => match arena.symbol(s).kind {
+                        SymKind::Coordinate(k) => Some(k),
+                        _ => None,
+                    },
+                    _ => None,
                 };
-                if coeff != 1.0 {
-                    self.instrs.push(scale(dst, r, coeff));
-                } else if r != dst {
-                    self.instrs.push(Instr::Copy { dst, a: r });
-                }
-                for r in den_reg.into_iter().chain(tmp) {
-                    regs.free(r);
-                }
-            }
-            NodeRef::Unary(op, a) => {
-                let a = reg(a);
-                self.instrs.push(match op {
-                    UnaryOp::Sin => Instr::Sin { dst, a },
-                    UnaryOp::Cos => Instr::Cos { dst, a },
-                    op => Instr::Unary { dst, op, a },
+                self.instrs.push(match (op, coordinate) {
+                    (UnaryOp::Sin, Some(k)) => Instr::SinQ { dst, a, k },
+                    (UnaryOp::Cos, Some(k)) => Instr::CosQ { dst, a, k },
+                    (UnaryOp::Sin, None) => Instr::Sin { dst, a },
+                    (UnaryOp::Cos, None) => Instr::Cos { dst, a },
+                    (op, _) => Instr::Unary { dst, op, a },
                 });
             }
             NodeRef::Pow(a, b) => self.instrs.push(Instr::Pow {
@@ -357,6 +359,112 @@ impl Tape {
                 y: reg(y),
                 x: reg(x),
             }),
+        }
+    }
+
+    /// Emits `dst = constant + Σ coeff · term` (the order of [`crate::eval`]).
+    fn sum(&mut self, dst: Reg, constant: f64, terms: &[Term], reg: &dyn Fn(ExprId) -> Reg) {
+        let first = terms[0];
+        let mut acc = reg(first.expr);
+        if first.coeff != 1.0 {
+            self.instrs.push(scale(dst, acc, first.coeff));
+            acc = dst;
+        }
+        for t in &terms[1..] {
+            self.instrs
+                .push(accumulate_into(dst, acc, reg(t.expr), t.coeff));
+            acc = dst;
+        }
+        if constant != 0.0 {
+            self.instrs.push(Instr::AddConst {
+                dst,
+                a: acc,
+                c: constant,
+            });
+            acc = dst;
+        }
+        if acc != dst {
+            self.instrs.push(Instr::Copy { dst, a: acc });
+        }
+    }
+
+    /// Emits `dst = coeff · Π base^exp`: the numerator into `dst`, the
+    /// denominator into a scratch register.
+    fn product(
+        &mut self,
+        dst: Reg,
+        coeff: f64,
+        factors: &[Factor],
+        reg: &dyn Fn(ExprId) -> Reg,
+        regs: &mut Regs,
+    ) {
+        // Numerator into dst, denominator into a scratch register.
+        let mut num: Option<Reg> = None;
+        let mut den: Option<Reg> = None;
+        let mut den_reg: Option<Reg> = None;
+        let mut tmp: Option<Reg> = None;
+        for f in factors {
+            let base = reg(f.base);
+            let into_num = f.exp > 0.0;
+            let p = f.exp.abs();
+            let cur = if into_num { num } else { den };
+            let target = if into_num {
+                dst
+            } else {
+                *den_reg.get_or_insert_with(|| regs.take())
+            };
+            let value = if p == 1.0 {
+                base
+            } else {
+                // The power goes straight into the target when it is the
+                // first factor, else into a temporary.
+                let into = if cur.is_none() {
+                    target
+                } else {
+                    *tmp.get_or_insert_with(|| regs.take())
+                };
+                self.instrs.push(power(into, base, p));
+                into
+            };
+            let next = match cur {
+                None => value,
+                Some(c) => {
+                    self.instrs.push(Instr::Mul {
+                        dst: target,
+                        a: c,
+                        b: value,
+                    });
+                    target
+                }
+            };
+            if into_num {
+                num = Some(next);
+            } else {
+                den = Some(next);
+            }
+        }
+        let r = match (num, den) {
+            (Some(a), None) => a,
+            (Some(a), Some(b)) => {
+                self.instrs.push(Instr::Div { dst, a, b });
+                dst
+            }
+            (None, Some(b)) => {
+                self.instrs.push(Instr::Recip { dst, a: b });
+                dst
+            }
+            (None, None) => {
+                self.instrs.push(Instr::Const { dst, v: 1.0 });
+                dst
+            }
+        };
+        if coeff != 1.0 {
+            self.instrs.push(scale(dst, r, coeff));
+        } else if r != dst {
+            self.instrs.push(Instr::Copy { dst, a: r });
+        }
+        for r in den_reg.into_iter().chain(tmp) {
+            regs.free(r);
         }
     }
 
@@ -403,9 +511,28 @@ impl Tape {
         registers: &mut [f64],
         out: &mut [f64],
     ) -> Result<(), TapeError> {
+        self.eval_with_cache(inputs, registers, &mut [], out)
+    }
+
+    /// [`eval`](Self::eval) with a cache of the sines and cosines of the
+    /// coordinates, shared by the tapes of one system: `trig[3k..3k + 3]` =
+    /// (q_k, sin q_k, cos q_k) of the last q_k seen. An evaluation at an
+    /// angle already seen (bit for bit) reuses its sin and cos, so results
+    /// do not change; a coordinate beyond `trig` is computed directly. Fill
+    /// a new cache with NaN. Does not allocate.
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_with_cache(
+        &self,
+        inputs: &TapeInputs<'_>,
+        registers: &mut [f64],
+        trig: &mut [f64],
+        out: &mut [f64],
+    ) -> Result<(), TapeError> {
         self.check_inputs(inputs, registers)?;
         check("outputs", self.outputs, out.len())?;
-        self.run(inputs, registers);
+        self.run(inputs, registers, trig);
         out[..self.outputs].copy_from_slice(&registers[..self.outputs]);
         Ok(())
     }
@@ -421,8 +548,22 @@ impl Tape {
         inputs: &TapeInputs<'_>,
         registers: &'r mut [f64],
     ) -> Result<&'r [f64], TapeError> {
+        self.eval_in_registers_with_cache(inputs, registers, &mut [])
+    }
+
+    /// [`eval_in_registers`](Self::eval_in_registers) with the cache of
+    /// [`eval_with_cache`](Self::eval_with_cache).
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_in_registers_with_cache<'r>(
+        &self,
+        inputs: &TapeInputs<'_>,
+        registers: &'r mut [f64],
+        trig: &mut [f64],
+    ) -> Result<&'r [f64], TapeError> {
         self.check_inputs(inputs, registers)?;
-        self.run(inputs, registers);
+        self.run(inputs, registers, trig);
         Ok(&registers[..self.outputs])
     }
 
@@ -435,7 +576,7 @@ impl Tape {
 
     /// Loads the inputs and constants, then runs the instructions (slices
     /// checked by the caller).
-    fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64]) {
+    fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64], trig: &mut [f64]) {
         let (q, qd, p) = (
             self.outputs,
             self.outputs + self.need_q,
@@ -472,12 +613,34 @@ impl Tape {
                 Instr::PowF { dst, a, p } => r[dst as usize] = r[a as usize].powf(p),
                 Instr::Sin { dst, a } => r[dst as usize] = r[a as usize].sin(),
                 Instr::Cos { dst, a } => r[dst as usize] = r[a as usize].cos(),
+                Instr::SinQ { dst, a, k } => {
+                    let x = r[a as usize];
+                    r[dst as usize] = cached(trig, k, x).map_or_else(|| x.sin(), |c| c.0);
+                }
+                Instr::CosQ { dst, a, k } => {
+                    let x = r[a as usize];
+                    r[dst as usize] = cached(trig, k, x).map_or_else(|| x.cos(), |c| c.1);
+                }
                 Instr::Unary { dst, op, a } => r[dst as usize] = op.apply(r[a as usize]),
                 Instr::Pow { dst, a, b } => r[dst as usize] = r[a as usize].powf(r[b as usize]),
                 Instr::Atan2 { dst, y, x } => r[dst as usize] = r[y as usize].atan2(r[x as usize]),
             }
         }
     }
+}
+
+/// (sin x, cos x) of coordinate k = x through the cache (see
+/// [`Tape::eval_with_cache`]); `None` when the cache has no room for k.
+#[inline]
+fn cached(trig: &mut [f64], k: u32, x: f64) -> Option<(f64, f64)> {
+    let at = 3 * k as usize;
+    let c = trig.get_mut(at..at + 3)?;
+    if c[0].to_bits() != x.to_bits() {
+        c[0] = x;
+        c[1] = x.sin();
+        c[2] = x.cos();
+    }
+    Some((c[1], c[2]))
 }
 
 fn check(which: &'static str, needed: usize, given: usize) -> Result<(), TapeError> {

@@ -591,6 +591,23 @@ proptest! {
                     "output {k}: tape {tv:e} vs tree {ev:e}");
             }
         }
+        // Through the sin/cos cache: primed at another point (misses), then
+        // at this one twice (misses, then hits), then with a cache too short
+        // for every coordinate: the same bits each time.
+        let mut regs = vec![0.0; tape.registers()];
+        let mut trig = vec![f64::NAN; 9];
+        let mut out = vec![0.0; outputs.len()];
+        let q_other = [x[1], x[2], x[0]];
+        let other = TapeInputs { q: &q_other, ..inputs };
+        prop_assert!(tape.eval_with_cache(&other, &mut regs, &mut trig, &mut out).is_ok());
+        for cache in [9, 9, 4] {
+            let trig = &mut trig[..cache];
+            prop_assert!(tape.eval_with_cache(&inputs, &mut regs, trig, &mut out).is_ok());
+            for (k, (tv, ev)) in out.iter().zip(&tree).enumerate() {
+                prop_assert!(tv.to_bits() == ev.to_bits() || (tv.is_nan() && ev.is_nan()),
+                    "output {k}, cache of {cache}: tape {tv:e} vs tree {ev:e}");
+            }
+        }
     }
 
     /// Building in another order (operands swapped, right operand first, in a

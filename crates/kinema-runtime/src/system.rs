@@ -71,6 +71,16 @@ pub trait System {
     /// life; no duplicates; every index below n.
     fn jacobian_pattern(&self) -> &[(u32, u32)];
 
+    /// The value of pattern entry `k` of Φ_q if it is the same number at
+    /// every q, t and parameter value (the ±1 of a revolute joint's x and y
+    /// rows), else `None`. A linear solver may fold such entries into its
+    /// factorization ([`FoldedLu`](crate::linalg::FoldedLu)); it still
+    /// checks them at every factorization. The default: none is.
+    fn jacobian_constant(&self, k: usize) -> Option<f64> {
+        let _ = k;
+        None
+    }
+
     /// Writes Φ(q, t) (length n).
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
@@ -125,6 +135,9 @@ macro_rules! forward {
             }
             fn jacobian_pattern(&self) -> &[(u32, u32)] {
                 (**self).jacobian_pattern()
+            }
+            fn jacobian_constant(&self, k: usize) -> Option<f64> {
+                (**self).jacobian_constant(k)
             }
             fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
                 (**self).phi(scratch, q, t, phi);

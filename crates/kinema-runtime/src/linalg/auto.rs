@@ -1,6 +1,6 @@
 //! Size-based choice between dense and sparse LU: [`Auto`].
 
-use super::{DynDenseLu, LinalgError, LinearSolver, PivotReport, SparseLu};
+use super::{DynDenseLu, FoldedLu, LinalgError, LinearSolver, PivotReport, SparseLu};
 
 /// Dense LU ([`DynDenseLu`]) for n below [`Auto::DEFAULT_THRESHOLD`], sparse
 /// LU ([`SparseLu`]) from there on. The default linear solver of
@@ -25,11 +25,20 @@ pub enum Auto {
     Dense(DynDenseLu),
     /// Sparse LU, chosen for large n.
     Sparse(SparseLu),
+    /// A fixed order planned for one system, with its constant entries
+    /// folded ([`FoldedLu`]): chosen by
+    /// [`analyze_system`](LinearSolver::analyze_system) up to
+    /// [`Auto::MAX_FOLDED`] coordinates.
+    Folded(Box<FoldedLu>),
 }
 
 impl Auto {
     /// Dimension from which [`Auto`] picks the sparse solver.
     pub const DEFAULT_THRESHOLD: usize = 12;
+
+    /// Largest dimension for which [`analyze_system`](LinearSolver::analyze_system)
+    /// plans a [`FoldedLu`] (the plan's search grows faster than the system).
+    pub const MAX_FOLDED: usize = 400;
 
     /// Analyses the pattern with dense LU if `n < threshold`, else sparse LU.
     pub fn with_threshold(
@@ -56,10 +65,41 @@ impl LinearSolver for Auto {
         Self::with_threshold(n, pattern, Self::DEFAULT_THRESHOLD)
     }
 
+    /// A [`FoldedLu`] planned on the system's constant entries and its
+    /// Jacobian at the initial guess (t = 0) when the system declares some
+    /// ([`System::jacobian_constant`](crate::System::jacobian_constant)),
+    /// n ≤ [`Auto::MAX_FOLDED`] and a fixed order exists; else as
+    /// [`analyze`](LinearSolver::analyze).
+    fn analyze_system<S: crate::System + ?Sized>(system: &S) -> Result<Self, LinalgError> {
+        let (n, pattern) = (system.len(), system.jacobian_pattern());
+        if n > Self::MAX_FOLDED {
+            return Self::analyze(n, pattern);
+        }
+        let constants: Vec<Option<f64>> = (0..pattern.len())
+            .map(|k| system.jacobian_constant(k))
+            .collect();
+        // A system that declares no constant (generated code, which has its
+        // own LU; hand-written systems) keeps the general solvers.
+        if constants.iter().all(Option::is_none) {
+            return Self::analyze(n, pattern);
+        }
+        let mut q = vec![0.0; n];
+        system.initial_guess(&mut q);
+        let mut values = vec![0.0; pattern.len()];
+        system.jacobian(&mut system.scratch(), &q, 0.0, &mut values);
+        let lu = FoldedLu::new(n, pattern, &constants, &values)?;
+        if lu.is_planned() {
+            Ok(Self::Folded(Box::new(lu)))
+        } else {
+            Self::analyze(n, pattern)
+        }
+    }
+
     fn dim(&self) -> usize {
         match self {
             Self::Dense(lu) => lu.dim(),
             Self::Sparse(lu) => lu.dim(),
+            Self::Folded(lu) => lu.dim(),
         }
     }
 
@@ -67,6 +107,7 @@ impl LinearSolver for Auto {
         match self {
             Self::Dense(lu) => lu.factor(values, singular_tolerance),
             Self::Sparse(lu) => lu.factor(values, singular_tolerance),
+            Self::Folded(lu) => lu.factor(values, singular_tolerance),
         }
     }
 
@@ -74,6 +115,7 @@ impl LinearSolver for Auto {
         match self {
             Self::Dense(lu) => lu.solve_in_place(rhs),
             Self::Sparse(lu) => lu.solve_in_place(rhs),
+            Self::Folded(lu) => lu.solve_in_place(rhs),
         }
     }
 
@@ -81,6 +123,7 @@ impl LinearSolver for Auto {
         match self {
             Self::Dense(lu) => lu.solve_transpose_in_place(rhs),
             Self::Sparse(lu) => lu.solve_transpose_in_place(rhs),
+            Self::Folded(lu) => lu.solve_transpose_in_place(rhs),
         }
     }
 
@@ -88,6 +131,7 @@ impl LinearSolver for Auto {
         match self {
             Self::Dense(lu) => lu.pivot_report(),
             Self::Sparse(lu) => lu.pivot_report(),
+            Self::Folded(lu) => lu.pivot_report(),
         }
     }
 }

@@ -12,7 +12,8 @@
 //! | [`DenseLu<N>`] | dense partial pivoting on an inline `[[f64; N]; N]` | generated solvers of small mechanisms |
 //! | [`DynDenseLu`] | the same, matrix on the heap | small systems whose n is known only at run time |
 //! | [`SparseLu`] | faer's sparse LU (COLAMD ordering, partial pivoting) | large mechanisms (chains of hundreds of bodies) |
-//! | [`Auto`] | one of the last two, by size | the default |
+//! | [`FoldedLu`] | Markowitz and threshold pivoting on the values at the initial guess, fixed; constant entries folded | systems that say which Jacobian entries are constant (model files' tapes) |
+//! | [`Auto`] | [`FoldedLu`] when the system allows, else dense or sparse LU by size | the default |
 //!
 //! # Refactorization
 //!
@@ -48,11 +49,13 @@
 mod auto;
 mod dense;
 mod equilibrate;
+mod folded;
 mod schedule;
 mod sparse;
 
 pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
+pub use folded::FoldedLu;
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
@@ -105,9 +108,19 @@ impl PivotReport {
     /// The report from the reciprocals of the pivots, the matrix scale and
     /// the sign of the permutations. O(n).
     pub(crate) fn from_inverse_pivots(inv_diag: &[f64], scale: f64, permutation_sign: f64) -> Self {
+        Self::from_inverse_pivot_values(inv_diag.iter().copied(), scale, permutation_sign)
+    }
+
+    /// [`from_inverse_pivots`](Self::from_inverse_pivots) of values read
+    /// one by one.
+    pub(crate) fn from_inverse_pivot_values(
+        inv_diag: impl Iterator<Item = f64>,
+        scale: f64,
+        permutation_sign: f64,
+    ) -> Self {
         let mut largest_inverse = 0.0_f64;
         let mut sign = permutation_sign;
-        for &inv in inv_diag {
+        for inv in inv_diag {
             largest_inverse = largest_inverse.max(inv.abs());
             if inv < 0.0 {
                 sign = -sign;
@@ -195,6 +208,18 @@ pub trait LinearSolver: Sized {
     /// the work that depends on the structure only: orderings, symbolic
     /// factorization, buffers. May allocate; called once.
     fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError>;
+
+    /// [`analyze`](Self::analyze) for the Jacobian of `system`, which may
+    /// also read what the system says of its entries (which are constant,
+    /// their values at the initial guess) to specialise itself: [`Auto`]
+    /// plans a [`FoldedLu`] this way. The default analyses the pattern only.
+    /// Called once, by [`Solver::with_options`](crate::Solver::with_options).
+    ///
+    /// # Errors
+    /// As [`analyze`](Self::analyze).
+    fn analyze_system<S: crate::System + ?Sized>(system: &S) -> Result<Self, LinalgError> {
+        Self::analyze(system.len(), system.jacobian_pattern())
+    }
 
     /// The dimension n.
     fn dim(&self) -> usize;
@@ -285,3 +310,4 @@ impl<S: ?Sized, const N: usize> LinearSolverFor<S> for DenseLu<N> {}
 impl<S: ?Sized> LinearSolverFor<S> for DynDenseLu {}
 impl<S: ?Sized> LinearSolverFor<S> for SparseLu {}
 impl<S: ?Sized> LinearSolverFor<S> for Auto {}
+impl<S: ?Sized> LinearSolverFor<S> for FoldedLu {}

@@ -208,13 +208,29 @@ impl Schedule {
         structure: &mut S,
         slot_index: &mut SlotIndex<'_>,
     ) {
-        let n = self.n;
         self.ready = false;
+        self.set_orders(row_order, col_order);
+        self.fill_structure(pattern, structure);
+        self.assign_slots(pattern, structure, slot_index);
+        self.record_elimination(structure, slot_index);
+        self.record_steps();
+        self.record_fill_and_sign();
+        self.ready = true;
+    }
+
+    /// The pivot order, and its inverse permutations in `list_a` (rows) and
+    /// `list_b` (columns).
+    fn set_orders(
+        &mut self,
+        row_order: impl Iterator<Item = u32>,
+        col_order: impl Iterator<Item = u32>,
+    ) {
+        let n = self.n;
         self.row_order.clear();
         self.row_order.extend(row_order);
         self.col_order.clear();
         self.col_order.extend(col_order);
-        // Inverse permutations, kept in l_row / u_col temporarily.
+        // Inverse permutations, kept in list_a / list_b while building.
         let (row_pos, col_pos) = (&mut self.list_a, &mut self.list_b);
         row_pos.clear();
         row_pos.resize(n, 0);
@@ -226,6 +242,13 @@ impl Schedule {
         for (k, &c) in self.col_order.iter().enumerate() {
             col_pos[c as usize] = k as u32;
         }
+    }
+
+    /// A's pattern in P A Q, the diagonal, and the fill of symbolic
+    /// elimination, into `structure`.
+    fn fill_structure<S: Structure>(&mut self, pattern: &[(u32, u32)], structure: &mut S) {
+        let n = self.n;
+        let (row_pos, col_pos) = (&self.list_a, &self.list_b);
         for &(r, c) in pattern {
             structure.insert(row_pos[r as usize] as usize, col_pos[c as usize] as usize);
         }
@@ -245,6 +268,17 @@ impl Schedule {
                 }
             }
         }
+    }
+
+    /// One slot per structural nonzero of L + U, row by row; the slots of
+    /// A's entries and of the diagonal.
+    fn assign_slots<S: Structure>(
+        &mut self,
+        pattern: &[(u32, u32)],
+        structure: &S,
+        slot_index: &mut SlotIndex<'_>,
+    ) {
+        let n = self.n;
         // Slots, row by row.
         slot_index.clear();
         let mut slots = 0u32;
@@ -274,6 +308,12 @@ impl Schedule {
         }
         self.inv_diag.clear();
         self.inv_diag.resize(n, 0.0);
+    }
+
+    /// L by columns, strict U by rows (laid out last row first) and the
+    /// update list of every step.
+    fn record_elimination<S: Structure>(&mut self, structure: &S, slot_index: &SlotIndex<'_>) {
+        let n = self.n;
         // L columns, U rows, updates.
         self.l_ptr.clear();
         self.l_row.clear();
@@ -319,6 +359,12 @@ impl Schedule {
                 array[len - end..len - start].reverse();
             }
         }
+    }
+
+    /// Per-step ranges, and the columns of L's and rows of U's entries for
+    /// the solves.
+    fn record_steps(&mut self) {
+        let n = self.n;
         self.l_val.clear();
         self.l_val.resize(self.l_row.len(), 0.0);
         self.u_val.clear();
@@ -344,6 +390,12 @@ impl Schedule {
             self.u_row
                 .extend(std::iter::repeat_n(k as u32, u_len as usize));
         }
+    }
+
+    /// Slots no pattern entry writes (zeroed before each replay), the solve's
+    /// scratch and sign(P) sign(Q).
+    fn record_fill_and_sign(&mut self) {
+        let n = self.n;
         // Fill-ins: slots no pattern entry writes.
         let mut written = std::mem::take(&mut self.work);
         written.clear();
@@ -366,7 +418,6 @@ impl Schedule {
             self.col_order.iter().map(|&c| c as usize),
             &mut self.perm_scratch,
         );
-        self.ready = true;
     }
 
     /// Replays the elimination on new values of A (pattern order). The

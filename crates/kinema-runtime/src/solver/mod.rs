@@ -169,7 +169,7 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
     /// A solver with the given options, the linear solver analysed from the
     /// system's Jacobian pattern.
     pub fn with_options(system: S, options: Options) -> Result<Self, Error> {
-        let lu = L::analyze(system.len(), system.jacobian_pattern())?;
+        let lu = L::analyze_system(&system)?;
         Self::with_linear_solver(system, options, lu)
     }
 
