@@ -337,6 +337,15 @@ fn failures_and_inaccuracy_are_said() -> TestResult {
         &out,
     ]);
     assert_status(&o, 2);
+    // A step too small to take is refused, the step written readably.
+    let o = kinema(&["run", &good, "--step", "1e-300", "--out", &out]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("steps of 1e-300") && err.contains("too many"),
+        "{err}"
+    );
+    assert!(err.len() < 400, "{err}");
     Ok(())
 }
 

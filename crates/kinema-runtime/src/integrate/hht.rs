@@ -790,14 +790,14 @@ impl<S: ForwardSystem> Hht<S> {
         let span = t_end - self.t;
         if !(span.is_finite() && span > 0.0 && h.is_finite() && h > 0.0) {
             return Err(IntegrateError::Setup(format!(
-                "cannot step from t = {} to t = {t_end} with steps of {h}",
+                "cannot step from t = {} to t = {t_end} with steps of {h:e}",
                 self.t
             )));
         }
         let count = (span / h * (1.0 - 1e-12)).ceil().max(1.0);
         if count > 1e12 {
             return Err(IntegrateError::Setup(format!(
-                "{count:e} steps of {h} from t = {} to t = {t_end}: too many",
+                "{count:e} steps of {h:e} from t = {} to t = {t_end}: too many",
                 self.t
             )));
         }
