@@ -51,9 +51,13 @@ pub struct Options {
     /// loops that read q alone). Each step then costs Newton's updates and
     /// nothing more: Φ_q is not evaluated or factored again at the converged
     /// q, and ν and γ are never evaluated. The states' q̇ and q̈ are **not**
-    /// the rates: q̇ holds the backward difference (q − q_prev)/(t − t_prev)
-    /// of the last two positions (zero at assembly) and q̈ zero — estimates
-    /// the solver's predictor and branch test use in place of the rates.
+    /// the rates but estimates the solver's predictor and branch test use in
+    /// their place: the derivatives at t of the quadratic through the last
+    /// three positions (on a uniform grid q̇ = (3q − 4q₋₁ + q₋₂)/2h and
+    /// q̈ = (q − 2q₋₁ + q₋₂)/h²), so the prediction is second order as with
+    /// the rates; after assembly, or where the last two steps differ by
+    /// more than 4×, the backward difference (q − q₋₁)/h and q̈ zero; zero
+    /// at assembly.
     /// A row flagged near singular, interpolated between regular states on
     /// either side, is interpolated with those slopes: its positions then
     /// agree with the full analysis's to about 1e-5, not to Newton's

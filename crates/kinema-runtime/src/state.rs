@@ -48,6 +48,12 @@ pub struct State {
     /// `factored` tag equals this one. Bookkeeping, not part of the state's
     /// value (equality ignores it).
     pub(crate) tag: u64,
+    /// With [`Options::positions_only`](crate::Options::positions_only):
+    /// h₀ = t − t₋₁ when q̇ and q̈ are the derivatives at t of the quadratic
+    /// through this state's q and the two positions before it (the
+    /// solver's difference estimates); NaN when they came otherwise. The
+    /// next estimate recovers the slope (q − q₋₁)/h₀ = q̇ − h₀/2 q̈ from it.
+    pub(crate) h_back: f64,
 }
 
 /// Equal times, coordinates, rates, statistics and det sign (the
@@ -73,6 +79,7 @@ impl State {
             stats: StepStats::default(),
             det_sign: 0.0,
             tag: 0,
+            h_back: f64::NAN,
         }
     }
 

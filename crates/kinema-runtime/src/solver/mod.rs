@@ -20,6 +20,12 @@ use checked::{solve_checked, velocity_overflow};
 
 use passage::Zone;
 
+/// With [`Options::positions_only`], the estimates of q̇ and q̈ are those
+/// of a quadratic through three positions only when the two steps differ by
+/// at most this factor (else a backward difference): a quadratic through
+/// unevenly spaced points extrapolates their noise.
+const QUADRATIC_STEP_RATIO: f64 = 4.0;
+
 /// The monitor's gate: a pivot ratio below this is confirmed (or not) by the
 /// equilibrated SVD. Measured on the test mechanisms (BENCHMARKS.md), the
 /// ratio falls below 1e-2 well before the condition reaches τ^−0.4.
@@ -684,26 +690,57 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     }
 
     /// [`Options::positions_only`]: instead of the rates, `self.next` gets
-    /// q̇ = the backward difference from the current state (zero when there
-    /// is none, or it is not finite) and q̈ = 0, what the predictor and the
-    /// branch test read.
+    /// estimates for the predictor and the branch test: q̇ and q̈ of the
+    /// quadratic through the positions of the last three times (the
+    /// current state's slope recovered from its own estimates, see
+    /// [`State::h_back`]), which makes the prediction O(h³) as with the
+    /// rates solved; or, when the current state's estimates did not come
+    /// from that quadratic or the steps differ by more than
+    /// [`QUADRATIC_STEP_RATIO`], q̇ = the backward difference and q̈ = 0.
+    /// Zero when there is no current state or a value is not finite.
     #[inline]
     fn difference_rates(&mut self, t: f64) {
-        let State { q, qd, qdd, .. } = &mut self.next;
-        qdd.fill(0.0);
-        let h = t - self.state.t;
-        let base = self.assembled && h != 0.0 && h.is_finite();
+        let base = &self.state;
+        let h = t - base.t;
+        let h0 = base.h_back;
+        let assembled = self.assembled && h != 0.0 && h.is_finite();
+        let quadratic = assembled
+            && h0 > 0.0
+            && h > 0.0
+            && h0 <= QUADRATIC_STEP_RATIO * h
+            && h <= QUADRATIC_STEP_RATIO * h0;
+        let State {
+            q, qd, qdd, h_back, ..
+        } = &mut self.next;
         let n = q.len();
-        let (q, qd, q0) = (&q[..n], &mut qd[..n], &self.state.q[..n]);
+        let (q, qd, qdd) = (&q[..n], &mut qd[..n], &mut qdd[..n]);
+        let (q0, qd0, qdd0) = (&base.q[..n], &base.qd[..n], &base.qdd[..n]);
         let mut sum = 0.0;
-        if base {
+        if quadratic {
+            // q̈ = 2 (s₁ − s₀) / (h₀ + h), q̇ = s₁ + h/2 q̈, with the slopes
+            // s₁ = (q − q₀)/h and s₀ = q̇₀ − h₀/2 q̈₀.
+            let (half_h0, c, half_h) = (0.5 * h0, 2.0 / (h0 + h), 0.5 * h);
             for i in 0..n {
-                qd[i] = (q[i] - q0[i]) / h;
-                sum += qd[i];
+                let s1 = (q[i] - q0[i]) / h;
+                let s0 = qd0[i] - half_h0 * qdd0[i];
+                qdd[i] = c * (s1 - s0);
+                qd[i] = s1 + half_h * qdd[i];
+                sum += qd[i] + qdd[i];
+            }
+        } else {
+            qdd.fill(0.0);
+            if assembled {
+                for i in 0..n {
+                    qd[i] = (q[i] - q0[i]) / h;
+                    sum += qd[i];
+                }
             }
         }
-        if !(base && sum.is_finite()) {
+        *h_back = h;
+        if !(assembled && sum.is_finite()) {
             qd.fill(0.0);
+            qdd.fill(0.0);
+            *h_back = f64::NAN;
         }
     }
 

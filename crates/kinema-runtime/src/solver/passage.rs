@@ -96,6 +96,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             for ((v, &a), &b) in one.qd.iter_mut().zip(&one.q).zip(&two.q) {
                 *v = (b - a) / delta;
             }
+            one.qdd.fill(0.0);
         }
         self.spare.clone_from(&self.state);
         let (one, two) = (&self.state, &self.next);
@@ -112,6 +113,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             out.qd[i] = qd - delta * qdd + 0.5 * delta * delta * jerk;
             out.qdd[i] = qdd - delta * jerk;
         }
+        out.h_back = f64::NAN;
         std::mem::swap(&mut self.next, &mut self.spare);
         self.system
             .phi(&mut self.scratch, &self.next.q, t0, &mut self.ws.phi);
@@ -331,6 +333,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 out.qd[i] = h00 * va + h10 * span * aa + h01 * vb + h11 * span * ab;
                 out.qdd[i] = (d00 * va + d01 * vb) / span + d10 * aa + d11 * ab;
             }
+            out.h_back = f64::NAN;
         }
         std::mem::swap(&mut self.next, &mut self.aside);
         self.factorization = Factorization::None;
