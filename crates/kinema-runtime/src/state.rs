@@ -57,7 +57,7 @@ pub struct State {
 }
 
 /// Equal times, coordinates, rates, statistics and det sign (the
-/// factorization tag is bookkeeping).
+/// factorization tag and `h_back` are bookkeeping).
 impl PartialEq for State {
     fn eq(&self, other: &Self) -> bool {
         self.t == other.t

@@ -96,7 +96,10 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             for ((v, &a), &b) in one.qd.iter_mut().zip(&one.q).zip(&two.q) {
                 *v = (b - a) / delta;
             }
+            // A forward slope: not the quadratic's derivatives the next
+            // estimate would read back through h_back.
             one.qdd.fill(0.0);
+            one.h_back = f64::NAN;
         }
         self.spare.clone_from(&self.state);
         let (one, two) = (&self.state, &self.next);
