@@ -1,0 +1,363 @@
+//! Tapes to Cranelift IR: one straight-line function per tape.
+
+use std::collections::HashMap;
+
+use cranelift_codegen::ir::{
+    AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, Value, types::F64, types::I32,
+};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module};
+use kinema_expr::{Instr, Tape, TapeInputs};
+
+use crate::JitError;
+use crate::code::{Code, Needs, TapeFn};
+use crate::shims::{self, Shape, Which};
+
+/// The most instructions (all tapes of one [`compile`] together) the JIT
+/// compiles. Above it [`compile`] returns [`JitError::TooLarge`] and the
+/// caller runs the interpreter: Cranelift's time grows faster than the
+/// tape's, and past this size compiling costs more than the load-time
+/// budget (text → first step ≤ 0.2 s for the chain N = 1000) allows.
+pub const MAX_INSTRUCTIONS: usize = 200_000;
+
+/// A tape compiled to native code. Cloning shares the code.
+#[derive(Clone)]
+pub struct JitTape {
+    f: TapeFn,
+    outputs: usize,
+    sizes: (usize, usize, usize),
+}
+
+impl std::fmt::Debug for JitTape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JitTape")
+            .field("outputs", &self.outputs)
+            .field("input_sizes", &self.sizes)
+            .finish_non_exhaustive()
+    }
+}
+
+impl JitTape {
+    /// Evaluates: `out[k]` becomes output `k`, as [`Tape::eval`] computes
+    /// it. Does not allocate.
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] if a slice is shorter than the tape needs
+    /// (checked before anything runs).
+    pub fn eval(&self, inputs: &TapeInputs<'_>, out: &mut [f64]) -> Result<(), JitError> {
+        self.f
+            .call(inputs.q, inputs.qd, inputs.params, inputs.t, out)
+    }
+
+    /// Number of outputs.
+    #[must_use]
+    pub fn outputs(&self) -> usize {
+        self.outputs
+    }
+
+    /// Length each input slice must have at least: `(q, qd, params)`, as
+    /// [`Tape::input_sizes`].
+    #[must_use]
+    pub fn input_sizes(&self) -> (usize, usize, usize) {
+        self.sizes
+    }
+}
+
+/// Compiles tapes to native code, all into one module (one finalization).
+///
+/// # Errors
+/// [`JitError::Host`] if Cranelift cannot target this machine,
+/// [`JitError::TooLarge`] above [`MAX_INSTRUCTIONS`], [`JitError::Compile`]
+/// if Cranelift refuses a function or a tape reads a register it never
+/// wrote.
+pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
+    let instructions: usize = tapes.iter().map(|t| t.len()).sum();
+    if instructions > MAX_INSTRUCTIONS {
+        return Err(JitError::TooLarge { instructions });
+    }
+    let mut module = new_module()?;
+    let shims = declare_shims(&mut module)?;
+    let mut ctx = module.make_context();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut compiled = Vec::with_capacity(tapes.len());
+    for (i, tape) in tapes.iter().enumerate() {
+        let mut sig = module.make_signature();
+        let ptr = module.target_config().pointer_type();
+        for ty in [ptr, ptr, ptr, F64, ptr] {
+            sig.params.push(AbiParam::new(ty));
+        }
+        let id = module
+            .declare_function(&format!("tape{i}"), Linkage::Local, &sig)
+            .map_err(|e| JitError::Compile(e.to_string()))?;
+        ctx.func.signature = sig;
+        let needs = {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+            let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
+            let needs = Emitter::new(tape, refs).emit(&mut b)?;
+            b.seal_all_blocks();
+            b.finalize(module.isa().frontend_config());
+            needs
+        };
+        module
+            .define_function(id, &mut ctx)
+            .map_err(|e| JitError::Compile(format!("{e:?}")))?;
+        module.clear_context(&mut ctx);
+        compiled.push((id, needs, *tape));
+    }
+    module
+        .finalize_definitions()
+        .map_err(|e| JitError::Compile(e.to_string()))?;
+    let code = Code::new(module);
+    compiled
+        .into_iter()
+        .map(|(id, needs, tape)| {
+            Ok(JitTape {
+                f: TapeFn::new(&code, id, needs)?,
+                outputs: tape.outputs(),
+                sizes: tape.input_sizes(),
+            })
+        })
+        .collect()
+}
+
+/// A JIT module for the host, with the shims as symbols.
+fn new_module() -> Result<JITModule, JitError> {
+    let mut flags = settings::builder();
+    for (k, v) in [("is_pic", "false"), ("opt_level", "speed")] {
+        flags
+            .set(k, v)
+            .map_err(|e| JitError::Host(format!("{k}={v}: {e}")))?;
+    }
+    let isa = cranelift_native::builder()
+        .map_err(|e| JitError::Host(e.to_owned()))?
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| JitError::Host(e.to_string()))?;
+    let mut builder = JITBuilder::with_isa(isa, cranelift_module::default_libcall_names());
+    for s in shims::all() {
+        builder.symbol(s.name, s.address);
+    }
+    Ok(JITModule::new(builder))
+}
+
+/// Declares the shims as imports: (id, signature) by [`Which`].
+fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 6], JitError> {
+    let all = shims::all();
+    let mut ids = Vec::with_capacity(all.len());
+    for s in &all {
+        let mut sig: Signature = module.make_signature();
+        let params: &[_] = match s.shape {
+            Shape::F => &[F64],
+            Shape::FI => &[F64, I32],
+            Shape::FF => &[F64, F64],
+            Shape::IF => &[I32, F64],
+        };
+        sig.params.extend(params.iter().map(|&t| AbiParam::new(t)));
+        sig.returns.push(AbiParam::new(F64));
+        let id = module
+            .declare_function(s.name, Linkage::Import, &sig)
+            .map_err(|e| JitError::Compile(e.to_string()))?;
+        ids.push((id, ()));
+    }
+    ids.try_into()
+        .map_err(|_| JitError::Compile("shim table".into()))
+}
+
+/// Emits one tape's function.
+struct Emitter<'t> {
+    tape: &'t Tape,
+    shims: [FuncRef; 6],
+    /// The SSA value each register holds now.
+    vals: Vec<Option<Value>>,
+    /// Calls already made: (shim, argument) → result.
+    calls: HashMap<(Which, Value), Value>,
+}
+
+impl<'t> Emitter<'t> {
+    fn new(tape: &'t Tape, shims: [FuncRef; 6]) -> Emitter<'t> {
+        Emitter {
+            tape,
+            shims,
+            vals: vec![None; tape.registers()],
+            calls: HashMap::new(),
+        }
+    }
+
+    /// Emits the body; returns the slice lengths every load and store was
+    /// checked against.
+    fn emit(mut self, b: &mut FunctionBuilder<'_>) -> Result<Needs, JitError> {
+        let block = b.create_block();
+        b.append_block_params_for_function_params(block);
+        b.switch_to_block(block);
+        let params = b.block_params(block).to_vec();
+        let [q, qd, p, t, out] = params[..] else {
+            return Err(JitError::Compile("signature".into()));
+        };
+        let (nq, nqd, np) = self.tape.input_sizes();
+        let layout = self.tape.layout();
+        let needs = Needs {
+            q: nq,
+            qd: nqd,
+            params: np,
+            out: layout.outputs,
+        };
+        // Inputs and constants, loaded where the tape's layout has them;
+        // every offset below its slice's checked length.
+        let flags = MemFlagsData::trusted().with_readonly();
+        for (base, n, ptr) in [
+            (layout.q_base, nq, q),
+            (layout.qd_base, nqd, qd),
+            (layout.params_base, np, p),
+        ] {
+            for k in 0..n {
+                let v = b.ins().load(F64, flags, ptr, offset(k)?);
+                self.set(base + k, v)?;
+            }
+        }
+        if let Some(r) = layout.t_register {
+            self.set(r, t)?;
+        }
+        for (k, &c) in layout.consts.iter().enumerate() {
+            let v = b.ins().f64const(c);
+            self.set(layout.consts_base + k, v)?;
+        }
+        for ins in self.tape.instructions() {
+            self.instr(b, *ins)?;
+        }
+        for k in 0..layout.outputs {
+            let v = self.get(k as u32)?;
+            b.ins().store(MemFlagsData::trusted(), v, out, offset(k)?);
+        }
+        b.ins().return_(&[]);
+        Ok(needs)
+    }
+
+    fn set(&mut self, r: usize, v: Value) -> Result<(), JitError> {
+        let slot = self
+            .vals
+            .get_mut(r)
+            .ok_or_else(|| JitError::Compile(format!("register {r} out of range")))?;
+        *slot = Some(v);
+        Ok(())
+    }
+
+    fn get(&self, r: u32) -> Result<Value, JitError> {
+        self.vals
+            .get(r as usize)
+            .copied()
+            .flatten()
+            .ok_or_else(|| JitError::Compile(format!("register {r} read before it is written")))
+    }
+
+    /// `shim(args)`, made once per (shim, first argument) for the one-
+    /// argument functions.
+    fn call(&mut self, b: &mut FunctionBuilder<'_>, which: Which, args: &[Value]) -> Value {
+        let memo = matches!(which, Which::Sin | Which::Cos) && args.len() == 1;
+        if memo && let Some(&v) = self.calls.get(&(which, args[0])) {
+            return v;
+        }
+        let call = b.ins().call(self.shims[which as usize], args);
+        let v = b.inst_results(call)[0];
+        if memo {
+            self.calls.insert((which, args[0]), v);
+        }
+        v
+    }
+
+    fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
+        let (dst, v) = match ins {
+            Instr::Const { dst, v } => (dst, b.ins().f64const(v)),
+            Instr::Copy { dst, a } => (dst, self.get(a)?),
+            Instr::Neg { dst, a } => (dst, b.ins().fneg(self.get(a)?)),
+            Instr::Scale { dst, a, k } => {
+                let k = b.ins().f64const(k);
+                (dst, b.ins().fmul(k, self.get(a)?))
+            }
+            Instr::Add { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fadd(x, y))
+            }
+            Instr::Sub { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fsub(x, y))
+            }
+            Instr::MulAdd { dst, acc, a, k } => {
+                let k = b.ins().f64const(k);
+                let prod = b.ins().fmul(k, self.get(a)?);
+                (dst, b.ins().fadd(self.get(acc)?, prod))
+            }
+            Instr::AddConst { dst, a, c } => {
+                let c = b.ins().f64const(c);
+                (dst, b.ins().fadd(self.get(a)?, c))
+            }
+            Instr::Mul { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fmul(x, y))
+            }
+            Instr::Div { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fdiv(x, y))
+            }
+            Instr::Recip { dst, a } => {
+                let one = b.ins().f64const(1.0);
+                (dst, b.ins().fdiv(one, self.get(a)?))
+            }
+            Instr::Square { dst, a } => {
+                let x = self.get(a)?;
+                (dst, b.ins().fmul(x, x))
+            }
+            Instr::Sqrt { dst, a } => (dst, b.ins().sqrt(self.get(a)?)),
+            Instr::PowI { dst, a, n } => {
+                let n = b.ins().iconst(I32, i64::from(n));
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::PowI, &[x, n]))
+            }
+            Instr::PowF { dst, a, p } => {
+                let p = b.ins().f64const(p);
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::PowF, &[x, p]))
+            }
+            Instr::Sin { dst, a } | Instr::SinQ { dst, a, .. } => {
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::Sin, &[x]))
+            }
+            Instr::Cos { dst, a } | Instr::CosQ { dst, a, .. } => {
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::Cos, &[x]))
+            }
+            Instr::Unary { dst, op, a } => {
+                let x = self.get(a)?;
+                let v = match op {
+                    kinema_expr::UnaryOp::Abs => b.ins().fabs(x),
+                    kinema_expr::UnaryOp::Sin => self.call(b, Which::Sin, &[x]),
+                    kinema_expr::UnaryOp::Cos => self.call(b, Which::Cos, &[x]),
+                    op => {
+                        let code = shims::unary_code(op).ok_or_else(|| {
+                            JitError::Compile(format!("no compiled form of `{}`", op.name()))
+                        })?;
+                        let code = b.ins().iconst(I32, i64::from(code));
+                        self.call(b, Which::Unary, &[code, x])
+                    }
+                };
+                (dst, v)
+            }
+            Instr::Pow { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, self.call(b, Which::PowF, &[x, y]))
+            }
+            Instr::Atan2 { dst, y, x } => {
+                let (y, x) = (self.get(y)?, self.get(x)?);
+                (dst, self.call(b, Which::Atan2, &[y, x]))
+            }
+        };
+        self.set(dst as usize, v)
+    }
+}
+
+/// Byte offset of element `k` of an f64 slice.
+fn offset(k: usize) -> Result<i32, JitError> {
+    k.checked_mul(8)
+        .and_then(|o| i32::try_from(o).ok())
+        .ok_or_else(|| JitError::Compile("a slice too long for the JIT".into()))
+}
