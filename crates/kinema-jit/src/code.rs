@@ -80,11 +80,13 @@ pub(crate) struct Needs {
     pub(crate) params: usize,
     /// Values written to `out`.
     pub(crate) out: usize,
+    /// Values written to `out2`.
+    pub(crate) out2: usize,
 }
 
-type Raw = unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64);
+type Raw = unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, *mut f64);
 
-/// A compiled tape: `(q, q̇, params, t) → out`.
+/// A compiled tape: `(q, q̇, params, t) → (out, out2)`.
 #[derive(Clone)]
 pub(crate) struct TapeFn {
     f: Raw,
@@ -103,7 +105,7 @@ impl TapeFn {
         }
         // SAFETY: `p` is the finalized entry of a function that the
         // compiler declared with exactly this signature (three pointers, an
-        // f64, a pointer; no result; the platform's C convention), and the
+        // f64, two pointers; no result; the platform's C convention), and the
         // memory stays mapped while `_code` lives.
         let f = unsafe { std::mem::transmute::<*const u8, Raw>(p) };
         Ok(TapeFn {
@@ -121,16 +123,19 @@ impl TapeFn {
         params: &[f64],
         t: f64,
         out: &mut [f64],
+        out2: &mut [f64],
     ) -> Result<(), JitError> {
         let n = self.needs;
         short("q", n.q, q.len())?;
         short("qd", n.qd, qd.len())?;
         short("params", n.params, params.len())?;
         short("outputs", n.out, out.len())?;
+        short("second outputs", n.out2, out2.len())?;
         // SAFETY: the function reads only q[..n.q], qd[..n.qd],
-        // params[..n.params] and writes only out[..n.out] (checked when it
-        // was compiled), and the lengths were just checked; the shims it
-        // calls are safe Rust functions. The code is alive (`_code`).
+        // params[..n.params] and writes only out[..n.out] and
+        // out2[..n.out2] (checked when it was compiled), and the lengths
+        // were just checked; the shims it calls are safe Rust functions.
+        // The code is alive (`_code`).
         unsafe {
             (self.f)(
                 q.as_ptr(),
@@ -138,8 +143,9 @@ impl TapeFn {
                 params.as_ptr(),
                 t,
                 out.as_mut_ptr(),
-            )
-        };
+                out2.as_mut_ptr(),
+            );
+        }
         Ok(())
     }
 }

@@ -18,7 +18,7 @@ mod code;
 mod shims;
 mod tape;
 
-pub use tape::{JitTape, MAX_INSTRUCTIONS, compile};
+pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split};
 
 /// Why tapes could not be compiled, or a compiled tape not called.
 #[derive(Clone, Debug, PartialEq, Eq)]

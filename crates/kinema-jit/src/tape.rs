@@ -48,7 +48,23 @@ impl JitTape {
     /// (checked before anything runs).
     pub fn eval(&self, inputs: &TapeInputs<'_>, out: &mut [f64]) -> Result<(), JitError> {
         self.f
-            .call(inputs.q, inputs.qd, inputs.params, inputs.t, out)
+            .call(inputs.q, inputs.qd, inputs.params, inputs.t, out, &mut [])
+    }
+
+    /// Evaluates a tape compiled by [`compile_split`]: outputs before its
+    /// split go to `first`, the others to `second` (from index 0). Does not
+    /// allocate.
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] as [`eval`](Self::eval).
+    pub fn eval_split(
+        &self,
+        inputs: &TapeInputs<'_>,
+        first: &mut [f64],
+        second: &mut [f64],
+    ) -> Result<(), JitError> {
+        self.f
+            .call(inputs.q, inputs.qd, inputs.params, inputs.t, first, second)
     }
 
     /// Number of outputs.
@@ -73,7 +89,18 @@ impl JitTape {
 /// if Cranelift refuses a function or a tape reads a register it never
 /// wrote.
 pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
-    let instructions: usize = tapes.iter().map(|t| t.len()).sum();
+    let split: Vec<(&Tape, usize)> = tapes.iter().map(|t| (*t, t.outputs())).collect();
+    compile_split(&split)
+}
+
+/// [`compile`] with each tape's outputs split in two at the given index,
+/// for [`JitTape::eval_split`] (a split beyond the outputs is the number of
+/// outputs: nothing goes to the second slice).
+///
+/// # Errors
+/// As [`compile`].
+pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError> {
+    let instructions: usize = tapes.iter().map(|(t, _)| t.len()).sum();
     if instructions > MAX_INSTRUCTIONS {
         return Err(JitError::TooLarge { instructions });
     }
@@ -82,10 +109,10 @@ pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
     let mut compiled = Vec::with_capacity(tapes.len());
-    for (i, tape) in tapes.iter().enumerate() {
+    for (i, &(tape, split)) in tapes.iter().enumerate() {
         let mut sig = module.make_signature();
         let ptr = module.target_config().pointer_type();
-        for ty in [ptr, ptr, ptr, F64, ptr] {
+        for ty in [ptr, ptr, ptr, F64, ptr, ptr] {
             sig.params.push(AbiParam::new(ty));
         }
         let id = module
@@ -95,7 +122,7 @@ pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
         let needs = {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
             let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-            let needs = Emitter::new(tape, refs).emit(&mut b)?;
+            let needs = Emitter::new(tape, refs).emit(&mut b, split)?;
             b.seal_all_blocks();
             b.finalize(module.isa().frontend_config());
             needs
@@ -104,7 +131,7 @@ pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
             .define_function(id, &mut ctx)
             .map_err(|e| JitError::Compile(format!("{e:?}")))?;
         module.clear_context(&mut ctx);
-        compiled.push((id, needs, *tape));
+        compiled.push((id, needs, tape));
     }
     module
         .finalize_definitions()
@@ -186,21 +213,23 @@ impl<'t> Emitter<'t> {
 
     /// Emits the body; returns the slice lengths every load and store was
     /// checked against.
-    fn emit(mut self, b: &mut FunctionBuilder<'_>) -> Result<Needs, JitError> {
+    fn emit(mut self, b: &mut FunctionBuilder<'_>, split: usize) -> Result<Needs, JitError> {
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
         let params = b.block_params(block).to_vec();
-        let [q, qd, p, t, out] = params[..] else {
+        let [q, qd, p, t, out, out2] = params[..] else {
             return Err(JitError::Compile("signature".into()));
         };
         let (nq, nqd, np) = self.tape.input_sizes();
         let layout = self.tape.layout();
+        let split = split.min(layout.outputs);
         let needs = Needs {
             q: nq,
             qd: nqd,
             params: np,
-            out: layout.outputs,
+            out: split,
+            out2: layout.outputs - split,
         };
         // Inputs and constants, loaded where the tape's layout has them;
         // every offset below its slice's checked length.
@@ -226,8 +255,13 @@ impl<'t> Emitter<'t> {
             self.instr(b, *ins)?;
         }
         for k in 0..layout.outputs {
-            let v = self.get(k as u32)?;
-            b.ins().store(MemFlagsData::trusted(), v, out, offset(k)?);
+            let v = self.get(register(k)?)?;
+            let (ptr, at) = if k < split {
+                (out, k)
+            } else {
+                (out2, k - split)
+            };
+            b.ins().store(MemFlagsData::trusted(), v, ptr, offset(at)?);
         }
         b.ins().return_(&[]);
         Ok(needs)
@@ -353,6 +387,10 @@ impl<'t> Emitter<'t> {
         };
         self.set(dst as usize, v)
     }
+}
+
+fn register(k: usize) -> Result<u32, JitError> {
+    u32::try_from(k).map_err(|_| JitError::Compile("too many outputs".into()))
 }
 
 /// Byte offset of element `k` of an f64 slice.

@@ -4,7 +4,7 @@
 //! ordinary points and at non-finite ones.
 
 use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
-use kinema_jit::{JitError, compile};
+use kinema_jit::{JitError, compile, compile_split};
 use proptest::prelude::*;
 
 /// A random expression over coordinates x0..x2, parameter p0 and time.
@@ -234,6 +234,8 @@ proptest! {
         // Also a tape of the derivatives alone, compiled into the same module.
         let second = Tape::compile(&a, &outputs[1..]);
         let jit = compile(&[&tape, &second]).expect("the host is supported");
+        // And the first split after the value (as Φ then Φ_q).
+        let split = compile_split(&[(&tape, 1)]).expect("the host is supported");
         let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
         for (tape, jit) in [(&tape, &jit[0]), (&second, &jit[1])] {
             let mut regs = vec![0.0; tape.registers()];
@@ -245,6 +247,14 @@ proptest! {
                 prop_assert!(same(*g, *w), "output {k}: jit {g:e} vs tape {w:e} for {}",
                     a.display(outputs[k]));
             }
+        }
+        let mut regs = vec![0.0; tape.registers()];
+        let mut want = vec![0.0; tape.outputs()];
+        prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+        let (mut first, mut rest) = ([7.0], vec![7.0; tape.outputs() - 1]);
+        prop_assert!(split[0].eval_split(&inputs, &mut first, &mut rest).is_ok());
+        for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
+            prop_assert!(same(*g, *w), "split, output {k}: jit {g:e} vs tape {w:e}");
         }
     }
 }
@@ -327,4 +337,11 @@ fn code_is_shared_and_freed() {
         assert!(clone.eval(&inputs, &mut out).is_ok());
         assert_eq!(out[0].to_bits(), (0.25f64.cos() + 0.25).to_bits());
     }
+}
+
+/// Compiled tapes go to other threads (sweeps clone a system per worker).
+#[test]
+fn compiled_tapes_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<kinema_jit::JitTape>();
 }
