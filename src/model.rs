@@ -317,11 +317,11 @@ impl Compiled {
     }
 }
 
-/// Runs a compiled tape into `out`; NaN on a size mismatch (as
-/// [`TapeSystem::run`]).
+/// Runs a compiled tape into `out` through the sin/cos cache `trig`; NaN
+/// on a size mismatch (as [`TapeSystem::run`]).
 #[cfg(feature = "jit")]
-fn run_jit(f: &kinema_jit::JitTape, inputs: &TapeInputs<'_>, out: &mut [f64]) {
-    if out.len() != f.outputs() || f.eval(inputs, out).is_err() {
+fn run_jit(f: &kinema_jit::JitTape, inputs: &TapeInputs<'_>, trig: &mut [f64], out: &mut [f64]) {
+    if out.len() != f.outputs() || f.eval_with_cache(inputs, trig, out).is_err() {
         out.fill(f64::NAN);
     }
 }
@@ -493,6 +493,17 @@ impl TapeSystem {
         scratch.split_at_mut(cache)
     }
 
+    /// The sin/cos cache at the start of the scratch (for the compiled
+    /// tapes), grown if the scratch came from another system.
+    #[cfg(feature = "jit")]
+    fn trig<'a>(&self, scratch: &'a mut Vec<f64>) -> &'a mut [f64] {
+        let n = self.trig_len();
+        if scratch.len() < n {
+            scratch.resize(n, f64::NAN);
+        }
+        &mut scratch[..n]
+    }
+
     /// Length of the sin/cos cache at the start of the scratch.
     fn trig_len(&self) -> usize {
         3 * self.coordinate_names.len()
@@ -555,7 +566,7 @@ impl System for TapeSystem {
         };
         #[cfg(feature = "jit")]
         if let Some(c) = &self.jit {
-            return run_jit(&c.phi, &inputs, phi);
+            return run_jit(&c.phi, &inputs, self.trig(registers), phi);
         }
         self.run(&self.phi, registers, &inputs, phi);
     }
@@ -569,7 +580,7 @@ impl System for TapeSystem {
         };
         #[cfg(feature = "jit")]
         if let Some(c) = &self.jit {
-            return run_jit(&c.jacobian, &inputs, values);
+            return run_jit(&c.jacobian, &inputs, self.trig(registers), values);
         }
         self.run(&self.jacobian, registers, &inputs, values);
     }
@@ -591,7 +602,9 @@ impl System for TapeSystem {
         #[cfg(feature = "jit")]
         if let Some(c) = &self.jit {
             if phi.len() + values.len() != c.both.outputs()
-                || c.both.eval_split(&inputs, phi, values).is_err()
+                || c.both
+                    .eval_split(&inputs, self.trig(registers), phi, values)
+                    .is_err()
             {
                 phi.fill(f64::NAN);
                 values.fill(f64::NAN);
@@ -625,7 +638,7 @@ impl System for TapeSystem {
         };
         #[cfg(feature = "jit")]
         if let Some(c) = &self.jit {
-            return run_jit(&c.nu, &inputs, nu);
+            return run_jit(&c.nu, &inputs, self.trig(registers), nu);
         }
         self.run(&self.nu, registers, &inputs, nu);
     }
@@ -639,7 +652,7 @@ impl System for TapeSystem {
         };
         #[cfg(feature = "jit")]
         if let Some(c) = &self.jit {
-            return run_jit(&c.gamma, &inputs, gamma);
+            return run_jit(&c.gamma, &inputs, self.trig(registers), gamma);
         }
         self.run(&self.gamma, registers, &inputs, gamma);
     }

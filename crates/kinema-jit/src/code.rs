@@ -15,6 +15,8 @@ use std::sync::{Arc, Mutex};
 use cranelift_jit::JITModule;
 use cranelift_module::FuncId;
 
+use kinema_expr::TapeInputs;
+
 use crate::JitError;
 
 /// Owns the executable memory of one module; frees it when the last
@@ -82,11 +84,15 @@ pub(crate) struct Needs {
     pub(crate) out: usize,
     /// Values written to `out2`.
     pub(crate) out2: usize,
+    /// Values read and written in the sin/cos cache.
+    pub(crate) trig: usize,
 }
 
-type Raw = unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, *mut f64);
+type Raw =
+    unsafe extern "C" fn(*const f64, *const f64, *const f64, f64, *mut f64, *mut f64, *mut f64);
 
-/// A compiled tape: `(q, q̇, params, t) → (out, out2)`.
+/// A compiled tape: `(q, q̇, params, t, trig) → (out, out2)`, `trig` the
+/// sin/cos cache (read and written).
 #[derive(Clone)]
 pub(crate) struct TapeFn {
     f: Raw,
@@ -105,7 +111,7 @@ impl TapeFn {
         }
         // SAFETY: `p` is the finalized entry of a function that the
         // compiler declared with exactly this signature (three pointers, an
-        // f64, two pointers; no result; the platform's C convention), and the
+        // f64, three pointers; no result; the platform's C convention), and the
         // memory stays mapped while `_code` lives.
         let f = unsafe { std::mem::transmute::<*const u8, Raw>(p) };
         Ok(TapeFn {
@@ -118,22 +124,23 @@ impl TapeFn {
     /// Runs the function. Does not allocate.
     pub(crate) fn call(
         &self,
-        q: &[f64],
-        qd: &[f64],
-        params: &[f64],
-        t: f64,
+        inputs: &TapeInputs<'_>,
         out: &mut [f64],
         out2: &mut [f64],
+        trig: &mut [f64],
     ) -> Result<(), JitError> {
+        let TapeInputs { q, qd, params, t } = *inputs;
         let n = self.needs;
         short("q", n.q, q.len())?;
         short("qd", n.qd, qd.len())?;
         short("params", n.params, params.len())?;
         short("outputs", n.out, out.len())?;
         short("second outputs", n.out2, out2.len())?;
+        short("sin/cos cache", n.trig, trig.len())?;
         // SAFETY: the function reads only q[..n.q], qd[..n.qd],
-        // params[..n.params] and writes only out[..n.out] and
-        // out2[..n.out2] (checked when it was compiled), and the lengths
+        // params[..n.params], writes only out[..n.out] and out2[..n.out2],
+        // and reads and writes only trig[..n.trig] (checked when it was
+        // compiled; the slices are distinct: `&mut` borrows), and the lengths
         // were just checked; the shims it calls are safe Rust functions.
         // The code is alive (`_code`).
         unsafe {
@@ -144,6 +151,7 @@ impl TapeFn {
                 t,
                 out.as_mut_ptr(),
                 out2.as_mut_ptr(),
+                trig.as_mut_ptr(),
             );
         }
         Ok(())

@@ -3,7 +3,8 @@
 use std::collections::HashMap;
 
 use cranelift_codegen::ir::{
-    AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, Value, types::F64, types::I32,
+    AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64,
+    types::I32, types::I64,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -31,6 +32,7 @@ pub struct JitTape {
     f: TapeFn,
     outputs: usize,
     sizes: (usize, usize, usize),
+    trig: usize,
 }
 
 impl std::fmt::Debug for JitTape {
@@ -44,30 +46,55 @@ impl std::fmt::Debug for JitTape {
 
 impl JitTape {
     /// Evaluates: `out[k]` becomes output `k`, as [`Tape::eval`] computes
-    /// it. Does not allocate.
+    /// it. Allocates a sin/cos cache for the call: in a loop, use
+    /// [`eval_with_cache`](Self::eval_with_cache).
     ///
     /// # Errors
     /// [`JitError::ShortSlice`] if a slice is shorter than the tape needs
     /// (checked before anything runs).
     pub fn eval(&self, inputs: &TapeInputs<'_>, out: &mut [f64]) -> Result<(), JitError> {
-        self.f
-            .call(inputs.q, inputs.qd, inputs.params, inputs.t, out, &mut [])
+        let mut trig = vec![f64::NAN; self.trig];
+        self.eval_with_cache(inputs, &mut trig, out)
+    }
+
+    /// [`eval`](Self::eval) through a cache of the coordinates' sines and
+    /// cosines, laid out as [`Tape::eval_with_cache`]'s (`trig[3k..3k + 3]`
+    /// = (q_k, sin q_k, cos q_k), fill a new one with NaN), at least
+    /// [`trig_len`](Self::trig_len) long. Does not allocate.
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] as [`eval`](Self::eval), and for a short
+    /// cache.
+    pub fn eval_with_cache(
+        &self,
+        inputs: &TapeInputs<'_>,
+        trig: &mut [f64],
+        out: &mut [f64],
+    ) -> Result<(), JitError> {
+        self.f.call(inputs, out, &mut [], trig)
     }
 
     /// Evaluates a tape compiled by [`compile_split`]: outputs before its
-    /// split go to `first`, the others to `second` (from index 0). Does not
+    /// split go to `first`, the others to `second` (from index 0), through
+    /// the cache of [`eval_with_cache`](Self::eval_with_cache). Does not
     /// allocate.
     ///
     /// # Errors
-    /// [`JitError::ShortSlice`] as [`eval`](Self::eval).
+    /// [`JitError::ShortSlice`] as [`eval_with_cache`](Self::eval_with_cache).
     pub fn eval_split(
         &self,
         inputs: &TapeInputs<'_>,
+        trig: &mut [f64],
         first: &mut [f64],
         second: &mut [f64],
     ) -> Result<(), JitError> {
-        self.f
-            .call(inputs.q, inputs.qd, inputs.params, inputs.t, first, second)
+        self.f.call(inputs, first, second, trig)
+    }
+
+    /// Length the sin/cos cache must have at least.
+    #[must_use]
+    pub fn trig_len(&self) -> usize {
+        self.trig
     }
 
     /// Number of outputs.
@@ -115,7 +142,7 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
     for (i, &(tape, split)) in tapes.iter().enumerate() {
         let mut sig = module.make_signature();
         let ptr = module.target_config().pointer_type();
-        for ty in [ptr, ptr, ptr, F64, ptr, ptr] {
+        for ty in [ptr, ptr, ptr, F64, ptr, ptr, ptr] {
             sig.params.push(AbiParam::new(ty));
         }
         let id = module
@@ -147,6 +174,7 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
                 f: TapeFn::new(&code, id, needs)?,
                 outputs: tape.outputs(),
                 sizes: tape.input_sizes(),
+                trig: needs.trig,
             })
         })
         .collect()
@@ -202,6 +230,10 @@ struct Emitter<'t> {
     vals: Vec<Option<Value>>,
     /// Calls already made: (shim, argument) → result.
     calls: HashMap<(Which, Value), Value>,
+    /// The sin/cos cache's pointer, and (sin, cos) of each coordinate
+    /// already read through it.
+    trig: Option<Value>,
+    sincos: HashMap<u32, (Value, Value)>,
 }
 
 impl<'t> Emitter<'t> {
@@ -211,6 +243,8 @@ impl<'t> Emitter<'t> {
             shims,
             vals: vec![None; tape.registers()],
             calls: HashMap::new(),
+            trig: None,
+            sincos: HashMap::new(),
         }
     }
 
@@ -221,7 +255,7 @@ impl<'t> Emitter<'t> {
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
         let params = b.block_params(block).to_vec();
-        let [q, qd, p, t, out, out2] = params[..] else {
+        let [q, qd, p, t, out, out2, trig] = params[..] else {
             return Err(JitError::Compile("signature".into()));
         };
         let (nq, nqd, np) = self.tape.input_sizes();
@@ -233,7 +267,9 @@ impl<'t> Emitter<'t> {
             params: np,
             out: split,
             out2: layout.outputs - split,
+            trig: trig_len(self.tape)?,
         };
+        self.trig = Some(trig);
         // Inputs and constants, loaded where the tape's layout has them;
         // every offset below its slice's checked length.
         let flags = MemFlagsData::trusted().with_readonly();
@@ -302,6 +338,53 @@ impl<'t> Emitter<'t> {
         v
     }
 
+    /// (sin, cos) of coordinate `k` (in register `a`) through the cache,
+    /// as the tape's `cached`: a hit when the cached angle has the same
+    /// bits, else both computed and stored. Once per call and coordinate.
+    fn cached(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        a: u32,
+        k: u32,
+    ) -> Result<(Value, Value), JitError> {
+        if let Some(&sc) = self.sincos.get(&k) {
+            return Ok(sc);
+        }
+        let x = self.get(a)?;
+        let trig = self
+            .trig
+            .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
+        let at = 3 * k as usize;
+        let (o0, o1, o2) = (offset(at)?, offset(at + 1)?, offset(at + 2)?);
+        let flags = MemFlagsData::trusted();
+        let seen = b.ins().load(F64, flags, trig, o0);
+        let xi = b.ins().bitcast(I64, MemFlagsData::new(), x);
+        let si = b.ins().bitcast(I64, MemFlagsData::new(), seen);
+        let hit = b.ins().icmp(IntCC::Equal, xi, si);
+        let (hit_block, miss_block, join) = (b.create_block(), b.create_block(), b.create_block());
+        b.append_block_param(join, F64);
+        b.append_block_param(join, F64);
+        b.ins().brif(hit, hit_block, &[], miss_block, &[]);
+        b.switch_to_block(hit_block);
+        let s = b.ins().load(F64, flags, trig, o1);
+        let c = b.ins().load(F64, flags, trig, o2);
+        b.ins().jump(join, &[s.into(), c.into()]);
+        b.switch_to_block(miss_block);
+        let s = b.ins().call(self.shims[Which::Sin as usize], &[x]);
+        let s = b.inst_results(s)[0];
+        let c = b.ins().call(self.shims[Which::Cos as usize], &[x]);
+        let c = b.inst_results(c)[0];
+        b.ins().store(flags, x, trig, o0);
+        b.ins().store(flags, s, trig, o1);
+        b.ins().store(flags, c, trig, o2);
+        b.ins().jump(join, &[s.into(), c.into()]);
+        b.switch_to_block(join);
+        let params = b.block_params(join);
+        let sc = (params[0], params[1]);
+        self.sincos.insert(k, sc);
+        Ok(sc)
+    }
+
     fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
         let (dst, v) = match ins {
             Instr::Const { dst, v } => (dst, b.ins().f64const(v)),
@@ -355,14 +438,16 @@ impl<'t> Emitter<'t> {
                 let x = self.get(a)?;
                 (dst, self.call(b, Which::PowF, &[x, p]))
             }
-            Instr::Sin { dst, a } | Instr::SinQ { dst, a, .. } => {
+            Instr::Sin { dst, a } => {
                 let x = self.get(a)?;
                 (dst, self.call(b, Which::Sin, &[x]))
             }
-            Instr::Cos { dst, a } | Instr::CosQ { dst, a, .. } => {
+            Instr::Cos { dst, a } => {
                 let x = self.get(a)?;
                 (dst, self.call(b, Which::Cos, &[x]))
             }
+            Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k)?.0),
+            Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k)?.1),
             Instr::Unary { dst, op, a } => {
                 let x = self.get(a)?;
                 let v = match op {
@@ -390,6 +475,24 @@ impl<'t> Emitter<'t> {
         };
         self.set(dst as usize, v)
     }
+}
+
+/// Length of the sin/cos cache a tape reads: 3 per coordinate up to the
+/// last whose sin or cos it takes.
+fn trig_len(tape: &Tape) -> Result<usize, JitError> {
+    let last = tape
+        .instructions()
+        .iter()
+        .filter_map(|i| match *i {
+            Instr::SinQ { k, .. } | Instr::CosQ { k, .. } => Some(k as usize),
+            _ => None,
+        })
+        .max();
+    last.map_or(Ok(0), |k| {
+        k.checked_add(1)
+            .and_then(|n| n.checked_mul(3))
+            .ok_or_else(|| JitError::Compile("cache too large".into()))
+    })
 }
 
 fn register(k: usize) -> Result<u32, JitError> {

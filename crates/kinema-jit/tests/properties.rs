@@ -251,10 +251,34 @@ proptest! {
         let mut regs = vec![0.0; tape.registers()];
         let mut want = vec![0.0; tape.outputs()];
         prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+        // Through the sin/cos cache, split: primed at another point
+        // (misses), then at this one twice (misses, then hits).
+        let mut trig = vec![f64::NAN; 9];
         let (mut first, mut rest) = ([7.0], vec![7.0; tape.outputs() - 1]);
-        prop_assert!(split[0].eval_split(&inputs, &mut first, &mut rest).is_ok());
-        for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
-            prop_assert!(same(*g, *w), "split, output {k}: jit {g:e} vs tape {w:e}");
+        let q_other = [x[1], x[2], x[0]];
+        let other = TapeInputs { q: &q_other, ..inputs };
+        prop_assert!(split[0].eval_split(&other, &mut trig, &mut first, &mut rest).is_ok());
+        for pass in 0..2 {
+            prop_assert!(split[0].eval_split(&inputs, &mut trig, &mut first, &mut rest).is_ok());
+            for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
+                prop_assert!(same(*g, *w), "split, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
+            }
+        }
+        // The cache holds what the tape's would.
+        let mut tape_trig = vec![f64::NAN; 9];
+        let mut out = vec![0.0; tape.outputs()];
+        prop_assert!(tape.eval_with_cache(&inputs, &mut regs, &mut tape_trig, &mut out).is_ok());
+        let needed = split[0].trig_len();
+        prop_assert!(needed <= 9);
+        for k in 0..needed {
+            prop_assert!(same(trig[k], tape_trig[k]), "cache entry {k}");
+        }
+        if needed > 0 {
+            let short = split[0].eval_split(&inputs, &mut trig[..needed - 1], &mut first, &mut rest);
+            prop_assert!(
+                matches!(short, Err(JitError::ShortSlice { which: "sin/cos cache", .. })),
+                "a short cache is refused"
+            );
         }
     }
 }
