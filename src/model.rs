@@ -557,6 +557,18 @@ impl System for TapeSystem {
         self.constants.get(k).copied().flatten()
     }
 
+    /// With the JIT in use, the folded LU's solves are compiled too (a
+    /// compilation that fails leaves them interpreted: same results).
+    #[cfg(feature = "jit")]
+    fn compile_folded_solves(
+        &self,
+        solves: &kinema_runtime::linalg::FoldedSolves<'_>,
+    ) -> Option<Box<dyn kinema_runtime::linalg::CompiledSolves>> {
+        self.jit.as_ref()?;
+        let compiled = kinema_jit::compile_solves(solves).ok()?;
+        Some(Box::new(compiled))
+    }
+
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
         let inputs = TapeInputs {
             q,

@@ -434,9 +434,14 @@ fn points_and_outputs_agree_in_every_back_end() {
 fn jit_and_tape_agree_on_every_model() {
     let times: Vec<f64> = (0..=720).map(|k| f64::from(k) / 360.0).collect();
     let on = |path: &str, backend| -> Trajectory {
-        Solver::<_, Auto>::with_options(model_system(path, backend), Options::default())
-            .and_then(|mut s| s.run(&times))
-            .unwrap_or_else(|e| panic!("{path}: {e}"))
+        let mut solver =
+            Solver::<_, Auto>::with_options(model_system(path, backend), Options::default())
+                .unwrap_or_else(|e| panic!("{path}: {e}"));
+        // With the JIT the folded LU's solves are compiled too.
+        if let Auto::Folded(lu) = solver.linear_solver() {
+            assert_eq!(lu.has_compiled_solves(), backend == Backend::Jit, "{path}");
+        }
+        solver.run(&times).unwrap_or_else(|e| panic!("{path}: {e}"))
     };
     for path in [
         "models/slider_crank.kin",

@@ -169,3 +169,59 @@ fn short(which: &'static str, needed: usize, given: usize) -> Result<(), JitErro
         Ok(())
     }
 }
+
+/// The lengths a compiled solve was validated against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct SolveNeeds {
+    /// Values read from the factors' value array.
+    pub(crate) v: usize,
+    /// Values read and written in the right-hand side.
+    pub(crate) rhs: usize,
+}
+
+type RawSolve = unsafe extern "C" fn(*const f64, *mut f64);
+
+/// A compiled triangular solve: `(v, rhs) → rhs`.
+#[derive(Clone)]
+pub(crate) struct SolveFn {
+    f: RawSolve,
+    needs: SolveNeeds,
+    /// Keeps the code alive while `f` may be called.
+    _code: Arc<Code>,
+}
+
+impl SolveFn {
+    /// Wraps function `id` of `code`, compiled from a solve whose every
+    /// load and store the compiler checked against `needs`.
+    pub(crate) fn new(
+        code: &Arc<Code>,
+        id: FuncId,
+        needs: SolveNeeds,
+    ) -> Result<SolveFn, JitError> {
+        let p = code.address(id);
+        if p.is_null() {
+            return Err(JitError::Compile("no address for a compiled solve".into()));
+        }
+        // SAFETY: `p` is the finalized entry of a function declared with
+        // exactly this signature (a pointer, a pointer; no result; the C
+        // convention), and the memory stays mapped while `_code` lives.
+        let f = unsafe { std::mem::transmute::<*const u8, RawSolve>(p) };
+        Ok(SolveFn {
+            f,
+            needs,
+            _code: Arc::clone(code),
+        })
+    }
+
+    /// Runs the solve in place; `false` (nothing done) on short slices.
+    pub(crate) fn call(&self, v: &[f64], rhs: &mut [f64]) -> bool {
+        if v.len() < self.needs.v || rhs.len() < self.needs.rhs {
+            return false;
+        }
+        // SAFETY: the function reads only v[..needs.v] and reads and writes
+        // only rhs[..needs.rhs] (checked when it was compiled), and the
+        // lengths were just checked. The code is alive (`_code`).
+        unsafe { (self.f)(v.as_ptr(), rhs.as_mut_ptr()) };
+        true
+    }
+}

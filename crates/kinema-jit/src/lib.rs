@@ -15,8 +15,11 @@
 //! wrapper that checks every slice's length.
 
 mod code;
+mod lu;
 mod shims;
 mod tape;
+
+pub use lu::{JitSolves, MAX_SOLVE_OPERATIONS, compile_solves};
 
 pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split};
 

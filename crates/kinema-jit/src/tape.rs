@@ -181,7 +181,7 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
 }
 
 /// A JIT module for the host, with the shims as symbols.
-fn new_module() -> Result<JITModule, JitError> {
+pub(crate) fn new_module() -> Result<JITModule, JitError> {
     let mut flags = settings::builder();
     for (k, v) in [("is_pic", "false"), ("opt_level", "speed")] {
         flags

@@ -81,6 +81,18 @@ pub trait System {
         None
     }
 
+    /// Compiled solves for the [`FoldedLu`](crate::linalg::FoldedLu)
+    /// planned for this system (a system that compiles itself at load time
+    /// compiles its LU's solves too: the model files' JIT). The default:
+    /// none, the solves are interpreted.
+    fn compile_folded_solves(
+        &self,
+        solves: &crate::linalg::FoldedSolves<'_>,
+    ) -> Option<Box<dyn crate::linalg::CompiledSolves>> {
+        let _ = solves;
+        None
+    }
+
     /// Writes Φ(q, t) (length n).
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
@@ -138,6 +150,12 @@ macro_rules! forward {
             }
             fn jacobian_constant(&self, k: usize) -> Option<f64> {
                 (**self).jacobian_constant(k)
+            }
+            fn compile_folded_solves(
+                &self,
+                solves: &crate::linalg::FoldedSolves<'_>,
+            ) -> Option<Box<dyn crate::linalg::CompiledSolves>> {
+                (**self).compile_folded_solves(solves)
             }
             fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
                 (**self).phi(scratch, q, t, phi);

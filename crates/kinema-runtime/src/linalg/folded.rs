@@ -71,21 +71,94 @@ enum Op {
     ConstSubMul(f64, u32, u32),
 }
 
-/// One operation of a triangular solve on y, reading the factors' values v.
-#[derive(Clone, Copy, Debug)]
-enum SolveOp {
+/// One operation of a triangular solve on y, reading the factors' values v
+/// (see [`FoldedSolves`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolveOp {
     /// y[dst] −= v[s] · y[src].
-    MulSub { dst: u32, src: u32, s: u32 },
+    MulSub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+        /// Entry of v read.
+        s: u32,
+    },
     /// y[dst] −= c · y[src].
-    ConstMulSub { dst: u32, src: u32, c: f64 },
+    ConstMulSub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+        /// The folded constant.
+        c: f64,
+    },
     /// y[dst] −= y[src].
-    Sub { dst: u32, src: u32 },
+    Sub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+    },
     /// y[dst] += y[src].
-    Add { dst: u32, src: u32 },
+    Add {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+    },
     /// y[dst] ·= v[s].
-    Scale { dst: u32, s: u32 },
+    Scale {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of v read.
+        s: u32,
+    },
     /// y[dst] ·= c.
-    ConstScale { dst: u32, c: f64 },
+    ConstScale {
+        /// Entry of y written.
+        dst: u32,
+        /// The folded constant.
+        c: f64,
+    },
+}
+
+/// A read-only view of a [`FoldedLu`]'s solves, for a compiler of them
+/// (kinema-jit): a solve of A x = b gathers y[k] = b[gather[k]], runs the
+/// two sweeps on y in order (rounding each operation as written, no fused
+/// multiply-add), and scatters b[scatter[k]] = y[k]; the transposed solve
+/// the same with the `_t` lists, the gather and scatter swapped.
+#[derive(Clone, Copy, Debug)]
+pub struct FoldedSolves<'a> {
+    /// Dimension: y, b and the orders have n entries.
+    pub n: usize,
+    /// Length of the factors' value array v.
+    pub values: usize,
+    /// Original row at each position (the solve's gather, the transposed
+    /// solve's scatter).
+    pub row_order: &'a [u32],
+    /// Original column at each position (the solve's scatter, the
+    /// transposed solve's gather).
+    pub col_order: &'a [u32],
+    /// L y = P b.
+    pub forward: &'a [SolveOp],
+    /// U x = y.
+    pub backward: &'a [SolveOp],
+    /// Uᵀ z = Qᵀ b.
+    pub forward_t: &'a [SolveOp],
+    /// Lᵀ x = z.
+    pub backward_t: &'a [SolveOp],
+}
+
+/// Solves of a [`FoldedLu`] compiled elsewhere (kinema-jit), plugged in
+/// with [`FoldedLu::set_compiled_solves`]: each must compute exactly what
+/// the interpreted solve computes from the same v and b.
+pub trait CompiledSolves: std::fmt::Debug + Send + Sync {
+    /// Solves in place from the factors' values `v`; `transpose` for Aᵀ.
+    /// Returns `false` (and leaves `rhs` as it was) if it cannot, for
+    /// instance on slices of unexpected lengths: the interpreter then
+    /// solves.
+    fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool;
 }
 
 /// An entry of the active matrix during the simulated elimination.
@@ -153,6 +226,8 @@ struct Folded {
     /// maxᵢⱼ |aᵢⱼ| of the last factorization.
     scale: f64,
     work: Vec<f64>,
+    /// The solves compiled to native code, if they were.
+    compiled: Option<Box<dyn CompiledSolves>>,
 }
 
 /// The elimination being simulated.
@@ -203,6 +278,37 @@ impl FoldedLu {
         self.folded.is_some()
     }
 
+    /// The solves' operation lists, read-only (see [`FoldedSolves`]);
+    /// `None` without a plan.
+    #[must_use]
+    pub fn solves(&self) -> Option<FoldedSolves<'_>> {
+        self.folded.as_ref().map(|f| FoldedSolves {
+            n: self.n,
+            values: f.v.len(),
+            row_order: &f.row_order,
+            col_order: &f.col_order,
+            forward: &f.forward,
+            backward: &f.backward,
+            forward_t: &f.forward_t,
+            backward_t: &f.backward_t,
+        })
+    }
+
+    /// Plugs in compiled solves (see [`CompiledSolves`]); without a plan
+    /// they are dropped. The factorization, its acceptance test and the
+    /// fallback are unchanged.
+    pub fn set_compiled_solves(&mut self, solves: Box<dyn CompiledSolves>) {
+        if let Some(f) = &mut self.folded {
+            f.compiled = Some(solves);
+        }
+    }
+
+    /// Whether compiled solves are plugged in.
+    #[must_use]
+    pub fn has_compiled_solves(&self) -> bool {
+        self.folded.as_ref().is_some_and(|f| f.compiled.is_some())
+    }
+
     /// Number of operations a factorization in the fixed order runs (after
     /// the copy of the run-time entries); 0 without a plan.
     #[must_use]
@@ -238,6 +344,7 @@ impl Folded {
             perm_sign: 1.0,
             scale: 0.0,
             work: vec![0.0; n],
+            compiled: None,
         };
         // Per step k: L entries (original row, l_ik), U entries (original column, u_kj).
         let mut lower: Vec<Vec<(u32, Val)>> = Vec::with_capacity(n);
@@ -394,6 +501,11 @@ impl Folded {
 
     /// Runs the folded solve: gather by `gather`, two sweeps, scatter by `scatter`.
     fn solve(&mut self, rhs: &mut [f64], transpose: bool) {
+        if let Some(c) = &self.compiled
+            && c.solve(&self.v, rhs, transpose)
+        {
+            return;
+        }
         let (gather, first, second, scatter) = if transpose {
             (
                 &self.col_order,

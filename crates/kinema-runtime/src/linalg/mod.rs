@@ -55,7 +55,7 @@ mod sparse;
 
 pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
-pub use folded::FoldedLu;
+pub use folded::{CompiledSolves, FoldedLu, FoldedSolves, SolveOp};
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
