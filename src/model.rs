@@ -569,6 +569,19 @@ impl System for TapeSystem {
         Some(Box::new(compiled))
     }
 
+    /// With the JIT in use, the folded LU's factorization is compiled too
+    /// (same values, same scan; a compilation that fails leaves it
+    /// interpreted).
+    #[cfg(feature = "jit")]
+    fn compile_folded_factor(
+        &self,
+        factor: &kinema_runtime::linalg::FoldedFactor<'_>,
+    ) -> Option<Box<dyn kinema_runtime::linalg::CompiledFactor>> {
+        self.jit.as_ref()?;
+        let compiled = kinema_jit::compile_factor(factor).ok()?;
+        Some(Box::new(compiled))
+    }
+
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
         let inputs = TapeInputs {
             q,

@@ -437,9 +437,11 @@ fn jit_and_tape_agree_on_every_model() {
         let mut solver =
             Solver::<_, Auto>::with_options(model_system(path, backend), Options::default())
                 .unwrap_or_else(|e| panic!("{path}: {e}"));
-        // With the JIT the folded LU's solves are compiled too.
+        // With the JIT the folded LU's factorization and solves are
+        // compiled too.
         if let Auto::Folded(lu) = solver.linear_solver() {
             assert_eq!(lu.has_compiled_solves(), backend == Backend::Jit, "{path}");
+            assert_eq!(lu.has_compiled_factor(), backend == Backend::Jit, "{path}");
         }
         solver.run(&times).unwrap_or_else(|e| panic!("{path}: {e}"))
     };

@@ -225,3 +225,68 @@ impl SolveFn {
         true
     }
 }
+
+/// The lengths a compiled factorization was validated against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct FactorNeeds {
+    /// Jacobian values read.
+    pub(crate) values: usize,
+    /// Entries of the value array written (and read back).
+    pub(crate) v: usize,
+}
+
+/// Entries of the scan a compiled factorization writes: scale, finite,
+/// same, smallest pivot, largest multiplier.
+pub(crate) const SCAN: usize = 5;
+
+type RawFactor = unsafe extern "C" fn(*const f64, *mut f64, *mut f64);
+
+/// A compiled factorization: `values → (v, scan)`.
+#[derive(Clone)]
+pub(crate) struct FactorFn {
+    f: RawFactor,
+    needs: FactorNeeds,
+    /// Keeps the code alive while `f` may be called.
+    _code: Arc<Code>,
+}
+
+impl FactorFn {
+    /// Wraps function `id` of `code`, compiled from a factorization whose
+    /// every load and store the compiler checked against `needs` (and the
+    /// scan's [`SCAN`] entries).
+    pub(crate) fn new(
+        code: &Arc<Code>,
+        id: FuncId,
+        needs: FactorNeeds,
+    ) -> Result<FactorFn, JitError> {
+        let p = code.address(id);
+        if p.is_null() {
+            return Err(JitError::Compile(
+                "no address for a compiled factorization".into(),
+            ));
+        }
+        // SAFETY: `p` is the finalized entry of a function declared with
+        // exactly this signature (three pointers; no result; the C
+        // convention), and the memory stays mapped while `_code` lives.
+        let f = unsafe { std::mem::transmute::<*const u8, RawFactor>(p) };
+        Ok(FactorFn {
+            f,
+            needs,
+            _code: Arc::clone(code),
+        })
+    }
+
+    /// Runs the factorization; `None` (nothing done) on short slices.
+    pub(crate) fn call(&self, values: &[f64], v: &mut [f64]) -> Option<[f64; SCAN]> {
+        if values.len() < self.needs.values || v.len() < self.needs.v {
+            return None;
+        }
+        let mut scan = [0.0; SCAN];
+        // SAFETY: the function reads only values[..needs.values], writes
+        // and reads only v[..needs.v] and writes only scan[..SCAN] (checked
+        // when it was compiled); the lengths were just checked. The code is
+        // alive (`_code`).
+        unsafe { (self.f)(values.as_ptr(), v.as_mut_ptr(), scan.as_mut_ptr()) };
+        Some(scan)
+    }
+}

@@ -1,8 +1,9 @@
-//! A folded LU's solves compiled (kinema-jit) against the interpreted ones
-//! on random sparse matrices with folded constants: the same bits in both
-//! directions, the same pivot report, and the fallback untouched.
+//! A folded LU's factorization and solves compiled (kinema-jit) against
+//! the interpreted ones on random sparse matrices with folded constants:
+//! the same verdicts, the same pivot reports, the same bits in both
+//! directions, and the same fallback (a changed constant, a NaN entry).
 
-use kinema_jit::compile_solves;
+use kinema_jit::{compile_factor, compile_solves};
 use kinema_runtime::{FoldedLu, LinearSolver};
 use proptest::prelude::*;
 
@@ -65,6 +66,10 @@ proptest! {
         let compiled = compile_solves(&plan).expect("the host is supported");
         jit.set_compiled_solves(Box::new(compiled));
         prop_assert!(jit.has_compiled_solves());
+        let factor = jit.factorization().expect("a plan");
+        let compiled = compile_factor(&factor).expect("the host is supported");
+        jit.set_compiled_factor(Box::new(compiled));
+        prop_assert!(jit.has_compiled_factor());
         // At the guess and at moved run-time values (constants kept).
         let moved: Vec<f64> = values
             .iter()
@@ -72,6 +77,13 @@ proptest! {
             .map(|(v, c)| c.unwrap_or(v + moved * v.abs()))
             .collect();
         for vals in [&values, &moved] {
+            // The acceptance test at tolerances up to its limits: the same
+            // verdict (the folded order's report or the fallback's) each time.
+            for tol in [0.5, 0.2, 0.1, 0.05, 0.02, 1e-3] {
+                let (a, b) = (plain.factor(vals, tol), jit.factor(vals, tol));
+                prop_assert_eq!(a.is_ok(), b.is_ok());
+                prop_assert_eq!(plain.pivot_report(), jit.pivot_report(), "tolerance {}", tol);
+            }
             let (a, b) = (plain.factor(vals, 1e-12), jit.factor(vals, 1e-12));
             prop_assert_eq!(a.is_ok(), b.is_ok());
             prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
@@ -89,10 +101,13 @@ proptest! {
             prop_assert!(jit.solve_transpose_in_place(&mut y).is_ok());
             prop_assert!(same(&x, &y), "transposed: {x:?} vs {y:?}");
         }
-        // A changed constant: both fall back to the general solver alike.
-        if let Some(k) = constants.iter().position(Option::is_some) {
+        // A changed constant, a NaN or an infinite entry: both fall back to
+        // the general solver alike.
+        let constant = constants.iter().position(Option::is_some);
+        for (k, change) in [(constant, 0.25), (Some(0), f64::NAN), (Some(values.len() - 1), f64::INFINITY)] {
+            let Some(k) = k else { continue };
             let mut changed = values.clone();
-            changed[k] += 0.25;
+            changed[k] += change;
             let (a, b) = (plain.factor(&changed, 1e-12), jit.factor(&changed, 1e-12));
             prop_assert_eq!(a.is_ok(), b.is_ok());
             prop_assert_eq!(plain.pivot_report(), jit.pivot_report());

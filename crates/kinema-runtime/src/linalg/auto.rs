@@ -94,6 +94,12 @@ impl LinearSolver for Auto {
         {
             lu.set_compiled_solves(compiled);
         }
+        if let Some(compiled) = lu
+            .factorization()
+            .and_then(|plan| system.compile_folded_factor(&plan))
+        {
+            lu.set_compiled_factor(compiled);
+        }
         if lu.is_planned() {
             Ok(Self::Folded(Box::new(lu)))
         } else {
