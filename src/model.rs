@@ -565,6 +565,9 @@ impl System for TapeSystem {
         solves: &kinema_runtime::linalg::FoldedSolves<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledSolves>> {
         self.jit.as_ref()?;
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
         let compiled = kinema_jit::compile_solves(solves).ok()?;
         Some(Box::new(compiled))
     }
@@ -578,6 +581,9 @@ impl System for TapeSystem {
         factor: &kinema_runtime::linalg::FoldedFactor<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledFactor>> {
         self.jit.as_ref()?;
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
         let compiled = kinema_jit::compile_factor(factor).ok()?;
         Some(Box::new(compiled))
     }

@@ -19,7 +19,9 @@ mod lu;
 mod shims;
 mod tape;
 
-pub use lu::{JitFactor, JitSolves, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves};
+pub use lu::{
+    JitFactor, JitSolves, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves,
+};
 
 pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split};
 

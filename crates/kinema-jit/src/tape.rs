@@ -18,13 +18,14 @@ use crate::shims::{self, Shape, Which};
 
 /// The most instructions (all tapes of one [`compile`] together) the JIT
 /// compiles. Above it [`compile`] returns [`JitError::TooLarge`] and the
-/// caller runs the interpreter. Cranelift's time grows faster than the
-/// tapes (one straight-line function per tape): measured, release build,
-/// chain N = 100 (6 586 instructions) 43 ms, N = 200 (13 186) 102 ms,
-/// N = 400 265 ms, N = 1000 (65 986) 1.15 s, against 5–9 ms for the tapes
-/// of N = 1000. At this bound (≈ chain N = 240) text → first step stays
-/// under 0.2 s; the chain N = 1000 runs on the tape (≈ 0.09 s).
-pub const MAX_INSTRUCTIONS: usize = 16_000;
+/// caller runs the interpreter: Cranelift's time grows faster than the
+/// tapes (measured, release build, 2 shared cores, with the sin/cos cache's
+/// branches: chain N = 10 (646 instructions) 6 ms, N = 20 21 ms, N = 50
+/// 52 ms, N = 100 (6 586) 114 ms, N = 200 314 ms, N = 1000 (65 986) over
+/// 1 s; the tapes themselves take 0.1–14 ms). At this bound (≈ chain
+/// N = 60) compiling costs at most ≈ 70 ms; the chain N = 1000 runs on the
+/// tape, text → first step ≈ 0.09–0.16 s.
+pub const MAX_INSTRUCTIONS: usize = 4_000;
 
 /// A tape compiled to native code. Cloning shares the code.
 #[derive(Clone)]
