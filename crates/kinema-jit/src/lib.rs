@@ -9,6 +9,11 @@
 //! tape's order with no fused multiply-add, so a compiled tape agrees with
 //! the interpreter bit for bit (NaN payloads aside).
 //!
+//! [`compile_factor`] and [`compile_solves`] do the same for a
+//! [`FoldedLu`](kinema_runtime::FoldedLu)'s factorization (its value array
+//! and the scan its acceptance test reads) and its solves, read from the
+//! LU's views and plugged back in through its hooks.
+//!
 //! If Cranelift cannot target the host or a compilation fails, [`compile`]
 //! returns a [`JitError`] and the caller keeps the tape. The crate's one
 //! `unsafe` module (`code`) holds the call into machine code behind a
