@@ -51,7 +51,7 @@ pub mod forward;
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
-pub use model::{Model, ModelSolver, TapeSystem};
+pub use model::{Backend, Model, ModelSolver, TapeSystem};
 #[cfg(feature = "model")]
 mod model_outputs;
 #[cfg(feature = "parallel")]

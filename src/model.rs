@@ -29,6 +29,22 @@ use kinema_runtime::{Auto, Error, ModelDiagnostic, ModelError, Options, Solver, 
 pub struct Model {
     derivation: Derivation,
     warnings: Vec<String>,
+    backend: Backend,
+}
+
+/// How a model's equations are evaluated at run time (see
+/// [`Model::with_backend`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// Compiled to native code when the system is built (Cranelift, the
+    /// `jit` feature): the default. Where that is not possible (the feature
+    /// is off, Cranelift cannot target the host, or the model is too large
+    /// to compile quickly) the system runs on the tape and says why
+    /// ([`TapeSystem::jit_fallback`]).
+    #[default]
+    Jit,
+    /// The tape interpreter: no code generation at all.
+    Tape,
 }
 
 /// The diagnostics of model text as a [`ModelError`]: each as data and all
@@ -72,6 +88,7 @@ impl Model {
         Ok(Model {
             derivation,
             warnings,
+            backend: Backend::default(),
         })
     }
 
@@ -109,7 +126,28 @@ impl Model {
         Model {
             derivation,
             warnings: Vec::new(),
+            backend: Backend::default(),
         }
+    }
+
+    /// The model with its systems evaluated by `backend` (default
+    /// [`Backend::Jit`]).
+    #[must_use]
+    pub fn with_backend(mut self, backend: Backend) -> Model {
+        self.backend = backend;
+        self
+    }
+
+    /// Sets the back end of the systems built from now on (see
+    /// [`with_backend`](Self::with_backend)).
+    pub fn set_backend(&mut self, backend: Backend) {
+        self.backend = backend;
+    }
+
+    /// The back end asked for (what [`system`](Self::system) tries).
+    #[must_use]
+    pub fn backend(&self) -> Backend {
+        self.backend
     }
 
     /// The derivation: Φ, Φ_q, ν, γ and the rest, as expressions.
@@ -170,11 +208,12 @@ impl Model {
         Ok(Sweep::new(system, TapeParams { indices }).with_row_width(width))
     }
 
-    /// Compiles the derivation to tapes: a [`System`] for the runtime, with
-    /// the parameters at their declared values.
+    /// Compiles the derivation to tapes, and to native code with
+    /// [`Backend::Jit`]: a [`System`] for the runtime, with the parameters
+    /// at their declared values.
     #[must_use]
     pub fn system(&self) -> TapeSystem {
-        TapeSystem::new(&self.derivation)
+        TapeSystem::with_backend(&self.derivation, self.backend)
     }
 
     /// The solver for this model, as a generated mechanism's `solver()`:
@@ -227,12 +266,79 @@ pub struct TapeSystem {
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
     zeros: Vec<f64>,
+    /// The tapes compiled to native code, if they were.
+    #[cfg(feature = "jit")]
+    jit: Option<Compiled>,
+    /// Why the JIT was asked for and is not used.
+    jit_fallback: Option<String>,
+}
+
+/// The tapes of the runtime's hot path, compiled (see [`Backend::Jit`]).
+#[cfg(feature = "jit")]
+#[derive(Clone, Debug)]
+struct Compiled {
+    phi: kinema_jit::JitTape,
+    jacobian: kinema_jit::JitTape,
+    /// Φ then Φ_q's values, split between the two.
+    both: kinema_jit::JitTape,
+    nu: kinema_jit::JitTape,
+    gamma: kinema_jit::JitTape,
+}
+
+#[cfg(feature = "jit")]
+impl Compiled {
+    fn new(
+        phi: &Tape,
+        jacobian: &Tape,
+        both: &Tape,
+        nu: &Tape,
+        gamma: &Tape,
+        n_phi: usize,
+    ) -> Result<Compiled, kinema_jit::JitError> {
+        let mut all = kinema_jit::compile_split(&[
+            (phi, phi.outputs()),
+            (jacobian, jacobian.outputs()),
+            (both, n_phi),
+            (nu, nu.outputs()),
+            (gamma, gamma.outputs()),
+        ])?
+        .into_iter();
+        let mut next = || {
+            all.next()
+                .ok_or_else(|| kinema_jit::JitError::Compile("a tape is missing".into()))
+        };
+        Ok(Compiled {
+            phi: next()?,
+            jacobian: next()?,
+            both: next()?,
+            nu: next()?,
+            gamma: next()?,
+        })
+    }
+}
+
+/// Runs a compiled tape into `out` through the sin/cos cache `trig`; NaN
+/// on a size mismatch (as [`TapeSystem::run`]).
+#[cfg(feature = "jit")]
+fn run_jit(f: &kinema_jit::JitTape, inputs: &TapeInputs<'_>, trig: &mut [f64], out: &mut [f64]) {
+    if out.len() != f.outputs() || f.eval_with_cache(inputs, trig, out).is_err() {
+        out.fill(f64::NAN);
+    }
 }
 
 impl TapeSystem {
-    /// Compiles the tapes of a derivation.
+    /// Compiles the tapes of a derivation (the interpreter, [`Backend::Tape`]).
     #[must_use]
     pub fn new(d: &Derivation) -> TapeSystem {
+        TapeSystem::with_backend(d, Backend::Tape)
+    }
+
+    /// Compiles the tapes of a derivation, and with [`Backend::Jit`] the
+    /// tapes of the hot path (Φ, Φ_q, ν, γ) to native code; if that fails,
+    /// the system runs on the tapes and [`jit_fallback`](Self::jit_fallback)
+    /// says why.
+    #[must_use]
+    pub fn with_backend(d: &Derivation, backend: Backend) -> TapeSystem {
         let a = &d.arena;
         let jac: Vec<ExprId> = d.phi_q.entries.iter().map(|e| e.expr).collect();
         let guess: Vec<ExprId> = d.coordinates.iter().map(|c| c.guess).collect();
@@ -256,6 +362,17 @@ impl TapeSystem {
             .max(dynamics.registers());
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
         let n = d.nc();
+        #[cfg(feature = "jit")]
+        let (jit, jit_fallback) = match backend {
+            Backend::Tape => (None, None),
+            Backend::Jit => match Compiled::new(&phi, &jacobian, &both, &nu, &gamma, d.phi.len()) {
+                Ok(c) => (Some(c), None),
+                Err(e) => (None, Some(e.to_string())),
+            },
+        };
+        #[cfg(not(feature = "jit"))]
+        let jit_fallback = (backend == Backend::Jit)
+            .then(|| "kinema was built without its `jit` feature".to_owned());
         TapeSystem {
             coordinate_names: d.coordinates.iter().map(|c| c.name.clone()).collect(),
             equation_names: d.rows.iter().map(|r| r.name.clone()).collect(),
@@ -281,7 +398,30 @@ impl TapeSystem {
             outputs,
             dynamics,
             registers,
+            #[cfg(feature = "jit")]
+            jit,
+            jit_fallback,
         }
+    }
+
+    /// The back end that evaluates this system: [`Backend::Jit`] if its
+    /// tapes were compiled to native code, else [`Backend::Tape`].
+    #[must_use]
+    pub fn backend(&self) -> Backend {
+        #[cfg(feature = "jit")]
+        if self.jit.is_some() {
+            return Backend::Jit;
+        }
+        Backend::Tape
+    }
+
+    /// Why [`Backend::Jit`] was asked for and the system runs on the tape
+    /// instead (no native code for this host, a compilation that failed, a
+    /// model too large to compile within the load-time budget, or the `jit`
+    /// feature off); `None` if it was not asked for or is in use.
+    #[must_use]
+    pub fn jit_fallback(&self) -> Option<&str> {
+        self.jit_fallback.as_deref()
     }
 
     /// The parameters' names, in declaration order.
@@ -353,6 +493,17 @@ impl TapeSystem {
         scratch.split_at_mut(cache)
     }
 
+    /// The sin/cos cache at the start of the scratch (for the compiled
+    /// tapes), grown if the scratch came from another system.
+    #[cfg(feature = "jit")]
+    fn trig<'a>(&self, scratch: &'a mut Vec<f64>) -> &'a mut [f64] {
+        let n = self.trig_len();
+        if scratch.len() < n {
+            scratch.resize(n, f64::NAN);
+        }
+        &mut scratch[..n]
+    }
+
     /// Length of the sin/cos cache at the start of the scratch.
     fn trig_len(&self) -> usize {
         3 * self.coordinate_names.len()
@@ -406,6 +557,37 @@ impl System for TapeSystem {
         self.constants.get(k).copied().flatten()
     }
 
+    /// With the JIT in use, the folded LU's solves are compiled too (a
+    /// compilation that fails leaves them interpreted: same results).
+    #[cfg(feature = "jit")]
+    fn compile_folded_solves(
+        &self,
+        solves: &kinema_runtime::linalg::FoldedSolves<'_>,
+    ) -> Option<Box<dyn kinema_runtime::linalg::CompiledSolves>> {
+        self.jit.as_ref()?;
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
+        let compiled = kinema_jit::compile_solves(solves).ok()?;
+        Some(Box::new(compiled))
+    }
+
+    /// With the JIT in use, the folded LU's factorization is compiled too
+    /// (same values, same scan; a compilation that fails leaves it
+    /// interpreted).
+    #[cfg(feature = "jit")]
+    fn compile_folded_factor(
+        &self,
+        factor: &kinema_runtime::linalg::FoldedFactor<'_>,
+    ) -> Option<Box<dyn kinema_runtime::linalg::CompiledFactor>> {
+        self.jit.as_ref()?;
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
+        let compiled = kinema_jit::compile_factor(factor).ok()?;
+        Some(Box::new(compiled))
+    }
+
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
         let inputs = TapeInputs {
             q,
@@ -413,6 +595,10 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
+        #[cfg(feature = "jit")]
+        if let Some(c) = &self.jit {
+            return run_jit(&c.phi, &inputs, self.trig(registers), phi);
+        }
         self.run(&self.phi, registers, &inputs, phi);
     }
 
@@ -423,6 +609,10 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
+        #[cfg(feature = "jit")]
+        if let Some(c) = &self.jit {
+            return run_jit(&c.jacobian, &inputs, self.trig(registers), values);
+        }
         self.run(&self.jacobian, registers, &inputs, values);
     }
 
@@ -440,6 +630,18 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
+        #[cfg(feature = "jit")]
+        if let Some(c) = &self.jit {
+            if phi.len() + values.len() != c.both.outputs()
+                || c.both
+                    .eval_split(&inputs, self.trig(registers), phi, values)
+                    .is_err()
+            {
+                phi.fill(f64::NAN);
+                values.fill(f64::NAN);
+            }
+            return;
+        }
         // The outputs are Φ then Φ_q's values, read where the tape left them.
         let (trig, registers) = self.split(registers, &self.both);
         let outputs = self
@@ -465,6 +667,10 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
+        #[cfg(feature = "jit")]
+        if let Some(c) = &self.jit {
+            return run_jit(&c.nu, &inputs, self.trig(registers), nu);
+        }
         self.run(&self.nu, registers, &inputs, nu);
     }
 
@@ -475,6 +681,10 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
+        #[cfg(feature = "jit")]
+        if let Some(c) = &self.jit {
+            return run_jit(&c.gamma, &inputs, self.trig(registers), gamma);
+        }
         self.run(&self.gamma, registers, &inputs, gamma);
     }
 }

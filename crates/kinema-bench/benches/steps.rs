@@ -56,6 +56,7 @@ macro_rules! mechanism {
         for (mode, options) in modes() {
             per_step(&mut group, &format!("generated/{mode}"), $generated.solver(options).unwrap_or_else(|e| panic!("{e}")));
             per_step(&mut group, &format!("tape/{mode}"), kinema_bench::solver(tape($name), options));
+            per_step(&mut group, &format!("jit/{mode}"), kinema_bench::solver(kinema_bench::jit($name), options));
             $(per_step(&mut group, &format!("handwritten/{mode}"), kinema_bench::solver($hand, options));)?
         }
         group.finish();

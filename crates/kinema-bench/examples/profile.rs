@@ -3,7 +3,7 @@
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
 //! (mechanism: slider_crank, four_bar, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
-//! generated, tape, handwritten, dynamics (generated with inertia and
+//! generated, tape, jit (the model compiled at load time), handwritten, dynamics (generated with inertia and
 //! inverse dynamics at every step: slider_crank, chain10, and with
 //! `--features large-dynamics` chain1000), dynamics-kinematics (the same
 //! solvers with inertia, the kinematic step alone); mode: same, default
@@ -12,7 +12,7 @@
 //! repetitions).
 
 use kinema::{Dynamics, InverseDynamics, LinearSolver, Options, Solver, System};
-use kinema_bench::{generated, grid, handwritten, steps, tape};
+use kinema_bench::{generated, grid, handwritten, jit, steps, tape};
 
 fn run<S: System, L: LinearSolver>(mut solver: Solver<S, L>, reps: usize) {
     let times = grid();
@@ -164,6 +164,7 @@ fn main() {
             reps,
         ),
         (name, "tape") => run(kinema_bench::solver(tape(name), options), reps),
+        (name, "jit") => run(kinema_bench::solver(jit(name), options), reps),
         other => panic!("unknown {other:?}"),
     }
 }

@@ -144,8 +144,23 @@ pub fn model_text(name: &str) -> String {
 /// If the model does not derive (benchmark set-up only).
 #[must_use]
 pub fn tape(name: &str) -> kinema::TapeSystem {
+    on(name, kinema::Backend::Tape)
+}
+
+/// The benchmark mechanism's model compiled to native code at load time
+/// (kinema-jit); panics if the JIT fell back to the tape.
+pub fn jit(name: &str) -> kinema::TapeSystem {
+    let system = on(name, kinema::Backend::Jit);
+    if let Some(why) = system.jit_fallback() {
+        panic!("{name}: no JIT: {why}");
+    }
+    system
+}
+
+fn on(name: &str, backend: kinema::Backend) -> kinema::TapeSystem {
     kinema::Model::from_source(&model_text(name), name)
         .unwrap_or_else(|e| panic!("{e}"))
+        .with_backend(backend)
         .system()
 }
 

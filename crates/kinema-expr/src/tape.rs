@@ -52,113 +52,197 @@ impl std::fmt::Display for TapeError {
 
 impl std::error::Error for TapeError {}
 
-type Reg = u32;
+/// A register of a tape's register file (see [`Tape`]).
+pub type Reg = u32;
 
-#[derive(Clone, Copy, Debug)]
-enum Instr {
+/// One instruction of a tape, as [`Tape::instructions`] shows it: what a
+/// compiler of tapes reads. Registers are indices into the layout of
+/// [`Tape`]; arithmetic is IEEE, in the order written, with no fused
+/// multiply-add.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Instr {
+    /// `dst = v`.
     Const {
+        /// Destination register.
         dst: Reg,
+        /// The value.
         v: f64,
     },
+    /// `dst = a`.
     Copy {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = -a`.
     Neg {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = k · a`.
     Scale {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The factor.
         k: f64,
     },
+    /// `dst = a + b`.
     Add {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// Second operand register.
         b: Reg,
     },
+    /// `dst = a - b`.
     Sub {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// Second operand register.
         b: Reg,
     },
+    /// `dst = acc + k · a` (the product rounded first: no fused multiply-add).
     MulAdd {
+        /// Destination register.
         dst: Reg,
+        /// The accumulator.
         acc: Reg,
+        /// Operand register.
         a: Reg,
+        /// The factor.
         k: f64,
     },
+    /// `dst = a + c`.
     AddConst {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The constant.
         c: f64,
     },
+    /// `dst = a · b`.
     Mul {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// Second operand register.
         b: Reg,
     },
+    /// `dst = a / b`.
     Div {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// Second operand register.
         b: Reg,
     },
+    /// `dst = 1 / a`.
     Recip {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = a · a`.
     Square {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = √a`.
     Sqrt {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = a.powi(n)`.
     PowI {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The integer exponent.
         n: i32,
     },
+    /// `dst = a.powf(p)`, `p` a constant.
     PowF {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The exponent.
         p: f64,
     },
+    /// `dst = sin a`.
     Sin {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = cos a`.
     Cos {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
     },
     /// sin of coordinate `k` (in register `a`), through the caller's cache.
     SinQ {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The coordinate's index.
         k: u32,
     },
     /// cos of coordinate `k` (in register `a`), through the caller's cache.
     CosQ {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// The coordinate's index.
         k: u32,
     },
+    /// `dst = op(a)`.
     Unary {
+        /// Destination register.
         dst: Reg,
+        /// The function.
         op: UnaryOp,
+        /// Operand register.
         a: Reg,
     },
+    /// `dst = a.powf(b)`.
     Pow {
+        /// Destination register.
         dst: Reg,
+        /// Operand register.
         a: Reg,
+        /// Second operand register.
         b: Reg,
     },
+    /// `dst = y.atan2(x)`.
     Atan2 {
+        /// Destination register.
         dst: Reg,
+        /// Register of the ordinate.
         y: Reg,
+        /// Register of the abscissa.
         x: Reg,
     },
 }
@@ -182,6 +266,27 @@ pub struct Tape {
     /// Values of the constants' registers, from `consts_base`.
     consts: Vec<f64>,
     consts_base: usize,
+}
+
+/// The register file's layout of a [`Tape`] (see [`Tape::layout`]):
+/// outputs at `0..outputs`, then `q`, `q̇` and the parameters at their bases
+/// (as many as [`Tape::input_sizes`] says), `t`, and the constants.
+#[derive(Clone, Copy, Debug)]
+pub struct TapeLayout<'a> {
+    /// Number of outputs: registers `0..outputs`.
+    pub outputs: usize,
+    /// Register of `q[0]`.
+    pub q_base: usize,
+    /// Register of `q̇[0]`.
+    pub qd_base: usize,
+    /// Register of the first parameter.
+    pub params_base: usize,
+    /// Register of `t`, if the tape reads it.
+    pub t_register: Option<usize>,
+    /// Register of the first constant.
+    pub consts_base: usize,
+    /// The constants' values, from `consts_base` on.
+    pub consts: &'a [f64],
 }
 
 /// Register allocation: a free list over a growing register file. The
@@ -465,6 +570,30 @@ impl Tape {
         }
         for r in den_reg.into_iter().chain(tmp) {
             regs.free(r);
+        }
+    }
+
+    /// The instructions, in order: a read-only view for compilers of tapes
+    /// (kinema-jit). Registers follow [`layout`](Self::layout).
+    #[must_use]
+    pub fn instructions(&self) -> &[Instr] {
+        &self.instrs
+    }
+
+    /// Where the outputs, inputs and constants live in the register file.
+    #[must_use]
+    pub fn layout(&self) -> TapeLayout<'_> {
+        let q_base = self.outputs;
+        let qd_base = q_base + self.need_q;
+        let params_base = qd_base + self.need_qd;
+        TapeLayout {
+            outputs: self.outputs,
+            q_base,
+            qd_base,
+            params_base,
+            t_register: self.t_reg,
+            consts_base: self.consts_base,
+            consts: &self.consts,
         }
     }
 

@@ -70,8 +70,8 @@ pub use integrate::{
 };
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{
-    Auto, DenseLu, DynDenseLu, FoldedLu, LinalgError, LinearSolver, LinearSolverFor, PivotReport,
-    SparseLu,
+    Auto, CompiledSolves, DenseLu, DynDenseLu, FoldedLu, FoldedSolves, LinalgError, LinearSolver,
+    LinearSolverFor, PivotReport, SparseLu,
 };
 pub use options::Options;
 pub use outputs::{Outputs, Table};

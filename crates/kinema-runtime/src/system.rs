@@ -81,6 +81,30 @@ pub trait System {
         None
     }
 
+    /// Compiled solves for the [`FoldedLu`](crate::linalg::FoldedLu)
+    /// planned for this system (a system that compiles itself at load time
+    /// compiles its LU's solves too: the model files' JIT). The default:
+    /// none, the solves are interpreted.
+    fn compile_folded_solves(
+        &self,
+        solves: &crate::linalg::FoldedSolves<'_>,
+    ) -> Option<Box<dyn crate::linalg::CompiledSolves>> {
+        let _ = solves;
+        None
+    }
+
+    /// A compiled factorization for the [`FoldedLu`](crate::linalg::FoldedLu)
+    /// planned for this system (as
+    /// [`compile_folded_solves`](Self::compile_folded_solves)). The
+    /// default: none, the factorization is interpreted.
+    fn compile_folded_factor(
+        &self,
+        factor: &crate::linalg::FoldedFactor<'_>,
+    ) -> Option<Box<dyn crate::linalg::CompiledFactor>> {
+        let _ = factor;
+        None
+    }
+
     /// Writes Φ(q, t) (length n).
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
@@ -138,6 +162,18 @@ macro_rules! forward {
             }
             fn jacobian_constant(&self, k: usize) -> Option<f64> {
                 (**self).jacobian_constant(k)
+            }
+            fn compile_folded_solves(
+                &self,
+                solves: &crate::linalg::FoldedSolves<'_>,
+            ) -> Option<Box<dyn crate::linalg::CompiledSolves>> {
+                (**self).compile_folded_solves(solves)
+            }
+            fn compile_folded_factor(
+                &self,
+                factor: &crate::linalg::FoldedFactor<'_>,
+            ) -> Option<Box<dyn crate::linalg::CompiledFactor>> {
+                (**self).compile_folded_factor(factor)
             }
             fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
                 (**self).phi(scratch, q, t, phi);

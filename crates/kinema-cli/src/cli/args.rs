@@ -168,7 +168,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "FILE.html")]
     pub animate: Option<PathBuf>,
     /// How the equations are evaluated.
-    #[arg(long, value_enum, default_value_t = Backend::Tape)]
+    #[arg(long, value_enum, default_value_t = Backend::DEFAULT)]
     pub backend: Backend,
     /// Stop at the first singular configuration (bifurcation or toggle)
     /// instead of passing it on the branch where q̇ is continuous; the rows
@@ -230,10 +230,23 @@ pub enum Integrator {
 /// Evaluation back ends available at run time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
+    /// The tapes compiled to native code when the model is loaded
+    /// (Cranelift): the default. Falls back to the tape, with a note, where
+    /// that is not possible.
+    Jit,
     /// The derivation compiled to flat instruction tapes, interpreted: no
-    /// compiler needed. (Generated Rust is the other back end: `kinema
+    /// code generation. (Generated Rust is the other back end: `kinema
     /// codegen`, or the `mechanism!` macro.)
     Tape,
+}
+
+impl Backend {
+    /// `jit` when the program has it (its `jit` feature), else `tape`.
+    #[cfg(feature = "jit")]
+    pub const DEFAULT: Backend = Backend::Jit;
+    /// `jit` when the program has it (its `jit` feature), else `tape`.
+    #[cfg(not(feature = "jit"))]
+    pub const DEFAULT: Backend = Backend::Tape;
 }
 
 /// Arguments of `kinema import`.

@@ -289,7 +289,6 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         return super::equilibrium::run(args);
     }
     let start = Instant::now();
-    let Backend::Tape = args.backend;
     let steps = check_grid_args(args.t_end, args.steps)?;
     let (grid, analysis) = match Format::of(&args.model)? {
         Format::Kin => (kin_grid(args, steps)?, None),
@@ -302,7 +301,11 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             (Grid::simengine(&analysis, &source)?, Some(analysis))
         }
     };
-    let loaded = load(&args.model, analysis.as_ref())?;
+    let mut loaded = load(&args.model, analysis.as_ref())?;
+    loaded.model.set_backend(match args.backend {
+        Backend::Jit => kinema::Backend::Jit,
+        Backend::Tape => kinema::Backend::Tape,
+    });
     loaded.print_warnings();
     if super::forward::is_forward(&loaded) {
         refuse_positions_only(args, true)?;
@@ -382,6 +385,9 @@ fn adm_dynamics(args: &RunArgs, analysis: &Analysis) -> Result<(), Failure> {
 fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> Result<(), Failure> {
     // Outputs are created before the analysis: a bad path fails at once.
     let system = loaded.model.system();
+    if let Some(why) = system.jit_fallback() {
+        super::print_stderr(&format!("note: {why}; running on the tape interpreter"));
+    }
     let derivation = loaded.model.derivation();
     // Inverse dynamics needs the accelerations: no such columns with
     // positions only.

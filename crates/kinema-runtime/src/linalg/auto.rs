@@ -87,7 +87,19 @@ impl LinearSolver for Auto {
         system.initial_guess(&mut q);
         let mut values = vec![0.0; pattern.len()];
         system.jacobian(&mut system.scratch(), &q, 0.0, &mut values);
-        let lu = FoldedLu::new(n, pattern, &constants, &values)?;
+        let mut lu = FoldedLu::new(n, pattern, &constants, &values)?;
+        if let Some(compiled) = lu
+            .solves()
+            .and_then(|plan| system.compile_folded_solves(&plan))
+        {
+            lu.set_compiled_solves(compiled);
+        }
+        if let Some(compiled) = lu
+            .factorization()
+            .and_then(|plan| system.compile_folded_factor(&plan))
+        {
+            lu.set_compiled_factor(compiled);
+        }
         if lu.is_planned() {
             Ok(Self::Folded(Box::new(lu)))
         } else {

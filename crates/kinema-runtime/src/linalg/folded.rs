@@ -44,9 +44,11 @@ enum Val {
     Var(u32),
 }
 
-/// One operation of the factorization; it writes the next value.
-#[derive(Clone, Copy, Debug)]
-enum Op {
+/// One operation of the factorization; it writes the next value (see
+/// [`FoldedFactor`]). `o`, `a`, `b` index the value array, `c` and `k` are
+/// folded constants.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Op {
     /// 1 / a.
     Recip(u32),
     /// −a.
@@ -71,21 +73,148 @@ enum Op {
     ConstSubMul(f64, u32, u32),
 }
 
-/// One operation of a triangular solve on y, reading the factors' values v.
+/// A read-only view of a [`FoldedLu`]'s factorization, for a compiler of
+/// it (kinema-jit). From the Jacobian's values (`nnz` of them): value i <
+/// `inputs.len()` is `values[inputs[i]]`; op k writes value
+/// `inputs.len() + k`; the scan is [`FactorScan`]'s.
 #[derive(Clone, Copy, Debug)]
-enum SolveOp {
+pub struct FoldedFactor<'a> {
+    /// Number of Jacobian values.
+    pub nnz: usize,
+    /// Length of the value array.
+    pub values: usize,
+    /// Pattern positions of the run-time entries.
+    pub inputs: &'a [u32],
+    /// Pattern positions and values of the constant entries.
+    pub constants: &'a [(u32, f64)],
+    /// The factorization.
+    pub ops: &'a [Op],
+    /// Values that are run-time pivots (scanned for the smallest |u_kk|).
+    pub pivot_vars: &'a [u32],
+    /// Values that are run-time multipliers (scanned for the largest |l_ik|).
+    pub multiplier_vars: &'a [u32],
+    /// The constant pivots' smallest magnitude (the scan's start).
+    pub const_min_pivot: f64,
+    /// The constant multipliers' largest magnitude (the scan's start).
+    pub const_max_multiplier: f64,
+}
+
+/// What a factorization's scan found, as the interpreter computes it: the
+/// acceptance test ([`order_accepted`]) and the pivot report read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FactorScan {
+    /// maxᵢⱼ |aᵢⱼ| ([`scale_and_finite`]).
+    pub scale: f64,
+    /// Every Jacobian value finite.
+    pub finite: bool,
+    /// Every constant entry still its constant.
+    pub same: bool,
+    /// Smallest pivot magnitude, from `const_min_pivot` over `pivot_vars`
+    /// in order (a NaN counts as zero).
+    pub min_pivot: f64,
+    /// Largest multiplier magnitude, from `const_max_multiplier` over
+    /// `multiplier_vars` in order (a NaN counts as infinite).
+    pub max_multiplier: f64,
+}
+
+/// A [`FoldedLu`]'s factorization compiled elsewhere (kinema-jit), plugged
+/// in with [`FoldedLu::set_compiled_factor`]: it must write the value array
+/// and find the scan exactly as the interpreter does.
+pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
+    /// Factors `values` into `v`; `None` (nothing written) if it cannot,
+    /// for instance on slices of unexpected lengths: the interpreter then
+    /// factors.
+    fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan>;
+}
+
+/// One operation of a triangular solve on y, reading the factors' values v
+/// (see [`FoldedSolves`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolveOp {
     /// y[dst] −= v[s] · y[src].
-    MulSub { dst: u32, src: u32, s: u32 },
+    MulSub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+        /// Entry of v read.
+        s: u32,
+    },
     /// y[dst] −= c · y[src].
-    ConstMulSub { dst: u32, src: u32, c: f64 },
+    ConstMulSub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+        /// The folded constant.
+        c: f64,
+    },
     /// y[dst] −= y[src].
-    Sub { dst: u32, src: u32 },
+    Sub {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+    },
     /// y[dst] += y[src].
-    Add { dst: u32, src: u32 },
+    Add {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of y read.
+        src: u32,
+    },
     /// y[dst] ·= v[s].
-    Scale { dst: u32, s: u32 },
+    Scale {
+        /// Entry of y written.
+        dst: u32,
+        /// Entry of v read.
+        s: u32,
+    },
     /// y[dst] ·= c.
-    ConstScale { dst: u32, c: f64 },
+    ConstScale {
+        /// Entry of y written.
+        dst: u32,
+        /// The folded constant.
+        c: f64,
+    },
+}
+
+/// A read-only view of a [`FoldedLu`]'s solves, for a compiler of them
+/// (kinema-jit): a solve of A x = b gathers y[k] = b[gather[k]], runs the
+/// two sweeps on y in order (rounding each operation as written, no fused
+/// multiply-add), and scatters b[scatter[k]] = y[k]; the transposed solve
+/// the same with the `_t` lists, the gather and scatter swapped.
+#[derive(Clone, Copy, Debug)]
+pub struct FoldedSolves<'a> {
+    /// Dimension: y, b and the orders have n entries.
+    pub n: usize,
+    /// Length of the factors' value array v.
+    pub values: usize,
+    /// Original row at each position (the solve's gather, the transposed
+    /// solve's scatter).
+    pub row_order: &'a [u32],
+    /// Original column at each position (the solve's scatter, the
+    /// transposed solve's gather).
+    pub col_order: &'a [u32],
+    /// L y = P b.
+    pub forward: &'a [SolveOp],
+    /// U x = y.
+    pub backward: &'a [SolveOp],
+    /// Uᵀ z = Qᵀ b.
+    pub forward_t: &'a [SolveOp],
+    /// Lᵀ x = z.
+    pub backward_t: &'a [SolveOp],
+}
+
+/// Solves of a [`FoldedLu`] compiled elsewhere (kinema-jit), plugged in
+/// with [`FoldedLu::set_compiled_solves`]: each must compute exactly what
+/// the interpreted solve computes from the same v and b.
+pub trait CompiledSolves: std::fmt::Debug + Send + Sync {
+    /// Solves in place from the factors' values `v`; `transpose` for Aᵀ.
+    /// Returns `false` (and leaves `rhs` as it was) if it cannot, for
+    /// instance on slices of unexpected lengths: the interpreter then
+    /// solves.
+    fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool;
 }
 
 /// An entry of the active matrix during the simulated elimination.
@@ -153,6 +282,10 @@ struct Folded {
     /// maxᵢⱼ |aᵢⱼ| of the last factorization.
     scale: f64,
     work: Vec<f64>,
+    /// The solves compiled to native code, if they were.
+    compiled: Option<Box<dyn CompiledSolves>>,
+    /// The factorization compiled to native code, if it was.
+    compiled_factor: Option<Box<dyn CompiledFactor>>,
 }
 
 /// The elimination being simulated.
@@ -203,6 +336,71 @@ impl FoldedLu {
         self.folded.is_some()
     }
 
+    /// The solves' operation lists, read-only (see [`FoldedSolves`]);
+    /// `None` without a plan.
+    #[must_use]
+    pub fn solves(&self) -> Option<FoldedSolves<'_>> {
+        self.folded.as_ref().map(|f| FoldedSolves {
+            n: self.n,
+            values: f.v.len(),
+            row_order: &f.row_order,
+            col_order: &f.col_order,
+            forward: &f.forward,
+            backward: &f.backward,
+            forward_t: &f.forward_t,
+            backward_t: &f.backward_t,
+        })
+    }
+
+    /// Plugs in compiled solves (see [`CompiledSolves`]); without a plan
+    /// they are dropped. The factorization, its acceptance test and the
+    /// fallback are unchanged.
+    pub fn set_compiled_solves(&mut self, solves: Box<dyn CompiledSolves>) {
+        if let Some(f) = &mut self.folded {
+            f.compiled = Some(solves);
+        }
+    }
+
+    /// The factorization's operation lists, read-only (see
+    /// [`FoldedFactor`]); `None` without a plan.
+    #[must_use]
+    pub fn factorization(&self) -> Option<FoldedFactor<'_>> {
+        self.folded.as_ref().map(|f| FoldedFactor {
+            nnz: self.nnz,
+            values: f.v.len(),
+            inputs: &f.inputs,
+            constants: &f.constants,
+            ops: &f.ops,
+            pivot_vars: &f.pivot_vars,
+            multiplier_vars: &f.multiplier_vars,
+            const_min_pivot: f.const_min_pivot,
+            const_max_multiplier: f.const_max_multiplier,
+        })
+    }
+
+    /// Plugs in a compiled factorization (see [`CompiledFactor`]); without
+    /// a plan it is dropped. The acceptance rule, the pivot report and the
+    /// fallback are unchanged.
+    pub fn set_compiled_factor(&mut self, factor: Box<dyn CompiledFactor>) {
+        if let Some(f) = &mut self.folded {
+            f.compiled_factor = Some(factor);
+        }
+    }
+
+    /// Whether a compiled factorization is plugged in.
+    #[must_use]
+    pub fn has_compiled_factor(&self) -> bool {
+        self.folded
+            .as_ref()
+            .is_some_and(|f| f.compiled_factor.is_some())
+    }
+
+    /// Whether compiled solves are plugged in.
+    #[must_use]
+    pub fn has_compiled_solves(&self) -> bool {
+        self.folded.as_ref().is_some_and(|f| f.compiled.is_some())
+    }
+
     /// Number of operations a factorization in the fixed order runs (after
     /// the copy of the run-time entries); 0 without a plan.
     #[must_use]
@@ -238,6 +436,8 @@ impl Folded {
             perm_sign: 1.0,
             scale: 0.0,
             work: vec![0.0; n],
+            compiled: None,
+            compiled_factor: None,
         };
         // Per step k: L entries (original row, l_ik), U entries (original column, u_kj).
         let mut lower: Vec<Vec<(u32, Val)>> = Vec::with_capacity(n);
@@ -326,8 +526,27 @@ impl Folded {
 
     /// Tries the fixed order on `values`: `true` if accepted.
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> bool {
+        let compiled = self
+            .compiled_factor
+            .as_ref()
+            .and_then(|c| c.factor(values, &mut self.v));
+        let scan = match compiled {
+            Some(scan) => scan,
+            None => self.interpret(values),
+        };
+        self.scale = scan.scale;
+        order_accepted(
+            scan.finite && scan.same,
+            scan.max_multiplier,
+            scan.min_pivot,
+            singular_tolerance,
+            scan.scale,
+        )
+    }
+
+    /// The interpreted factorization: the value array and the scan.
+    fn interpret(&mut self, values: &[f64]) -> FactorScan {
         let (scale, finite) = scale_and_finite(values);
-        self.scale = scale;
         let mut same = true;
         for &(k, c) in &self.constants {
             same &= values[k as usize] == c;
@@ -376,13 +595,13 @@ impl Folded {
                 a
             };
         }
-        order_accepted(
-            finite && same,
-            max_multiplier,
-            min_pivot,
-            singular_tolerance,
+        FactorScan {
             scale,
-        )
+            finite,
+            same,
+            min_pivot,
+            max_multiplier,
+        }
     }
 
     fn value(&self, x: Val) -> f64 {
@@ -394,6 +613,11 @@ impl Folded {
 
     /// Runs the folded solve: gather by `gather`, two sweeps, scatter by `scatter`.
     fn solve(&mut self, rhs: &mut [f64], transpose: bool) {
+        if let Some(c) = &self.compiled
+            && c.solve(&self.v, rhs, transpose)
+        {
+            return;
+        }
         let (gather, first, second, scatter) = if transpose {
             (
                 &self.col_order,

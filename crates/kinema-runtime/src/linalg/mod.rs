@@ -55,7 +55,9 @@ mod sparse;
 
 pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
-pub use folded::FoldedLu;
+pub use folded::{
+    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedLu, FoldedSolves, Op, SolveOp,
+};
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};

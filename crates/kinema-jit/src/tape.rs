@@ -1,0 +1,508 @@
+//! Tapes to Cranelift IR: one straight-line function per tape.
+
+use std::collections::HashMap;
+
+use cranelift_codegen::ir::{
+    AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64,
+    types::I32, types::I64,
+};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module};
+use kinema_expr::{Instr, Tape, TapeInputs};
+
+use crate::JitError;
+use crate::code::{Code, Needs, TapeFn};
+use crate::shims::{self, Shape, Which};
+
+/// The most instructions (all tapes of one [`compile`] together) the JIT
+/// compiles. Above it [`compile`] returns [`JitError::TooLarge`] and the
+/// caller runs the interpreter: Cranelift's time grows faster than the
+/// tapes (measured, release build, 2 shared cores, with the sin/cos cache's
+/// branches: chain N = 10 (646 instructions) 6 ms, N = 20 21 ms, N = 50
+/// 52 ms, N = 100 (6 586) 114 ms, N = 200 314 ms, N = 1000 (65 986) over
+/// 1 s; the tapes themselves take 0.1–14 ms). At this bound (≈ chain
+/// N = 60) compiling costs at most ≈ 70 ms; the chain N = 1000 runs on the
+/// tape, text → first step ≈ 0.09–0.16 s.
+pub const MAX_INSTRUCTIONS: usize = 4_000;
+
+/// A tape compiled to native code. Cloning shares the code.
+#[derive(Clone)]
+pub struct JitTape {
+    f: TapeFn,
+    outputs: usize,
+    sizes: (usize, usize, usize),
+    trig: usize,
+}
+
+impl std::fmt::Debug for JitTape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JitTape")
+            .field("outputs", &self.outputs)
+            .field("input_sizes", &self.sizes)
+            .finish_non_exhaustive()
+    }
+}
+
+impl JitTape {
+    /// Evaluates: `out[k]` becomes output `k`, as [`Tape::eval`] computes
+    /// it. Allocates a sin/cos cache for the call: in a loop, use
+    /// [`eval_with_cache`](Self::eval_with_cache).
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] if a slice is shorter than the tape needs
+    /// (checked before anything runs).
+    pub fn eval(&self, inputs: &TapeInputs<'_>, out: &mut [f64]) -> Result<(), JitError> {
+        let mut trig = vec![f64::NAN; self.trig];
+        self.eval_with_cache(inputs, &mut trig, out)
+    }
+
+    /// [`eval`](Self::eval) through a cache of the coordinates' sines and
+    /// cosines, laid out as [`Tape::eval_with_cache`]'s (`trig[3k..3k + 3]`
+    /// = (q_k, sin q_k, cos q_k), fill a new one with NaN), at least
+    /// [`trig_len`](Self::trig_len) long. Does not allocate.
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] as [`eval`](Self::eval), and for a short
+    /// cache.
+    pub fn eval_with_cache(
+        &self,
+        inputs: &TapeInputs<'_>,
+        trig: &mut [f64],
+        out: &mut [f64],
+    ) -> Result<(), JitError> {
+        self.f.call(inputs, out, &mut [], trig)
+    }
+
+    /// Evaluates a tape compiled by [`compile_split`]: outputs before its
+    /// split go to `first`, the others to `second` (from index 0), through
+    /// the cache of [`eval_with_cache`](Self::eval_with_cache). Does not
+    /// allocate.
+    ///
+    /// # Errors
+    /// [`JitError::ShortSlice`] as [`eval_with_cache`](Self::eval_with_cache).
+    pub fn eval_split(
+        &self,
+        inputs: &TapeInputs<'_>,
+        trig: &mut [f64],
+        first: &mut [f64],
+        second: &mut [f64],
+    ) -> Result<(), JitError> {
+        self.f.call(inputs, first, second, trig)
+    }
+
+    /// Length the sin/cos cache must have at least.
+    #[must_use]
+    pub fn trig_len(&self) -> usize {
+        self.trig
+    }
+
+    /// Number of outputs.
+    #[must_use]
+    pub fn outputs(&self) -> usize {
+        self.outputs
+    }
+
+    /// Length each input slice must have at least: `(q, qd, params)`, as
+    /// [`Tape::input_sizes`].
+    #[must_use]
+    pub fn input_sizes(&self) -> (usize, usize, usize) {
+        self.sizes
+    }
+}
+
+/// Compiles tapes to native code, all into one module (one finalization).
+///
+/// # Errors
+/// [`JitError::Host`] if Cranelift cannot target this machine,
+/// [`JitError::TooLarge`] above [`MAX_INSTRUCTIONS`], [`JitError::Compile`]
+/// if Cranelift refuses a function or a tape reads a register it never
+/// wrote.
+pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
+    let split: Vec<(&Tape, usize)> = tapes.iter().map(|t| (*t, t.outputs())).collect();
+    compile_split(&split)
+}
+
+/// [`compile`] with each tape's outputs split in two at the given index,
+/// for [`JitTape::eval_split`] (a split beyond the outputs is the number of
+/// outputs: nothing goes to the second slice).
+///
+/// # Errors
+/// As [`compile`].
+pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError> {
+    let instructions: usize = tapes.iter().map(|(t, _)| t.len()).sum();
+    if instructions > MAX_INSTRUCTIONS {
+        return Err(JitError::TooLarge { instructions });
+    }
+    let mut module = new_module()?;
+    let shims = declare_shims(&mut module)?;
+    let mut ctx = module.make_context();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut compiled = Vec::with_capacity(tapes.len());
+    for (i, &(tape, split)) in tapes.iter().enumerate() {
+        let mut sig = module.make_signature();
+        let ptr = module.target_config().pointer_type();
+        for ty in [ptr, ptr, ptr, F64, ptr, ptr, ptr] {
+            sig.params.push(AbiParam::new(ty));
+        }
+        let id = module
+            .declare_function(&format!("tape{i}"), Linkage::Local, &sig)
+            .map_err(|e| JitError::Compile(e.to_string()))?;
+        ctx.func.signature = sig;
+        let needs = {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+            let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
+            let needs = Emitter::new(tape, refs).emit(&mut b, split)?;
+            b.seal_all_blocks();
+            b.finalize(module.isa().frontend_config());
+            needs
+        };
+        module
+            .define_function(id, &mut ctx)
+            .map_err(|e| JitError::Compile(format!("{e:?}")))?;
+        module.clear_context(&mut ctx);
+        compiled.push((id, needs, tape));
+    }
+    module
+        .finalize_definitions()
+        .map_err(|e| JitError::Compile(e.to_string()))?;
+    let code = Code::new(module);
+    compiled
+        .into_iter()
+        .map(|(id, needs, tape)| {
+            Ok(JitTape {
+                f: TapeFn::new(&code, id, needs)?,
+                outputs: tape.outputs(),
+                sizes: tape.input_sizes(),
+                trig: needs.trig,
+            })
+        })
+        .collect()
+}
+
+/// A JIT module for the host, with the shims as symbols.
+pub(crate) fn new_module() -> Result<JITModule, JitError> {
+    let mut flags = settings::builder();
+    for (k, v) in [("is_pic", "false"), ("opt_level", "speed")] {
+        flags
+            .set(k, v)
+            .map_err(|e| JitError::Host(format!("{k}={v}: {e}")))?;
+    }
+    let isa = cranelift_native::builder()
+        .map_err(|e| JitError::Host(e.to_owned()))?
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| JitError::Host(e.to_string()))?;
+    let mut builder = JITBuilder::with_isa(isa, cranelift_module::default_libcall_names());
+    for s in shims::all() {
+        builder.symbol(s.name, s.address);
+    }
+    Ok(JITModule::new(builder))
+}
+
+/// Declares the shims as imports: (id, signature) by [`Which`].
+fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 6], JitError> {
+    let all = shims::all();
+    let mut ids = Vec::with_capacity(all.len());
+    for s in &all {
+        let mut sig: Signature = module.make_signature();
+        let params: &[_] = match s.shape {
+            Shape::F => &[F64],
+            Shape::FI => &[F64, I32],
+            Shape::FF => &[F64, F64],
+            Shape::IF => &[I32, F64],
+        };
+        sig.params.extend(params.iter().map(|&t| AbiParam::new(t)));
+        sig.returns.push(AbiParam::new(F64));
+        let id = module
+            .declare_function(s.name, Linkage::Import, &sig)
+            .map_err(|e| JitError::Compile(e.to_string()))?;
+        ids.push((id, ()));
+    }
+    ids.try_into()
+        .map_err(|_| JitError::Compile("shim table".into()))
+}
+
+/// Emits one tape's function.
+struct Emitter<'t> {
+    tape: &'t Tape,
+    shims: [FuncRef; 6],
+    /// The SSA value each register holds now.
+    vals: Vec<Option<Value>>,
+    /// Calls already made: (shim, argument) → result.
+    calls: HashMap<(Which, Value), Value>,
+    /// The sin/cos cache's pointer, and (sin, cos) of each coordinate
+    /// already read through it.
+    trig: Option<Value>,
+    sincos: HashMap<u32, (Value, Value)>,
+}
+
+impl<'t> Emitter<'t> {
+    fn new(tape: &'t Tape, shims: [FuncRef; 6]) -> Emitter<'t> {
+        Emitter {
+            tape,
+            shims,
+            vals: vec![None; tape.registers()],
+            calls: HashMap::new(),
+            trig: None,
+            sincos: HashMap::new(),
+        }
+    }
+
+    /// Emits the body; returns the slice lengths every load and store was
+    /// checked against.
+    fn emit(mut self, b: &mut FunctionBuilder<'_>, split: usize) -> Result<Needs, JitError> {
+        let block = b.create_block();
+        b.append_block_params_for_function_params(block);
+        b.switch_to_block(block);
+        let params = b.block_params(block).to_vec();
+        let [q, qd, p, t, out, out2, trig] = params[..] else {
+            return Err(JitError::Compile("signature".into()));
+        };
+        let (nq, nqd, np) = self.tape.input_sizes();
+        let layout = self.tape.layout();
+        let split = split.min(layout.outputs);
+        let needs = Needs {
+            q: nq,
+            qd: nqd,
+            params: np,
+            out: split,
+            out2: layout.outputs - split,
+            trig: trig_len(self.tape)?,
+        };
+        self.trig = Some(trig);
+        // Inputs and constants, loaded where the tape's layout has them;
+        // every offset below its slice's checked length.
+        let flags = MemFlagsData::trusted().with_readonly();
+        for (base, n, ptr) in [
+            (layout.q_base, nq, q),
+            (layout.qd_base, nqd, qd),
+            (layout.params_base, np, p),
+        ] {
+            for k in 0..n {
+                let v = b.ins().load(F64, flags, ptr, offset(k)?);
+                self.set(base + k, v)?;
+            }
+        }
+        if let Some(r) = layout.t_register {
+            self.set(r, t)?;
+        }
+        for (k, &c) in layout.consts.iter().enumerate() {
+            let v = b.ins().f64const(c);
+            self.set(layout.consts_base + k, v)?;
+        }
+        for ins in self.tape.instructions() {
+            self.instr(b, *ins)?;
+        }
+        for k in 0..layout.outputs {
+            let v = self.get(register(k)?)?;
+            let (ptr, at) = if k < split {
+                (out, k)
+            } else {
+                (out2, k - split)
+            };
+            b.ins().store(MemFlagsData::trusted(), v, ptr, offset(at)?);
+        }
+        b.ins().return_(&[]);
+        Ok(needs)
+    }
+
+    fn set(&mut self, r: usize, v: Value) -> Result<(), JitError> {
+        let slot = self
+            .vals
+            .get_mut(r)
+            .ok_or_else(|| JitError::Compile(format!("register {r} out of range")))?;
+        *slot = Some(v);
+        Ok(())
+    }
+
+    fn get(&self, r: u32) -> Result<Value, JitError> {
+        self.vals
+            .get(r as usize)
+            .copied()
+            .flatten()
+            .ok_or_else(|| JitError::Compile(format!("register {r} read before it is written")))
+    }
+
+    /// `shim(args)`, made once per (shim, first argument) for the one-
+    /// argument functions.
+    fn call(&mut self, b: &mut FunctionBuilder<'_>, which: Which, args: &[Value]) -> Value {
+        let memo = matches!(which, Which::Sin | Which::Cos) && args.len() == 1;
+        if memo && let Some(&v) = self.calls.get(&(which, args[0])) {
+            return v;
+        }
+        let call = b.ins().call(self.shims[which as usize], args);
+        let v = b.inst_results(call)[0];
+        if memo {
+            self.calls.insert((which, args[0]), v);
+        }
+        v
+    }
+
+    /// (sin, cos) of coordinate `k` (in register `a`) through the cache,
+    /// as the tape's `cached`: a hit when the cached angle has the same
+    /// bits, else both computed and stored. Once per call and coordinate.
+    fn cached(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        a: u32,
+        k: u32,
+    ) -> Result<(Value, Value), JitError> {
+        if let Some(&sc) = self.sincos.get(&k) {
+            return Ok(sc);
+        }
+        let x = self.get(a)?;
+        let trig = self
+            .trig
+            .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
+        let at = 3 * k as usize;
+        let (o0, o1, o2) = (offset(at)?, offset(at + 1)?, offset(at + 2)?);
+        let flags = MemFlagsData::trusted();
+        let seen = b.ins().load(F64, flags, trig, o0);
+        let xi = b.ins().bitcast(I64, MemFlagsData::new(), x);
+        let si = b.ins().bitcast(I64, MemFlagsData::new(), seen);
+        let hit = b.ins().icmp(IntCC::Equal, xi, si);
+        let (hit_block, miss_block, join) = (b.create_block(), b.create_block(), b.create_block());
+        b.append_block_param(join, F64);
+        b.append_block_param(join, F64);
+        b.ins().brif(hit, hit_block, &[], miss_block, &[]);
+        b.switch_to_block(hit_block);
+        let s = b.ins().load(F64, flags, trig, o1);
+        let c = b.ins().load(F64, flags, trig, o2);
+        b.ins().jump(join, &[s.into(), c.into()]);
+        b.switch_to_block(miss_block);
+        let s = b.ins().call(self.shims[Which::Sin as usize], &[x]);
+        let s = b.inst_results(s)[0];
+        let c = b.ins().call(self.shims[Which::Cos as usize], &[x]);
+        let c = b.inst_results(c)[0];
+        b.ins().store(flags, x, trig, o0);
+        b.ins().store(flags, s, trig, o1);
+        b.ins().store(flags, c, trig, o2);
+        b.ins().jump(join, &[s.into(), c.into()]);
+        b.switch_to_block(join);
+        let params = b.block_params(join);
+        let sc = (params[0], params[1]);
+        self.sincos.insert(k, sc);
+        Ok(sc)
+    }
+
+    fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
+        let (dst, v) = match ins {
+            Instr::Const { dst, v } => (dst, b.ins().f64const(v)),
+            Instr::Copy { dst, a } => (dst, self.get(a)?),
+            Instr::Neg { dst, a } => (dst, b.ins().fneg(self.get(a)?)),
+            Instr::Scale { dst, a, k } => {
+                let k = b.ins().f64const(k);
+                (dst, b.ins().fmul(k, self.get(a)?))
+            }
+            Instr::Add { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fadd(x, y))
+            }
+            Instr::Sub { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fsub(x, y))
+            }
+            Instr::MulAdd { dst, acc, a, k } => {
+                let k = b.ins().f64const(k);
+                let prod = b.ins().fmul(k, self.get(a)?);
+                (dst, b.ins().fadd(self.get(acc)?, prod))
+            }
+            Instr::AddConst { dst, a, c } => {
+                let c = b.ins().f64const(c);
+                (dst, b.ins().fadd(self.get(a)?, c))
+            }
+            Instr::Mul { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fmul(x, y))
+            }
+            Instr::Div { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, b.ins().fdiv(x, y))
+            }
+            Instr::Recip { dst, a } => {
+                let one = b.ins().f64const(1.0);
+                (dst, b.ins().fdiv(one, self.get(a)?))
+            }
+            Instr::Square { dst, a } => {
+                let x = self.get(a)?;
+                (dst, b.ins().fmul(x, x))
+            }
+            Instr::Sqrt { dst, a } => (dst, b.ins().sqrt(self.get(a)?)),
+            Instr::PowI { dst, a, n } => {
+                let n = b.ins().iconst(I32, i64::from(n));
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::PowI, &[x, n]))
+            }
+            Instr::PowF { dst, a, p } => {
+                let p = b.ins().f64const(p);
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::PowF, &[x, p]))
+            }
+            Instr::Sin { dst, a } => {
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::Sin, &[x]))
+            }
+            Instr::Cos { dst, a } => {
+                let x = self.get(a)?;
+                (dst, self.call(b, Which::Cos, &[x]))
+            }
+            Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k)?.0),
+            Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k)?.1),
+            Instr::Unary { dst, op, a } => {
+                let x = self.get(a)?;
+                let v = match op {
+                    kinema_expr::UnaryOp::Abs => b.ins().fabs(x),
+                    kinema_expr::UnaryOp::Sin => self.call(b, Which::Sin, &[x]),
+                    kinema_expr::UnaryOp::Cos => self.call(b, Which::Cos, &[x]),
+                    op => {
+                        let code = shims::unary_code(op).ok_or_else(|| {
+                            JitError::Compile(format!("no compiled form of `{}`", op.name()))
+                        })?;
+                        let code = b.ins().iconst(I32, i64::from(code));
+                        self.call(b, Which::Unary, &[code, x])
+                    }
+                };
+                (dst, v)
+            }
+            Instr::Pow { dst, a, b: c } => {
+                let (x, y) = (self.get(a)?, self.get(c)?);
+                (dst, self.call(b, Which::PowF, &[x, y]))
+            }
+            Instr::Atan2 { dst, y, x } => {
+                let (y, x) = (self.get(y)?, self.get(x)?);
+                (dst, self.call(b, Which::Atan2, &[y, x]))
+            }
+        };
+        self.set(dst as usize, v)
+    }
+}
+
+/// Length of the sin/cos cache a tape reads: 3 per coordinate up to the
+/// last whose sin or cos it takes.
+fn trig_len(tape: &Tape) -> Result<usize, JitError> {
+    let last = tape
+        .instructions()
+        .iter()
+        .filter_map(|i| match *i {
+            Instr::SinQ { k, .. } | Instr::CosQ { k, .. } => Some(k as usize),
+            _ => None,
+        })
+        .max();
+    last.map_or(Ok(0), |k| {
+        k.checked_add(1)
+            .and_then(|n| n.checked_mul(3))
+            .ok_or_else(|| JitError::Compile("cache too large".into()))
+    })
+}
+
+fn register(k: usize) -> Result<u32, JitError> {
+    u32::try_from(k).map_err(|_| JitError::Compile("too many outputs".into()))
+}
+
+/// Byte offset of element `k` of an f64 slice.
+fn offset(k: usize) -> Result<i32, JitError> {
+    k.checked_mul(8)
+        .and_then(|o| i32::try_from(o).ok())
+        .ok_or_else(|| JitError::Compile("a slice too long for the JIT".into()))
+}

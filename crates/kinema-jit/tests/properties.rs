@@ -1,0 +1,371 @@
+//! The JIT against the tape interpreter on random expressions (the
+//! generators of kinema-expr's property tests): every output of an
+//! expression and its derivatives, bit for bit (NaN payloads aside), at
+//! ordinary points and at non-finite ones.
+
+use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
+use kinema_jit::{JitError, compile, compile_split};
+use proptest::prelude::*;
+
+/// A random expression over coordinates x0..x2, parameter p0 and time.
+#[derive(Clone, Debug)]
+enum T {
+    X(u32),
+    P,
+    Time,
+    C(f64),
+    Add(Box<T>, Box<T>),
+    Sub(Box<T>, Box<T>),
+    Mul(Box<T>, Box<T>),
+    Div(Box<T>, Box<T>),
+    Neg(Box<T>),
+    PowI(Box<T>, i32),
+    PowF(Box<T>, f64),
+    Pow(Box<T>, Box<T>),
+    Sqrt(Box<T>),
+    Un(Fun, Box<T>),
+    Atan2(Box<T>, Box<T>),
+    Step(Box<T>, f64, f64, f64, f64),
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Fun {
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Sinh,
+    Cosh,
+    Tanh,
+    Exp,
+    Ln,
+    Abs,
+}
+
+fn leaf() -> impl Strategy<Value = T> {
+    prop_oneof![
+        4 => (0u32..3).prop_map(T::X),
+        1 => Just(T::P),
+        1 => Just(T::Time),
+        1 => prop_oneof![Just(0.0), Just(1.0), Just(-1.0), Just(2.0), Just(0.5)].prop_map(T::C),
+        1 => (-3.0f64..3.0).prop_map(T::C),
+    ]
+}
+
+fn fun() -> impl Strategy<Value = Fun> {
+    prop_oneof![
+        Just(Fun::Sin),
+        Just(Fun::Cos),
+        Just(Fun::Tan),
+        Just(Fun::Asin),
+        Just(Fun::Acos),
+        Just(Fun::Atan),
+        Just(Fun::Sinh),
+        Just(Fun::Cosh),
+        Just(Fun::Tanh),
+        Just(Fun::Exp),
+        Just(Fun::Ln),
+        Just(Fun::Abs),
+    ]
+}
+
+fn expr() -> impl Strategy<Value = T> {
+    leaf().prop_recursive(6, 48, 2, |inner| {
+        let b = |t| Box::new(t);
+        prop_oneof![
+            4 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| T::Add(b(x), b(y))),
+            3 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| T::Sub(b(x), b(y))),
+            4 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| T::Mul(b(x), b(y))),
+            2 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| T::Div(b(x), b(y))),
+            1 => inner.clone().prop_map(move |x| T::Neg(b(x))),
+            2 => (inner.clone(), -3i32..=4).prop_map(move |(x, n)| T::PowI(b(x), n)),
+            1 => (inner.clone(), prop_oneof![Just(0.5), Just(1.5), Just(-0.5), Just(2.5)])
+                .prop_map(move |(x, p)| T::PowF(b(x), p)),
+            1 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| T::Pow(b(x), b(y))),
+            1 => inner.clone().prop_map(move |x| T::Sqrt(b(x))),
+            4 => (fun(), inner.clone()).prop_map(move |(f, x)| T::Un(f, b(x))),
+            1 => (inner.clone(), inner.clone()).prop_map(move |(y, x)| T::Atan2(b(y), b(x))),
+            1 => (inner, -1.0f64..0.0, -2.0f64..2.0, 0.1f64..1.5, -2.0f64..2.0)
+                .prop_map(move |(x, x0, h0, w, h1)| T::Step(b(x), x0, h0, x0 + w, h1)),
+        ]
+    })
+}
+
+/// Builds the tree in the engine. `mirror` swaps the operands of commutative
+/// operations and builds the right operand first, to test that construction
+/// order does not matter.
+fn build(a: &mut Arena, t: &T, mirror: bool) -> ExprId {
+    let two = |a: &mut Arena, x: &T, y: &T| {
+        if mirror {
+            let ey = build(a, y, mirror);
+            let ex = build(a, x, mirror);
+            (ex, ey)
+        } else {
+            let ex = build(a, x, mirror);
+            let ey = build(a, y, mirror);
+            (ex, ey)
+        }
+    };
+    match t {
+        T::X(i) => a.coordinate(&format!("x{i}"), *i),
+        T::P => a.parameter("p", 0),
+        T::Time => a.time(),
+        T::C(c) => a.num(*c),
+        T::Add(x, y) => {
+            let (ex, ey) = two(a, x, y);
+            if mirror { a.add(ey, ex) } else { a.add(ex, ey) }
+        }
+        T::Sub(x, y) => {
+            let (ex, ey) = two(a, x, y);
+            if mirror {
+                let n = a.neg(ey);
+                a.add(n, ex)
+            } else {
+                a.sub(ex, ey)
+            }
+        }
+        T::Mul(x, y) => {
+            let (ex, ey) = two(a, x, y);
+            if mirror { a.mul(ey, ex) } else { a.mul(ex, ey) }
+        }
+        T::Div(x, y) => {
+            let (ex, ey) = two(a, x, y);
+            if mirror {
+                let r = a.powi(ey, -1);
+                a.mul(r, ex)
+            } else {
+                a.div(ex, ey)
+            }
+        }
+        T::Neg(x) => {
+            let e = build(a, x, mirror);
+            if mirror { a.scale(-1.0, e) } else { a.neg(e) }
+        }
+        T::PowI(x, n) => {
+            let e = build(a, x, mirror);
+            a.powi(e, *n)
+        }
+        T::PowF(x, p) => {
+            let e = build(a, x, mirror);
+            a.powf(e, *p)
+        }
+        T::Pow(x, y) => {
+            let (ex, ey) = two(a, x, y);
+            a.pow(ex, ey)
+        }
+        T::Sqrt(x) => {
+            let e = build(a, x, mirror);
+            a.sqrt(e)
+        }
+        T::Un(f, x) => {
+            let e = build(a, x, mirror);
+            match f {
+                Fun::Sin => a.sin(e),
+                Fun::Cos => a.cos(e),
+                Fun::Tan => a.tan(e),
+                Fun::Asin => a.asin(e),
+                Fun::Acos => a.acos(e),
+                Fun::Atan => a.atan(e),
+                Fun::Sinh => a.sinh(e),
+                Fun::Cosh => a.cosh(e),
+                Fun::Tanh => a.tanh(e),
+                Fun::Exp => a.exp(e),
+                Fun::Ln => a.ln(e),
+                Fun::Abs => a.abs(e),
+            }
+        }
+        T::Atan2(y, x) => {
+            let (ey, ex) = two(a, y, x);
+            a.atan2(ey, ex)
+        }
+        T::Step(x, x0, h0, x1, h1) => {
+            let e = build(a, x, mirror);
+            let (x0, h0, x1, h1) = (a.num(*x0), a.num(*h0), a.num(*x1), a.num(*h1));
+            a.step(e, x0, h0, x1, h1)
+        }
+    }
+}
+
+/// The engine's symbols in seed order: x0, x1, x2, p, t.
+fn symbols(a: &mut Arena) -> Vec<SymId> {
+    let mut out = Vec::new();
+    for i in 0..3 {
+        let e = a.coordinate(&format!("x{i}"), i);
+        out.extend(a.symbol_of(e));
+    }
+    let p = a.parameter("p", 0);
+    out.extend(a.symbol_of(p));
+    let t = a.time();
+    out.extend(a.symbol_of(t));
+    out
+}
+
+/// A point, sometimes with a non-finite coordinate, parameter or time.
+fn point() -> impl Strategy<Value = [f64; 5]> {
+    let x = || {
+        prop_oneof![
+            12 => -2.0f64..2.0,
+            1 => prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY), Just(0.0), Just(-0.0)],
+        ]
+    };
+    [x(), x(), x(), x(), x()]
+}
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 600, ..ProptestConfig::default() })]
+
+    /// A compiled tape computes exactly what the tape computes.
+    #[test]
+    fn jit_equals_tape(t in expr(), x in point()) {
+        let mut a = Arena::new();
+        let syms = symbols(&mut a);
+        let e = build(&mut a, &t, false);
+        let mut outputs = vec![e];
+        for &s in &syms {
+            outputs.push(a.diff(e, s));
+        }
+        let tape = Tape::compile(&a, &outputs);
+        // Also a tape of the derivatives alone, compiled into the same module.
+        let second = Tape::compile(&a, &outputs[1..]);
+        let jit = compile(&[&tape, &second]).expect("the host is supported");
+        // And the first split after the value (as Φ then Φ_q).
+        let split = compile_split(&[(&tape, 1)]).expect("the host is supported");
+        let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
+        for (tape, jit) in [(&tape, &jit[0]), (&second, &jit[1])] {
+            let mut regs = vec![0.0; tape.registers()];
+            let mut want = vec![0.0; tape.outputs()];
+            prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+            let mut got = vec![7.0; tape.outputs()];
+            prop_assert!(jit.eval(&inputs, &mut got).is_ok());
+            for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                prop_assert!(same(*g, *w), "output {k}: jit {g:e} vs tape {w:e} for {}",
+                    a.display(outputs[k]));
+            }
+        }
+        let mut regs = vec![0.0; tape.registers()];
+        let mut want = vec![0.0; tape.outputs()];
+        prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+        // Through the sin/cos cache, split: primed at another point
+        // (misses), then at this one twice (misses, then hits).
+        let mut trig = vec![f64::NAN; 9];
+        let (mut first, mut rest) = ([7.0], vec![7.0; tape.outputs() - 1]);
+        let q_other = [x[1], x[2], x[0]];
+        let other = TapeInputs { q: &q_other, ..inputs };
+        prop_assert!(split[0].eval_split(&other, &mut trig, &mut first, &mut rest).is_ok());
+        for pass in 0..2 {
+            prop_assert!(split[0].eval_split(&inputs, &mut trig, &mut first, &mut rest).is_ok());
+            for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
+                prop_assert!(same(*g, *w), "split, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
+            }
+        }
+        // The cache holds what the tape's would.
+        let mut tape_trig = vec![f64::NAN; 9];
+        let mut out = vec![0.0; tape.outputs()];
+        prop_assert!(tape.eval_with_cache(&inputs, &mut regs, &mut tape_trig, &mut out).is_ok());
+        let needed = split[0].trig_len();
+        prop_assert!(needed <= 9);
+        for k in 0..needed {
+            prop_assert!(same(trig[k], tape_trig[k]), "cache entry {k}");
+        }
+        if needed > 0 {
+            let short = split[0].eval_split(&inputs, &mut trig[..needed - 1], &mut first, &mut rest);
+            prop_assert!(
+                matches!(short, Err(JitError::ShortSlice { which: "sin/cos cache", .. })),
+                "a short cache is refused"
+            );
+        }
+    }
+}
+
+/// A short slice is refused before anything runs, and the output is left
+/// as it was.
+#[test]
+fn short_slices_are_refused() {
+    let mut a = Arena::new();
+    let x = a.coordinate("x", 2);
+    let p = a.parameter("p", 1);
+    let s = a.sin(x);
+    let e = a.mul(s, p);
+    let tape = Tape::compile(&a, &[e, x]);
+    let jit = compile(&[&tape]).expect("the host is supported");
+    let q = [0.0, 0.0, 0.5];
+    let params = [0.0, 2.0];
+    let mut out = [9.0; 2];
+    let ok = TapeInputs {
+        q: &q,
+        qd: &[],
+        params: &params,
+        t: 0.0,
+    };
+    assert!(jit[0].eval(&ok, &mut out).is_ok());
+    assert_eq!(out, [2.0 * 0.5f64.sin(), 0.5]);
+    let mut out = [9.0; 2];
+    let short_q = TapeInputs { q: &q[..2], ..ok };
+    assert_eq!(
+        jit[0].eval(&short_q, &mut out),
+        Err(JitError::ShortSlice {
+            which: "q",
+            needed: 3,
+            given: 2
+        })
+    );
+    let short_p = TapeInputs {
+        params: &params[..1],
+        ..ok
+    };
+    assert!(matches!(
+        jit[0].eval(&short_p, &mut out),
+        Err(JitError::ShortSlice {
+            which: "params",
+            ..
+        })
+    ));
+    assert!(matches!(
+        jit[0].eval(&ok, &mut out[..1]),
+        Err(JitError::ShortSlice {
+            which: "outputs",
+            ..
+        })
+    ));
+    assert_eq!(out, [9.0; 2]);
+}
+
+/// Compiled code outlives the tapes and is shared by clones; dropping
+/// every clone frees it (no crash when many modules come and go).
+#[test]
+fn code_is_shared_and_freed() {
+    let mut a = Arena::new();
+    let x = a.coordinate("x", 0);
+    let c = a.cos(x);
+    let e = a.add(c, x);
+    for _ in 0..50 {
+        let jit = {
+            let tape = Tape::compile(&a, &[e]);
+            compile(&[&tape]).expect("the host is supported")
+        };
+        let clone = jit[0].clone();
+        drop(jit);
+        let mut out = [0.0];
+        let inputs = TapeInputs {
+            q: &[0.25],
+            qd: &[],
+            params: &[],
+            t: 0.0,
+        };
+        assert!(clone.eval(&inputs, &mut out).is_ok());
+        assert_eq!(out[0].to_bits(), (0.25f64.cos() + 0.25).to_bits());
+    }
+}
+
+/// Compiled tapes go to other threads (sweeps clone a system per worker).
+#[test]
+fn compiled_tapes_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<kinema_jit::JitTape>();
+}

@@ -1,0 +1,123 @@
+//! A folded LU's factorization and solves compiled (kinema-jit) against
+//! the interpreted ones on random sparse matrices with folded constants:
+//! the same verdicts, the same pivot reports, the same bits in both
+//! directions, and the same fallback (a changed constant, a NaN entry).
+
+use kinema_jit::{compile_factor, compile_solves};
+use kinema_runtime::{FoldedLu, LinearSolver};
+use proptest::prelude::*;
+
+/// An n × n pattern: the diagonal and random off-diagonal entries, some
+/// of them constants ±1 or 2.5; values at the "initial guess".
+/// (n, pattern, constants, values).
+type Matrix = (usize, Vec<(u32, u32)>, Vec<Option<f64>>, Vec<f64>);
+
+fn matrix() -> impl Strategy<Value = Matrix> {
+    (2usize..12).prop_flat_map(|n| {
+        let cells = n * n;
+        (
+            Just(n),
+            proptest::collection::vec((0..cells, 0u8..6, -2.0f64..2.0), n..3 * n),
+            proptest::collection::vec(1.0f64..3.0, n),
+        )
+            .prop_map(|(n, extra, diag)| {
+                let mut entries: std::collections::BTreeMap<(u32, u32), (Option<f64>, f64)> =
+                    std::collections::BTreeMap::new();
+                for (i, d) in diag.iter().enumerate() {
+                    entries.insert((i as u32, i as u32), (None, 4.0 + d));
+                }
+                for (cell, kind, v) in extra {
+                    let (r, c) = ((cell / n) as u32, (cell % n) as u32);
+                    let constant = match kind {
+                        0 => Some(1.0),
+                        1 => Some(-1.0),
+                        2 => Some(2.5),
+                        _ => None,
+                    };
+                    entries
+                        .entry((r, c))
+                        .or_insert((constant, constant.unwrap_or(v)));
+                }
+                let pattern = entries.keys().copied().collect();
+                let constants = entries.values().map(|e| e.0).collect();
+                let values = entries.values().map(|e| e.1).collect();
+                (n, pattern, constants, values)
+            })
+    })
+}
+
+fn same(a: &[f64], b: &[f64]) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn compiled_solves_equal_interpreted((n, pattern, constants, values) in matrix(),
+                                         rhs in proptest::collection::vec(-3.0f64..3.0, 12),
+                                         moved in -0.5f64..0.5) {
+        let mut plain = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
+        let mut jit = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
+        prop_assume!(plain.is_planned());
+        let plan = jit.solves().expect("a plan");
+        let compiled = compile_solves(&plan).expect("the host is supported");
+        jit.set_compiled_solves(Box::new(compiled));
+        prop_assert!(jit.has_compiled_solves());
+        let factor = jit.factorization().expect("a plan");
+        let compiled = compile_factor(&factor).expect("the host is supported");
+        jit.set_compiled_factor(Box::new(compiled));
+        prop_assert!(jit.has_compiled_factor());
+        // At the guess and at moved run-time values (constants kept).
+        let moved: Vec<f64> = values
+            .iter()
+            .zip(&constants)
+            .map(|(v, c)| c.unwrap_or(v + moved * v.abs()))
+            .collect();
+        for vals in [&values, &moved] {
+            // The acceptance test at tolerances up to its limits: the same
+            // verdict (the folded order's report or the fallback's) each time.
+            for tol in [0.5, 0.2, 0.1, 0.05, 0.02, 1e-3] {
+                let (a, b) = (plain.factor(vals, tol), jit.factor(vals, tol));
+                prop_assert_eq!(a.is_ok(), b.is_ok());
+                prop_assert_eq!(plain.pivot_report(), jit.pivot_report(), "tolerance {}", tol);
+            }
+            let (a, b) = (plain.factor(vals, 1e-12), jit.factor(vals, 1e-12));
+            prop_assert_eq!(a.is_ok(), b.is_ok());
+            prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
+            if a.is_err() {
+                continue;
+            }
+            let mut x = rhs[..n].to_vec();
+            let mut y = rhs[..n].to_vec();
+            prop_assert!(plain.solve_in_place(&mut x).is_ok());
+            prop_assert!(jit.solve_in_place(&mut y).is_ok());
+            prop_assert!(same(&x, &y), "solve: {x:?} vs {y:?}");
+            let mut x = rhs[..n].to_vec();
+            let mut y = rhs[..n].to_vec();
+            prop_assert!(plain.solve_transpose_in_place(&mut x).is_ok());
+            prop_assert!(jit.solve_transpose_in_place(&mut y).is_ok());
+            prop_assert!(same(&x, &y), "transposed: {x:?} vs {y:?}");
+        }
+        // A changed constant, a NaN or an infinite entry: both fall back to
+        // the general solver alike.
+        let constant = constants.iter().position(Option::is_some);
+        for (k, change) in [(constant, 0.25), (Some(0), f64::NAN), (Some(values.len() - 1), f64::INFINITY)] {
+            let Some(k) = k else { continue };
+            let mut changed = values.clone();
+            changed[k] += change;
+            let (a, b) = (plain.factor(&changed, 1e-12), jit.factor(&changed, 1e-12));
+            prop_assert_eq!(a.is_ok(), b.is_ok());
+            prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
+            if a.is_ok() {
+                let mut x = rhs[..n].to_vec();
+                let mut y = rhs[..n].to_vec();
+                prop_assert!(plain.solve_in_place(&mut x).is_ok());
+                prop_assert!(jit.solve_in_place(&mut y).is_ok());
+                prop_assert!(same(&x, &y), "fallback: {x:?} vs {y:?}");
+            }
+        }
+    }
+}

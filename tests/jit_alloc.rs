@@ -1,0 +1,56 @@
+//! The kinematic step does not allocate on either back end of a model
+//! file, the tapes compiled to native code (kinema-jit) or the tape
+//! interpreter: a counting allocator (this thread's allocations only, as in
+//! the runtime's allocation test) around the steps of a running solver.
+
+use kinema::{Backend, Model, Options, Solver};
+
+#[path = "../crates/kinema-runtime/tests/common/counting.rs"]
+mod counting;
+use counting::allocations;
+
+#[test]
+fn model_steps_do_not_allocate_on_either_back_end() {
+    for path in [
+        "models/slider_crank.kin",
+        "models/four_bar.kin",
+        "models/chain10.kin",
+    ] {
+        for backend in [Backend::Jit, Backend::Tape] {
+            let model = Model::from_file(path)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .with_backend(backend);
+            let system = model.system();
+            assert_eq!(
+                system.backend(),
+                backend,
+                "{path}: {:?}",
+                system.jit_fallback()
+            );
+            for options in [
+                Options::default(),
+                Options::default().with_positions_only(true),
+            ] {
+                let mut solver: Solver<_, kinema::Auto> =
+                    Solver::with_options(system.clone(), options).unwrap_or_else(|e| panic!("{e}"));
+                // The first steps size what they reuse.
+                for k in 0..3 {
+                    solver
+                        .step(f64::from(k) * 1e-2)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                }
+                let before = allocations();
+                for k in 3..300 {
+                    solver
+                        .step(f64::from(k) * 1e-2)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                }
+                let n = allocations() - before;
+                assert_eq!(
+                    n, 0,
+                    "{path}, {backend:?}, {options:?}: {n} allocations in 297 steps"
+                );
+            }
+        }
+    }
+}
