@@ -236,8 +236,8 @@ pub(crate) struct FactorNeeds {
 }
 
 /// Entries of the scan a compiled factorization writes: scale, finite,
-/// same, smallest pivot, largest multiplier.
-pub(crate) const SCAN: usize = 5;
+/// same, negative, smallest pivot, largest multiplier.
+pub(crate) const SCAN: usize = 6;
 
 type RawFactor = unsafe extern "C" fn(*const f64, *mut f64, *mut f64);
 

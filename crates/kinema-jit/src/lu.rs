@@ -210,6 +210,11 @@ fn emit(
     Ok(())
 }
 
+/// The bits of `x` as Cranelift's signed immediate.
+fn bits_of(x: f64) -> i64 {
+    i64::from_ne_bytes(x.to_bits().to_ne_bytes())
+}
+
 fn offset(k: usize) -> Result<i32, JitError> {
     k.checked_mul(8)
         .and_then(|o| i32::try_from(o).ok())
@@ -231,11 +236,12 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
-        let [scale, finite, same, min_pivot, max_multiplier] = self.f.call(values, v)?;
+        let [scale, finite, same, negative, min_pivot, max_multiplier] = self.f.call(values, v)?;
         Some(FactorScan {
             scale,
             finite: finite != 0.0,
             same: same != 0.0,
+            negative: negative != 0.0,
             min_pivot,
             max_multiplier,
         })
@@ -244,9 +250,10 @@ impl CompiledFactor for JitFactor {
 
 /// Compiles a planned folded LU's factorization: the copy of the run-time
 /// entries, the operations, and the scan (scale and finiteness as integer
-/// maxima of the magnitudes' bits, the constants' check, the pivots' and
-/// multipliers' folds in the interpreter's order), so the acceptance test
-/// and the pivot report see the interpreter's numbers.
+/// maxima of the run-time entries' magnitude bits from the constants', the
+/// constants' check bit for bit, the run-time pivots' sign parity, the
+/// pivots' and multipliers' folds in the interpreter's order), so the
+/// acceptance test and the pivot report see the interpreter's numbers.
 ///
 /// # Errors
 /// As [`compile_solves`].
@@ -323,28 +330,31 @@ fn emit_factor(
         Ok(x)
     };
     // Scale and finiteness: the largest magnitude's bits (integer order is
-    // the order of |x|), as `scale_and_finite`.
+    // the order of |x|) over the run-time entries, from the constants'.
     let abs_mask = b.ins().iconst(I64, i64::MAX);
-    let mut max_bits = b.ins().iconst(I64, 0);
-    for k in 0..needs.values {
-        let x = load(b, k)?;
+    let mut max_bits = b.ins().iconst(I64, bits_of(plan.const_scale.abs()));
+    for &k in plan.inputs {
+        let x = load(b, k as usize)?;
         let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
         let bits = b.ins().band(bits, abs_mask);
         max_bits = b.ins().umax(max_bits, bits);
     }
     let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
-    let inf_bits = b.ins().iconst(I64, f64::INFINITY.to_bits() as i64);
+    let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
     let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
     let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
     let finite = b.ins().select(finite, one, zero);
-    // Every constant still its constant.
-    let mut same = b.ins().iconst(cranelift_codegen::ir::types::I8, 1);
+    // Every constant still its constant, bit for bit: the differences'
+    // bits ORed together are zero. Read as integers, straight from memory.
+    let mut diff = b.ins().iconst(I64, 0);
     for &(k, c) in plan.constants {
-        let x = load(b, k as usize)?;
-        let c = b.ins().f64const(c);
-        let eq = b.ins().fcmp(FloatCC::Equal, x, c);
-        same = b.ins().band(same, eq);
+        let k = check(k as usize, needs.values, "Jacobian value")?;
+        let x = b.ins().load(I64, read, values, offset(k)?);
+        let c = b.ins().iconst(I64, bits_of(c));
+        let d = b.ins().bxor(x, c);
+        diff = b.ins().bor(diff, d);
     }
+    let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
     let same = b.ins().select(same, one, zero);
     // The value array: inputs, then the operations.
     let mut v: Vec<Value> = Vec::with_capacity(needs.v);
@@ -414,6 +424,15 @@ fn emit_factor(
     for (k, &x) in v.iter().enumerate() {
         b.ins().store(flags, x, v_ptr, offset(k)?);
     }
+    // The run-time pivots' sign bits, XORed: the determinant's sign.
+    let mut signs = b.ins().iconst(I64, 0);
+    for &p in plan.pivot_vars {
+        let a = get(&v, p)?;
+        let bits = b.ins().bitcast(I64, MemFlagsData::new(), a);
+        signs = b.ins().bxor(signs, bits);
+    }
+    let negative = b.ins().icmp_imm_s(IntCC::SignedLessThan, signs, 0);
+    let negative = b.ins().select(negative, one, zero);
     // The pivots' and multipliers' folds, in the interpreter's order.
     let mut min_pivot = b.ins().f64const(plan.const_min_pivot);
     for &p in plan.pivot_vars {
@@ -434,7 +453,7 @@ fn emit_factor(
         let other = b.ins().select(nan, inf, a);
         max_multiplier = b.ins().select(keep, max_multiplier, other);
     }
-    for (k, x) in [scale, finite, same, min_pivot, max_multiplier]
+    for (k, x) in [scale, finite, same, negative, min_pivot, max_multiplier]
         .into_iter()
         .enumerate()
     {

@@ -25,8 +25,14 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use super::{
     Auto, LinalgError, LinearSolver, PIVOT_THRESHOLD, PivotReport, check_len, order_accepted,
-    permutation_sign, scale_and_finite,
+    permutation_sign,
 };
+
+/// The sign bit cleared: the integer order of the bits is the order of |x|.
+const ABS: u64 = !(1 << 63);
+/// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
+/// cleared.
+const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
 
 /// θ_g used to choose pivots on the values at the initial guess: stricter
 /// than the replay's θ to leave room for the motion (the generated LU's).
@@ -97,18 +103,30 @@ pub struct FoldedFactor<'a> {
     pub const_min_pivot: f64,
     /// The constant multipliers' largest magnitude (the scan's start).
     pub const_max_multiplier: f64,
+    /// The constant entries' largest magnitude (the scale's start: the
+    /// scale is taken over the run-time entries from there).
+    pub const_scale: f64,
 }
 
 /// What a factorization's scan found, as the interpreter computes it: the
 /// acceptance test ([`order_accepted`]) and the pivot report read it.
+///
+/// The scale and finiteness are taken over the run-time entries, from
+/// [`FoldedFactor::const_scale`]: when every constant entry is its constant
+/// (the only case the order is accepted in) that is maxᵢⱼ |aᵢⱼ| and the
+/// finiteness of every value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FactorScan {
-    /// maxᵢⱼ |aᵢⱼ| ([`scale_and_finite`]).
+    /// maxᵢⱼ |aᵢⱼ|, as [`scale_and_finite`](super::scale_and_finite)
+    /// computes it (the largest magnitude's bits).
     pub scale: f64,
-    /// Every Jacobian value finite.
+    /// Every run-time Jacobian value finite.
     pub finite: bool,
-    /// Every constant entry still its constant.
+    /// Every constant entry still its constant, bit for bit.
     pub same: bool,
+    /// An odd number of the run-time pivots has its sign bit set (the
+    /// determinant's sign, with the permutations' and the constant pivots').
+    pub negative: bool,
     /// Smallest pivot magnitude, from `const_min_pivot` over `pivot_vars`
     /// in order (a NaN counts as zero).
     pub min_pivot: f64,
@@ -268,6 +286,8 @@ struct Folded {
     multiplier_vars: Vec<u32>,
     const_min_pivot: f64,
     const_max_multiplier: f64,
+    /// The constant entries' largest magnitude.
+    const_scale: f64,
     /// 1 / u_kk per position k.
     inv: Vec<Val>,
     /// Original row and column at each position of P A Q.
@@ -278,9 +298,11 @@ struct Folded {
     backward: Vec<SolveOp>,
     forward_t: Vec<SolveOp>,
     backward_t: Vec<SolveOp>,
-    perm_sign: f64,
-    /// maxᵢⱼ |aᵢⱼ| of the last factorization.
-    scale: f64,
+    /// sign(P) sign(Q) ∏ sign(constant pivots): the determinant's sign
+    /// but for the run-time pivots'.
+    fixed_sign: f64,
+    /// The last factorization's scan (the pivot report's numbers).
+    scan: FactorScan,
     work: Vec<f64>,
     /// The solves compiled to native code, if they were.
     compiled: Option<Box<dyn CompiledSolves>>,
@@ -375,6 +397,7 @@ impl FoldedLu {
             multiplier_vars: &f.multiplier_vars,
             const_min_pivot: f.const_min_pivot,
             const_max_multiplier: f.const_max_multiplier,
+            const_scale: f.const_scale,
         })
     }
 
@@ -426,6 +449,7 @@ impl Folded {
             multiplier_vars: Vec::new(),
             const_min_pivot: f64::INFINITY,
             const_max_multiplier: 0.0,
+            const_scale: 0.0,
             inv: Vec::with_capacity(n),
             row_order: Vec::with_capacity(n),
             col_order: Vec::with_capacity(n),
@@ -433,8 +457,15 @@ impl Folded {
             backward: Vec::new(),
             forward_t: Vec::new(),
             backward_t: Vec::new(),
-            perm_sign: 1.0,
-            scale: 0.0,
+            fixed_sign: 1.0,
+            scan: FactorScan {
+                scale: 0.0,
+                finite: false,
+                same: false,
+                negative: false,
+                min_pivot: 0.0,
+                max_multiplier: f64::INFINITY,
+            },
             work: vec![0.0; n],
             compiled: None,
             compiled_factor: None,
@@ -447,7 +478,12 @@ impl Folded {
             let (pivot, right, below) = plan.take(r, c);
             match pivot.val {
                 Val::Const(p) if p == 0.0 || !p.is_finite() => return None,
-                Val::Const(p) => lu.const_min_pivot = lu.const_min_pivot.min(p.abs()),
+                Val::Const(p) => {
+                    lu.const_min_pivot = lu.const_min_pivot.min(p.abs());
+                    if p < 0.0 {
+                        lu.fixed_sign = -lu.fixed_sign;
+                    }
+                }
                 Val::Var(p) => lu.pivot_vars.push(p),
             }
             lu.row_order.push(r);
@@ -483,8 +519,15 @@ impl Folded {
         lu.ops = plan.ops;
         lu.record_solves(&lower, &upper);
         let mut scratch = vec![0usize; n];
-        lu.perm_sign = permutation_sign(lu.row_order.iter().map(|&r| r as usize), &mut scratch)
+        lu.fixed_sign *= permutation_sign(lu.row_order.iter().map(|&r| r as usize), &mut scratch)
             * permutation_sign(lu.col_order.iter().map(|&c| c as usize), &mut scratch);
+        lu.const_scale = f64::from_bits(
+            lu.constants
+                .iter()
+                .map(|&(_, c)| c.to_bits() & ABS)
+                .max()
+                .unwrap_or(0),
+        );
         Some(lu)
     }
 
@@ -534,7 +577,7 @@ impl Folded {
             Some(scan) => scan,
             None => self.interpret(values),
         };
-        self.scale = scan.scale;
+        self.scan = scan;
         order_accepted(
             scan.finite && scan.same,
             scan.max_multiplier,
@@ -546,10 +589,14 @@ impl Folded {
 
     /// The interpreted factorization: the value array and the scan.
     fn interpret(&mut self, values: &[f64]) -> FactorScan {
-        let (scale, finite) = scale_and_finite(values);
+        let mut max_bits = self.const_scale.to_bits();
+        for &k in &self.inputs {
+            max_bits = max_bits.max(values[k as usize].to_bits() & ABS);
+        }
+        let (scale, finite) = (f64::from_bits(max_bits), max_bits < INFINITY_BITS);
         let mut same = true;
         for &(k, c) in &self.constants {
-            same &= values[k as usize] == c;
+            same &= values[k as usize].to_bits() == c.to_bits();
         }
         let m = self.inputs.len();
         let v = &mut self.v[..];
@@ -572,7 +619,9 @@ impl Folded {
             };
         }
         let mut min_pivot = self.const_min_pivot;
+        let mut negative = false;
         for &p in &self.pivot_vars {
+            negative ^= v[p as usize].is_sign_negative();
             let a = v[p as usize].abs();
             // A NaN pivot counts as zero.
             min_pivot = if a >= min_pivot {
@@ -599,15 +648,9 @@ impl Folded {
             scale,
             finite,
             same,
+            negative,
             min_pivot,
             max_multiplier,
-        }
-    }
-
-    fn value(&self, x: Val) -> f64 {
-        match x {
-            Val::Const(c) => c,
-            Val::Var(s) => self.v[s as usize],
         }
     }
 
@@ -919,10 +962,14 @@ impl LinearSolver for FoldedLu {
 
     fn pivot_report(&self) -> Option<PivotReport> {
         match (self.current, &self.folded) {
-            (Current::Folded, Some(f)) => Some(PivotReport::from_inverse_pivot_values(
-                f.inv.iter().map(|&x| f.value(x)),
-                f.scale,
-                f.perm_sign,
+            (Current::Folded, Some(f)) => Some(PivotReport::from_smallest_pivot(
+                f.scan.min_pivot,
+                f.scan.scale,
+                if f.scan.negative {
+                    -f.fixed_sign
+                } else {
+                    f.fixed_sign
+                },
             )),
             (Current::Fallback, _) => self.fallback.pivot_report(),
             _ => None,

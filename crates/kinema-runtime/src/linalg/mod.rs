@@ -115,6 +115,20 @@ impl PivotReport {
 
     /// [`from_inverse_pivots`](Self::from_inverse_pivots) of values read
     /// one by one.
+    /// The report from the smallest pivot magnitude minₖ |u_kk|, bit for
+    /// bit what [`from_inverse_pivot_values`](Self::from_inverse_pivot_values)
+    /// computes from the 1 / u_kk (the largest |1 / u_kk| is 1 / minₖ |u_kk|
+    /// rounded once, rounding being monotone); `det_sign` given.
+    pub(crate) fn from_smallest_pivot(min_pivot: f64, scale: f64, det_sign: f64) -> Self {
+        let largest_inverse = 1.0 / min_pivot;
+        let ratio = if scale > 0.0 && largest_inverse > 0.0 {
+            1.0 / (largest_inverse * scale)
+        } else {
+            0.0
+        };
+        Self { ratio, det_sign }
+    }
+
     pub(crate) fn from_inverse_pivot_values(
         inv_diag: impl Iterator<Item = f64>,
         scale: f64,
