@@ -122,6 +122,7 @@ impl TapeFn {
     }
 
     /// Runs the function. Does not allocate.
+    #[inline]
     pub(crate) fn call(
         &self,
         inputs: &TapeInputs<'_>,
@@ -130,13 +131,17 @@ impl TapeFn {
         trig: &mut [f64],
     ) -> Result<(), JitError> {
         let TapeInputs { q, qd, params, t } = *inputs;
-        let n = self.needs;
-        short("q", n.q, q.len())?;
-        short("qd", n.qd, qd.len())?;
-        short("params", n.params, params.len())?;
-        short("outputs", n.out, out.len())?;
-        short("second outputs", n.out2, out2.len())?;
-        short("sin/cos cache", n.trig, trig.len())?;
+        let given = Needs {
+            q: q.len(),
+            qd: qd.len(),
+            params: params.len(),
+            out: out.len(),
+            out2: out2.len(),
+            trig: trig.len(),
+        };
+        if !self.needs.fits(&given) {
+            return Err(self.needs.short_slice(&given));
+        }
         // SAFETY: the function reads only q[..n.q], qd[..n.qd],
         // params[..n.params], writes only out[..n.out] and out2[..n.out2],
         // and reads and writes only trig[..n.trig] (checked when it was
@@ -158,15 +163,40 @@ impl TapeFn {
     }
 }
 
-fn short(which: &'static str, needed: usize, given: usize) -> Result<(), JitError> {
-    if given < needed {
-        Err(JitError::ShortSlice {
-            which,
-            needed,
-            given,
-        })
-    } else {
-        Ok(())
+impl Needs {
+    /// Every length of `given` at least the one needed.
+    #[inline]
+    fn fits(&self, given: &Needs) -> bool {
+        given.q >= self.q
+            && given.qd >= self.qd
+            && given.params >= self.params
+            && given.out >= self.out
+            && given.out2 >= self.out2
+            && given.trig >= self.trig
+    }
+
+    /// The error for the first slice of `given` shorter than needed.
+    #[cold]
+    #[inline(never)]
+    fn short_slice(&self, given: &Needs) -> JitError {
+        [
+            ("q", self.q, given.q),
+            ("qd", self.qd, given.qd),
+            ("params", self.params, given.params),
+            ("outputs", self.out, given.out),
+            ("second outputs", self.out2, given.out2),
+            ("sin/cos cache", self.trig, given.trig),
+        ]
+        .into_iter()
+        .find(|&(_, needed, given)| given < needed)
+        .map_or(
+            JitError::Compile("no slice is short".into()),
+            |(which, needed, given)| JitError::ShortSlice {
+                which,
+                needed,
+                given,
+            },
+        )
     }
 }
 
@@ -214,6 +244,7 @@ impl SolveFn {
     }
 
     /// Runs the solve in place; `false` (nothing done) on short slices.
+    #[inline]
     pub(crate) fn call(&self, v: &[f64], rhs: &mut [f64]) -> bool {
         if v.len() < self.needs.v || rhs.len() < self.needs.rhs {
             return false;
@@ -277,6 +308,7 @@ impl FactorFn {
     }
 
     /// Runs the factorization; `None` (nothing done) on short slices.
+    #[inline]
     pub(crate) fn call(&self, values: &[f64], v: &mut [f64]) -> Option<[f64; SCAN]> {
         if values.len() < self.needs.values || v.len() < self.needs.v {
             return None;

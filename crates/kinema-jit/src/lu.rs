@@ -210,6 +210,14 @@ fn emit(
     Ok(())
 }
 
+/// The scan's entries: where the compiled factorization writes each.
+const SCAN_SCALE: usize = 0;
+const SCAN_FINITE: usize = 1;
+const SCAN_SAME: usize = 2;
+const SCAN_NEGATIVE: usize = 3;
+const SCAN_MIN_PIVOT: usize = 4;
+const SCAN_MAX_MULTIPLIER: usize = 5;
+
 /// The bits of `x` as Cranelift's signed immediate.
 fn bits_of(x: f64) -> i64 {
     i64::from_ne_bytes(x.to_bits().to_ne_bytes())
@@ -236,14 +244,14 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
-        let [scale, finite, same, negative, min_pivot, max_multiplier] = self.f.call(values, v)?;
+        let scan = self.f.call(values, v)?;
         Some(FactorScan {
-            scale,
-            finite: finite != 0.0,
-            same: same != 0.0,
-            negative: negative != 0.0,
-            min_pivot,
-            max_multiplier,
+            scale: scan[SCAN_SCALE],
+            finite: scan[SCAN_FINITE] != 0.0,
+            same: scan[SCAN_SAME] != 0.0,
+            negative: scan[SCAN_NEGATIVE] != 0.0,
+            min_pivot: scan[SCAN_MIN_PIVOT],
+            max_multiplier: scan[SCAN_MAX_MULTIPLIER],
         })
     }
 }
@@ -329,21 +337,16 @@ fn emit_factor(
         loaded[k] = Some(x);
         Ok(x)
     };
-    // Scale and finiteness: the largest magnitude's bits (integer order is
-    // the order of |x|) over the run-time entries, from the constants'.
-    let abs_mask = b.ins().iconst(I64, i64::MAX);
-    let mut max_bits = b.ins().iconst(I64, bits_of(plan.const_scale.abs()));
-    for &k in plan.inputs {
-        let x = load(b, k as usize)?;
-        let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
-        let bits = b.ins().band(bits, abs_mask);
-        max_bits = b.ins().umax(max_bits, bits);
-    }
-    let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
-    let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
-    let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
+    // Each entry of the scan is stored as soon as it is known: the store
+    // pins its computation there, so the values it reads die early (pure
+    // instructions are otherwise placed at their use, keeping every load
+    // alive to the end).
+    let put = |b: &mut FunctionBuilder<'_>, k: usize, x: Value| -> Result<(), JitError> {
+        b.ins()
+            .store(flags, x, scan, offset(check(k, SCAN, "scan")?)?);
+        Ok(())
+    };
     let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
-    let finite = b.ins().select(finite, one, zero);
     // Every constant still its constant, bit for bit: the differences'
     // bits ORed together are zero. Read as integers, straight from memory.
     let mut diff = b.ins().iconst(I64, 0);
@@ -356,6 +359,23 @@ fn emit_factor(
     }
     let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
     let same = b.ins().select(same, one, zero);
+    put(b, SCAN_SAME, same)?;
+    // Scale and finiteness: the largest magnitude's bits (integer order is
+    // the order of |x|) over the run-time entries, from the constants'.
+    let abs_mask = b.ins().iconst(I64, i64::MAX);
+    let mut max_bits = b.ins().iconst(I64, bits_of(plan.const_scale.abs()));
+    for &k in plan.inputs {
+        let x = load(b, k as usize)?;
+        let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
+        let bits = b.ins().band(bits, abs_mask);
+        max_bits = b.ins().umax(max_bits, bits);
+    }
+    let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
+    put(b, SCAN_SCALE, scale)?;
+    let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
+    let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
+    let finite = b.ins().select(finite, one, zero);
+    put(b, SCAN_FINITE, finite)?;
     // The value array: inputs, then the operations.
     let mut v: Vec<Value> = Vec::with_capacity(needs.v);
     for &k in plan.inputs {
@@ -433,6 +453,7 @@ fn emit_factor(
     }
     let negative = b.ins().icmp_imm_s(IntCC::SignedLessThan, signs, 0);
     let negative = b.ins().select(negative, one, zero);
+    put(b, SCAN_NEGATIVE, negative)?;
     // The pivots' and multipliers' folds, in the interpreter's order.
     let mut min_pivot = b.ins().f64const(plan.const_min_pivot);
     for &p in plan.pivot_vars {
@@ -443,6 +464,7 @@ fn emit_factor(
         let other = b.ins().select(nan, zero, a);
         min_pivot = b.ins().select(keep, min_pivot, other);
     }
+    put(b, SCAN_MIN_PIVOT, min_pivot)?;
     let mut max_multiplier = b.ins().f64const(plan.const_max_multiplier);
     let inf = b.ins().f64const(f64::INFINITY);
     for &l in plan.multiplier_vars {
@@ -453,13 +475,7 @@ fn emit_factor(
         let other = b.ins().select(nan, inf, a);
         max_multiplier = b.ins().select(keep, max_multiplier, other);
     }
-    for (k, x) in [scale, finite, same, negative, min_pivot, max_multiplier]
-        .into_iter()
-        .enumerate()
-    {
-        b.ins()
-            .store(flags, x, scan, offset(check(k, SCAN, "scan")?)?);
-    }
+    put(b, SCAN_MAX_MULTIPLIER, max_multiplier)?;
     b.ins().return_(&[]);
     Ok(())
 }

@@ -11,6 +11,14 @@ extern "C" fn cos(x: f64) -> f64 {
     x.cos()
 }
 
+/// Sine and cosine of a coordinate, written where the sin/cos cache keeps
+/// them (`out` points into the cache, as the compiled code passes it); the
+/// same two calls as the interpreter's cache makes.
+extern "C" fn sin_cos(x: f64, out: &mut [f64; 2]) {
+    out[0] = x.sin();
+    out[1] = x.cos();
+}
+
 extern "C" fn powi(x: f64, n: i32) -> f64 {
     x.powi(n)
 }
@@ -70,6 +78,8 @@ pub(crate) enum Shape {
     FF,
     /// `(i32, f64) → f64`
     IF,
+    /// `(f64, pointer) → ()`
+    FP,
 }
 
 /// One shim: its symbol, address and signature.
@@ -88,10 +98,11 @@ pub(crate) enum Which {
     PowF = 3,
     Atan2 = 4,
     Unary = 5,
+    SinCos = 6,
 }
 
 /// All shims, indexed by [`Which`].
-pub(crate) fn all() -> [Shim; 6] {
+pub(crate) fn all() -> [Shim; 7] {
     [
         Shim {
             name: "kinema_jit_sin",
@@ -122,6 +133,11 @@ pub(crate) fn all() -> [Shim; 6] {
             name: "kinema_jit_unary",
             address: unary as *const u8,
             shape: Shape::IF,
+        },
+        Shim {
+            name: "kinema_jit_sin_cos",
+            address: sin_cos as *const u8,
+            shape: Shape::FP,
         },
     ]
 }

@@ -66,6 +66,7 @@ impl JitTape {
     /// # Errors
     /// [`JitError::ShortSlice`] as [`eval`](Self::eval), and for a short
     /// cache.
+    #[inline]
     pub fn eval_with_cache(
         &self,
         inputs: &TapeInputs<'_>,
@@ -82,6 +83,7 @@ impl JitTape {
     ///
     /// # Errors
     /// [`JitError::ShortSlice`] as [`eval_with_cache`](Self::eval_with_cache).
+    #[inline]
     pub fn eval_split(
         &self,
         inputs: &TapeInputs<'_>,
@@ -201,8 +203,9 @@ pub(crate) fn new_module() -> Result<JITModule, JitError> {
 }
 
 /// Declares the shims as imports: (id, signature) by [`Which`].
-fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 6], JitError> {
+fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 7], JitError> {
     let all = shims::all();
+    let ptr = module.target_config().pointer_type();
     let mut ids = Vec::with_capacity(all.len());
     for s in &all {
         let mut sig: Signature = module.make_signature();
@@ -211,9 +214,12 @@ fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 6], JitError> 
             Shape::FI => &[F64, I32],
             Shape::FF => &[F64, F64],
             Shape::IF => &[I32, F64],
+            Shape::FP => &[F64, ptr],
         };
         sig.params.extend(params.iter().map(|&t| AbiParam::new(t)));
-        sig.returns.push(AbiParam::new(F64));
+        if !matches!(s.shape, Shape::FP) {
+            sig.returns.push(AbiParam::new(F64));
+        }
         let id = module
             .declare_function(s.name, Linkage::Import, &sig)
             .map_err(|e| JitError::Compile(e.to_string()))?;
@@ -223,12 +229,37 @@ fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 6], JitError> 
         .map_err(|_| JitError::Compile("shim table".into()))
 }
 
+/// What a register holds while a tape's function is emitted.
+#[derive(Clone, Copy)]
+enum Slot {
+    /// Nothing yet: reading it is an error.
+    Empty,
+    /// An SSA value.
+    Ready(Value),
+    /// An input not loaded yet: (slice pointer, byte offset). Loaded at the
+    /// first read, so that it does not live (spilled across the sin/cos
+    /// calls) from the function's start.
+    Input(Value, i32),
+}
+
+/// Where the outputs go: `out[k]` below the split, `out2[k - split]` above.
+struct Sink {
+    out: Value,
+    out2: Value,
+    split: usize,
+    outputs: usize,
+    /// Whether output k's current value is stored.
+    stored: Vec<bool>,
+}
+
 /// Emits one tape's function.
 struct Emitter<'t> {
     tape: &'t Tape,
-    shims: [FuncRef; 6],
-    /// The SSA value each register holds now.
-    vals: Vec<Option<Value>>,
+    shims: [FuncRef; 7],
+    /// What each register holds now.
+    vals: Vec<Slot>,
+    /// The outputs' destinations (set at the function's start).
+    sink: Option<Sink>,
     /// Calls already made: (shim, argument) → result.
     calls: HashMap<(Which, Value), Value>,
     /// The sin/cos cache's pointer, and (sin, cos) of each coordinate
@@ -238,11 +269,12 @@ struct Emitter<'t> {
 }
 
 impl<'t> Emitter<'t> {
-    fn new(tape: &'t Tape, shims: [FuncRef; 6]) -> Emitter<'t> {
+    fn new(tape: &'t Tape, shims: [FuncRef; 7]) -> Emitter<'t> {
         Emitter {
             tape,
             shims,
-            vals: vec![None; tape.registers()],
+            vals: vec![Slot::Empty; tape.registers()],
+            sink: None,
             calls: HashMap::new(),
             trig: None,
             sincos: HashMap::new(),
@@ -271,17 +303,26 @@ impl<'t> Emitter<'t> {
             trig: trig_len(self.tape)?,
         };
         self.trig = Some(trig);
-        // Inputs and constants, loaded where the tape's layout has them;
-        // every offset below its slice's checked length.
-        let flags = MemFlagsData::trusted().with_readonly();
+        self.sink = Some(Sink {
+            out,
+            out2,
+            split,
+            outputs: layout.outputs,
+            stored: vec![false; layout.outputs],
+        });
+        // Inputs where the tape's layout has them (loaded at their first
+        // read; every offset below its slice's checked length), constants.
         for (base, n, ptr) in [
             (layout.q_base, nq, q),
             (layout.qd_base, nqd, qd),
             (layout.params_base, np, p),
         ] {
             for k in 0..n {
-                let v = b.ins().load(F64, flags, ptr, offset(k)?);
-                self.set(base + k, v)?;
+                let slot = self
+                    .vals
+                    .get_mut(base + k)
+                    .ok_or_else(|| JitError::Compile("input register out of range".into()))?;
+                *slot = Slot::Input(ptr, offset(k)?);
             }
         }
         if let Some(r) = layout.t_register {
@@ -294,14 +335,11 @@ impl<'t> Emitter<'t> {
         for ins in self.tape.instructions() {
             self.instr(b, *ins)?;
         }
+        // Outputs whose last value is not stored yet (each instruction's
+        // result is stored as it is made: its value dies there).
         for k in 0..layout.outputs {
-            let v = self.get(register(k)?)?;
-            let (ptr, at) = if k < split {
-                (out, k)
-            } else {
-                (out2, k - split)
-            };
-            b.ins().store(MemFlagsData::trusted(), v, ptr, offset(at)?);
+            let v = self.get(b, register(k)?)?;
+            self.store_output(b, k, v)?;
         }
         b.ins().return_(&[]);
         Ok(needs)
@@ -312,16 +350,50 @@ impl<'t> Emitter<'t> {
             .vals
             .get_mut(r)
             .ok_or_else(|| JitError::Compile(format!("register {r} out of range")))?;
-        *slot = Some(v);
+        *slot = Slot::Ready(v);
+        if let Some(stored) = self.sink.as_mut().and_then(|s| s.stored.get_mut(r)) {
+            *stored = false;
+        }
         Ok(())
     }
 
-    fn get(&self, r: u32) -> Result<Value, JitError> {
-        self.vals
-            .get(r as usize)
-            .copied()
-            .flatten()
-            .ok_or_else(|| JitError::Compile(format!("register {r} read before it is written")))
+    /// The value of register `r`, loading an input at its first read.
+    fn get(&mut self, b: &mut FunctionBuilder<'_>, r: u32) -> Result<Value, JitError> {
+        match self.vals.get(r as usize).copied() {
+            Some(Slot::Ready(v)) => Ok(v),
+            Some(Slot::Input(ptr, at)) => {
+                let flags = MemFlagsData::trusted().with_readonly();
+                let v = b.ins().load(F64, flags, ptr, at);
+                self.vals[r as usize] = Slot::Ready(v);
+                Ok(v)
+            }
+            Some(Slot::Empty) | None => Err(JitError::Compile(format!(
+                "register {r} read before it is written"
+            ))),
+        }
+    }
+
+    /// Stores output `k`'s value `v` unless it is stored already.
+    fn store_output(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        k: usize,
+        v: Value,
+    ) -> Result<(), JitError> {
+        let Some(sink) = self.sink.as_mut() else {
+            return Ok(());
+        };
+        if k >= sink.outputs || sink.stored[k] {
+            return Ok(());
+        }
+        let (ptr, at) = if k < sink.split {
+            (sink.out, k)
+        } else {
+            (sink.out2, k - sink.split)
+        };
+        b.ins().store(MemFlagsData::trusted(), v, ptr, offset(at)?);
+        sink.stored[k] = true;
+        Ok(())
     }
 
     /// `shim(args)`, made once per (shim, first argument) for the one-
@@ -351,7 +423,7 @@ impl<'t> Emitter<'t> {
         if let Some(&sc) = self.sincos.get(&k) {
             return Ok(sc);
         }
-        let x = self.get(a)?;
+        let x = self.get(b, a)?;
         let trig = self
             .trig
             .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
@@ -371,13 +443,13 @@ impl<'t> Emitter<'t> {
         let c = b.ins().load(F64, flags, trig, o2);
         b.ins().jump(join, &[s.into(), c.into()]);
         b.switch_to_block(miss_block);
-        let s = b.ins().call(self.shims[Which::Sin as usize], &[x]);
-        let s = b.inst_results(s)[0];
-        let c = b.ins().call(self.shims[Which::Cos as usize], &[x]);
-        let c = b.inst_results(c)[0];
+        // Both written into the cache by one call, read back from there.
+        let at_sin = b.ins().iadd_imm_s(trig, i64::from(o1));
+        b.ins()
+            .call(self.shims[Which::SinCos as usize], &[x, at_sin]);
         b.ins().store(flags, x, trig, o0);
-        b.ins().store(flags, s, trig, o1);
-        b.ins().store(flags, c, trig, o2);
+        let s = b.ins().load(F64, flags, trig, o1);
+        let c = b.ins().load(F64, flags, trig, o2);
         b.ins().jump(join, &[s.into(), c.into()]);
         b.switch_to_block(join);
         let params = b.block_params(join);
@@ -389,68 +461,78 @@ impl<'t> Emitter<'t> {
     fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
         let (dst, v) = match ins {
             Instr::Const { dst, v } => (dst, b.ins().f64const(v)),
-            Instr::Copy { dst, a } => (dst, self.get(a)?),
-            Instr::Neg { dst, a } => (dst, b.ins().fneg(self.get(a)?)),
+            Instr::Copy { dst, a } => (dst, self.get(b, a)?),
+            Instr::Neg { dst, a } => {
+                let x = self.get(b, a)?;
+                (dst, b.ins().fneg(x))
+            }
             Instr::Scale { dst, a, k } => {
+                let x = self.get(b, a)?;
                 let k = b.ins().f64const(k);
-                (dst, b.ins().fmul(k, self.get(a)?))
+                (dst, b.ins().fmul(k, x))
             }
             Instr::Add { dst, a, b: c } => {
-                let (x, y) = (self.get(a)?, self.get(c)?);
+                let (x, y) = (self.get(b, a)?, self.get(b, c)?);
                 (dst, b.ins().fadd(x, y))
             }
             Instr::Sub { dst, a, b: c } => {
-                let (x, y) = (self.get(a)?, self.get(c)?);
+                let (x, y) = (self.get(b, a)?, self.get(b, c)?);
                 (dst, b.ins().fsub(x, y))
             }
             Instr::MulAdd { dst, acc, a, k } => {
+                let (x, acc) = (self.get(b, a)?, self.get(b, acc)?);
                 let k = b.ins().f64const(k);
-                let prod = b.ins().fmul(k, self.get(a)?);
-                (dst, b.ins().fadd(self.get(acc)?, prod))
+                let prod = b.ins().fmul(k, x);
+                (dst, b.ins().fadd(acc, prod))
             }
             Instr::AddConst { dst, a, c } => {
+                let x = self.get(b, a)?;
                 let c = b.ins().f64const(c);
-                (dst, b.ins().fadd(self.get(a)?, c))
+                (dst, b.ins().fadd(x, c))
             }
             Instr::Mul { dst, a, b: c } => {
-                let (x, y) = (self.get(a)?, self.get(c)?);
+                let (x, y) = (self.get(b, a)?, self.get(b, c)?);
                 (dst, b.ins().fmul(x, y))
             }
             Instr::Div { dst, a, b: c } => {
-                let (x, y) = (self.get(a)?, self.get(c)?);
+                let (x, y) = (self.get(b, a)?, self.get(b, c)?);
                 (dst, b.ins().fdiv(x, y))
             }
             Instr::Recip { dst, a } => {
+                let x = self.get(b, a)?;
                 let one = b.ins().f64const(1.0);
-                (dst, b.ins().fdiv(one, self.get(a)?))
+                (dst, b.ins().fdiv(one, x))
             }
             Instr::Square { dst, a } => {
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 (dst, b.ins().fmul(x, x))
             }
-            Instr::Sqrt { dst, a } => (dst, b.ins().sqrt(self.get(a)?)),
+            Instr::Sqrt { dst, a } => {
+                let x = self.get(b, a)?;
+                (dst, b.ins().sqrt(x))
+            }
             Instr::PowI { dst, a, n } => {
                 let n = b.ins().iconst(I32, i64::from(n));
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 (dst, self.call(b, Which::PowI, &[x, n]))
             }
             Instr::PowF { dst, a, p } => {
                 let p = b.ins().f64const(p);
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 (dst, self.call(b, Which::PowF, &[x, p]))
             }
             Instr::Sin { dst, a } => {
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 (dst, self.call(b, Which::Sin, &[x]))
             }
             Instr::Cos { dst, a } => {
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 (dst, self.call(b, Which::Cos, &[x]))
             }
             Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k)?.0),
             Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k)?.1),
             Instr::Unary { dst, op, a } => {
-                let x = self.get(a)?;
+                let x = self.get(b, a)?;
                 let v = match op {
                     kinema_expr::UnaryOp::Abs => b.ins().fabs(x),
                     kinema_expr::UnaryOp::Sin => self.call(b, Which::Sin, &[x]),
@@ -466,15 +548,16 @@ impl<'t> Emitter<'t> {
                 (dst, v)
             }
             Instr::Pow { dst, a, b: c } => {
-                let (x, y) = (self.get(a)?, self.get(c)?);
+                let (x, y) = (self.get(b, a)?, self.get(b, c)?);
                 (dst, self.call(b, Which::PowF, &[x, y]))
             }
             Instr::Atan2 { dst, y, x } => {
-                let (y, x) = (self.get(y)?, self.get(x)?);
+                let (y, x) = (self.get(b, y)?, self.get(b, x)?);
                 (dst, self.call(b, Which::Atan2, &[y, x]))
             }
         };
-        self.set(dst as usize, v)
+        self.set(dst as usize, v)?;
+        self.store_output(b, dst as usize, v)
     }
 }
 

@@ -107,6 +107,7 @@ impl LinearSolver for Auto {
         }
     }
 
+    #[inline]
     fn dim(&self) -> usize {
         match self {
             Self::Dense(lu) => lu.dim(),
@@ -115,6 +116,7 @@ impl LinearSolver for Auto {
         }
     }
 
+    #[inline]
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
         match self {
             Self::Dense(lu) => lu.factor(values, singular_tolerance),
@@ -123,6 +125,7 @@ impl LinearSolver for Auto {
         }
     }
 
+    #[inline]
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
         match self {
             Self::Dense(lu) => lu.solve_in_place(rhs),
@@ -131,6 +134,7 @@ impl LinearSolver for Auto {
         }
     }
 
+    #[inline]
     fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
         match self {
             Self::Dense(lu) => lu.solve_transpose_in_place(rhs),
@@ -139,6 +143,7 @@ impl LinearSolver for Auto {
         }
     }
 
+    #[inline]
     fn pivot_report(&self) -> Option<PivotReport> {
         match self {
             Self::Dense(lu) => lu.pivot_report(),

@@ -568,6 +568,7 @@ impl Folded {
     }
 
     /// Tries the fixed order on `values`: `true` if accepted.
+    #[inline]
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> bool {
         let compiled = self
             .compiled_factor
@@ -655,6 +656,7 @@ impl Folded {
     }
 
     /// Runs the folded solve: gather by `gather`, two sweeps, scatter by `scatter`.
+    #[inline]
     fn solve(&mut self, rhs: &mut [f64], transpose: bool) {
         if let Some(c) = &self.compiled
             && c.solve(&self.v, rhs, transpose)
@@ -918,10 +920,12 @@ impl LinearSolver for FoldedLu {
         )
     }
 
+    #[inline]
     fn dim(&self) -> usize {
         self.n
     }
 
+    #[inline]
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
         check_len("Jacobian values", self.nnz, values.len())?;
         self.current = Current::None;
@@ -936,6 +940,7 @@ impl LinearSolver for FoldedLu {
         Ok(())
     }
 
+    #[inline]
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
         check_len("right-hand side", self.n, rhs.len())?;
         match (self.current, &mut self.folded) {
@@ -948,6 +953,7 @@ impl LinearSolver for FoldedLu {
         }
     }
 
+    #[inline]
     fn solve_transpose_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinalgError> {
         check_len("right-hand side", self.n, rhs.len())?;
         match (self.current, &mut self.folded) {
@@ -960,6 +966,7 @@ impl LinearSolver for FoldedLu {
         }
     }
 
+    #[inline]
     fn pivot_report(&self) -> Option<PivotReport> {
         match (self.current, &self.folded) {
             (Current::Folded, Some(f)) => Some(PivotReport::from_smallest_pivot(
@@ -1066,6 +1073,19 @@ mod tests {
             assert_eq!(
                 mine.map(|p| p.det_sign),
                 theirs.map(|p| p.det_sign),
+                "θ = {theta}"
+            );
+            // The ratio from the scan's smallest pivot is, bit for bit, the
+            // one from every 1 / u_kk.
+            let f = lu.folded.as_ref().expect("planned");
+            let inverse = f.inv.iter().map(|&x| match x {
+                Val::Const(c) => c,
+                Val::Var(s) => f.v[s as usize],
+            });
+            let from_inverse = PivotReport::from_inverse_pivot_values(inverse, f.scan.scale, 1.0);
+            assert_eq!(
+                mine.map(|p| p.ratio.to_bits()),
+                Some(from_inverse.ratio.to_bits()),
                 "θ = {theta}"
             );
         }
