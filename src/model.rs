@@ -283,10 +283,15 @@ struct Compiled {
     both: kinema_jit::JitTape,
     nu: kinema_jit::JitTape,
     gamma: kinema_jit::JitTape,
+    /// Length of the scratch the compiled tapes read and write: the
+    /// coordinates' sin/cos cache, and from `memo_base` (after the
+    /// interpreter's registers) the memo of other sines and cosines.
+    cache_len: usize,
 }
 
 #[cfg(feature = "jit")]
 impl Compiled {
+    #[allow(clippy::too_many_arguments)]
     fn new(
         phi: &Tape,
         jacobian: &Tape,
@@ -294,15 +299,24 @@ impl Compiled {
         nu: &Tape,
         gamma: &Tape,
         n_phi: usize,
+        memo_base: usize,
     ) -> Result<Compiled, kinema_jit::JitError> {
-        let mut all = kinema_jit::compile_split(&[
-            (phi, phi.outputs()),
-            (jacobian, jacobian.outputs()),
-            (both, n_phi),
-            (nu, nu.outputs()),
-            (gamma, gamma.outputs()),
-        ])?
-        .into_iter();
+        let compiled = kinema_jit::compile_split_memo_at(
+            &[
+                (phi, phi.outputs()),
+                (jacobian, jacobian.outputs()),
+                (both, n_phi),
+                (nu, nu.outputs()),
+                (gamma, gamma.outputs()),
+            ],
+            memo_base,
+        )?;
+        let cache_len = compiled
+            .iter()
+            .map(kinema_jit::JitTape::trig_len)
+            .max()
+            .unwrap_or(0);
+        let mut all = compiled.into_iter();
         let mut next = || {
             all.next()
                 .ok_or_else(|| kinema_jit::JitError::Compile("a tape is missing".into()))
@@ -313,6 +327,7 @@ impl Compiled {
             both: next()?,
             nu: next()?,
             gamma: next()?,
+            cache_len,
         })
     }
 }
@@ -365,7 +380,15 @@ impl TapeSystem {
         #[cfg(feature = "jit")]
         let (jit, jit_fallback) = match backend {
             Backend::Tape => (None, None),
-            Backend::Jit => match Compiled::new(&phi, &jacobian, &both, &nu, &gamma, d.phi.len()) {
+            Backend::Jit => match Compiled::new(
+                &phi,
+                &jacobian,
+                &both,
+                &nu,
+                &gamma,
+                d.phi.len(),
+                3 * n + registers,
+            ) {
                 Ok(c) => (Some(c), None),
                 Err(e) => (None, Some(e.to_string())),
             },
@@ -493,11 +516,12 @@ impl TapeSystem {
         scratch.split_at_mut(cache)
     }
 
-    /// The sin/cos cache at the start of the scratch (for the compiled
-    /// tapes), grown if the scratch came from another system.
+    /// The part of the scratch the compiled tapes use (the coordinates'
+    /// sin/cos cache at its start, the memo after the interpreter's
+    /// registers), grown if the scratch came from another system.
     #[cfg(feature = "jit")]
     fn trig<'a>(&self, scratch: &'a mut Vec<f64>) -> &'a mut [f64] {
-        let n = self.trig_len();
+        let n = self.jit.as_ref().map_or(0, |c| c.cache_len);
         if scratch.len() < n {
             scratch.resize(n, f64::NAN);
         }
@@ -522,7 +546,10 @@ impl System for TapeSystem {
 
     fn scratch(&self) -> Vec<f64> {
         // The cache's angles NaN: no angle seen yet.
-        vec![f64::NAN; self.trig_len() + self.registers]
+        let interpreter = self.trig_len() + self.registers;
+        #[cfg(feature = "jit")]
+        let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |c| c.cache_len));
+        vec![f64::NAN; interpreter]
     }
 
     fn len(&self) -> usize {

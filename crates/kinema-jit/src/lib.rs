@@ -28,7 +28,7 @@ pub use lu::{
     JitFactor, JitSolves, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves,
 };
 
-pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split};
+pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split, compile_split_memo_at};
 
 /// Why tapes could not be compiled, or a compiled tape not called.
 #[derive(Clone, Debug, PartialEq, Eq)]

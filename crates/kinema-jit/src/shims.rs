@@ -3,14 +3,6 @@
 
 use kinema_expr::UnaryOp;
 
-extern "C" fn sin(x: f64) -> f64 {
-    x.sin()
-}
-
-extern "C" fn cos(x: f64) -> f64 {
-    x.cos()
-}
-
 /// Sine and cosine of a coordinate, written where the sin/cos cache keeps
 /// them (`out` points into the cache, as the compiled code passes it); the
 /// same two calls as the interpreter's cache makes.
@@ -70,8 +62,6 @@ extern "C" fn unary(code: i32, x: f64) -> f64 {
 /// A shim's signature.
 #[derive(Clone, Copy)]
 pub(crate) enum Shape {
-    /// `f64 → f64`
-    F,
     /// `(f64, i32) → f64`
     FI,
     /// `(f64, f64) → f64`
@@ -92,28 +82,16 @@ pub(crate) struct Shim {
 /// Which shim.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub(crate) enum Which {
-    Sin = 0,
-    Cos = 1,
-    PowI = 2,
-    PowF = 3,
-    Atan2 = 4,
-    Unary = 5,
-    SinCos = 6,
+    PowI = 0,
+    PowF = 1,
+    Atan2 = 2,
+    Unary = 3,
+    SinCos = 4,
 }
 
 /// All shims, indexed by [`Which`].
-pub(crate) fn all() -> [Shim; 7] {
+pub(crate) fn all() -> [Shim; 5] {
     [
-        Shim {
-            name: "kinema_jit_sin",
-            address: sin as *const u8,
-            shape: Shape::F,
-        },
-        Shim {
-            name: "kinema_jit_cos",
-            address: cos as *const u8,
-            shape: Shape::F,
-        },
         Shim {
             name: "kinema_jit_powi",
             address: powi as *const u8,

@@ -126,6 +126,15 @@ pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
     compile_split(&split)
 }
 
+/// Where the memo of sines and cosines of other values than coordinates
+/// starts in the cache slice by default: after the coordinates' entries of
+/// every tape.
+fn default_memo_base(tapes: &[(&Tape, usize)]) -> Result<usize, JitError> {
+    tapes
+        .iter()
+        .try_fold(0, |m, (t, _)| Ok(m.max(trig_len(t)?)))
+}
+
 /// [`compile`] with each tape's outputs split in two at the given index,
 /// for [`JitTape::eval_split`] (a split beyond the outputs is the number of
 /// outputs: nothing goes to the second slice).
@@ -133,6 +142,37 @@ pub fn compile(tapes: &[&Tape]) -> Result<Vec<JitTape>, JitError> {
 /// # Errors
 /// As [`compile`].
 pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError> {
+    compile_split_memo_at(tapes, default_memo_base(tapes)?)
+}
+
+/// [`compile_split`] with the memo at `memo_base` in the cache slice.
+///
+/// Besides the coordinates' (sin, cos) at `3k..3k + 3` (as
+/// [`Tape::eval_with_cache`]), the j-th value other than a coordinate
+/// whose sin or cos a tape takes (a driver's `sin(2πt + k)`, say) has
+/// (x, sin x, cos x) in entries `memo_base + 3j..` : a later call with the
+/// same x (the same t in the next Newton iteration, or another tape of
+/// the same equations taking the same values in the same order, as Φ, ν
+/// and γ of one model do) reads them back instead of calling. An entry
+/// whose x differs is recomputed and rewritten (a miss, never a wrong
+/// value). A caller whose cache slice holds other things
+/// up to some index puts the memo after them; the slice must be
+/// [`JitTape::trig_len`] long, filled with NaN when new. Entries hold
+/// values of pure functions of their key, so a slice may be shared by any
+/// tapes and systems.
+///
+/// # Errors
+/// As [`compile`]; [`JitError::Compile`] if `memo_base` lies inside the
+/// coordinates' entries.
+pub fn compile_split_memo_at(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+) -> Result<Vec<JitTape>, JitError> {
+    if memo_base < default_memo_base(tapes)? {
+        return Err(JitError::Compile(
+            "the sin/cos memo overlaps the coordinates' cache".into(),
+        ));
+    }
     let instructions: usize = tapes.iter().map(|(t, _)| t.len()).sum();
     if instructions > MAX_INSTRUCTIONS {
         return Err(JitError::TooLarge { instructions });
@@ -155,7 +195,7 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
         let needs = {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
             let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-            let needs = Emitter::new(tape, refs).emit(&mut b, split)?;
+            let needs = Emitter::new(tape, refs, memo_base).emit(&mut b, split)?;
             b.seal_all_blocks();
             b.finalize(module.isa().frontend_config());
             needs
@@ -203,14 +243,13 @@ pub(crate) fn new_module() -> Result<JITModule, JitError> {
 }
 
 /// Declares the shims as imports: (id, signature) by [`Which`].
-fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 7], JitError> {
+fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 5], JitError> {
     let all = shims::all();
     let ptr = module.target_config().pointer_type();
     let mut ids = Vec::with_capacity(all.len());
     for s in &all {
         let mut sig: Signature = module.make_signature();
         let params: &[_] = match s.shape {
-            Shape::F => &[F64],
             Shape::FI => &[F64, I32],
             Shape::FF => &[F64, F64],
             Shape::IF => &[I32, F64],
@@ -255,13 +294,16 @@ struct Sink {
 /// Emits one tape's function.
 struct Emitter<'t> {
     tape: &'t Tape,
-    shims: [FuncRef; 7],
+    shims: [FuncRef; 5],
     /// What each register holds now.
     vals: Vec<Slot>,
     /// The outputs' destinations (set at the function's start).
     sink: Option<Sink>,
-    /// Calls already made: (shim, argument) → result.
-    calls: HashMap<(Which, Value), Value>,
+    /// (sin, cos) of values other than coordinates, already computed
+    /// through the memo.
+    memo: HashMap<Value, (Value, Value)>,
+    /// The memo's next free entry in the cache slice.
+    memo_next: usize,
     /// The sin/cos cache's pointer, and (sin, cos) of each coordinate
     /// already read through it.
     trig: Option<Value>,
@@ -269,13 +311,14 @@ struct Emitter<'t> {
 }
 
 impl<'t> Emitter<'t> {
-    fn new(tape: &'t Tape, shims: [FuncRef; 7]) -> Emitter<'t> {
+    fn new(tape: &'t Tape, shims: [FuncRef; 5], memo_next: usize) -> Emitter<'t> {
         Emitter {
             tape,
             shims,
             vals: vec![Slot::Empty; tape.registers()],
             sink: None,
-            calls: HashMap::new(),
+            memo: HashMap::new(),
+            memo_next,
             trig: None,
             sincos: HashMap::new(),
         }
@@ -283,7 +326,7 @@ impl<'t> Emitter<'t> {
 
     /// Emits the body; returns the slice lengths every load and store was
     /// checked against.
-    fn emit(mut self, b: &mut FunctionBuilder<'_>, split: usize) -> Result<Needs, JitError> {
+    fn emit(&mut self, b: &mut FunctionBuilder<'_>, split: usize) -> Result<Needs, JitError> {
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
@@ -294,7 +337,7 @@ impl<'t> Emitter<'t> {
         let (nq, nqd, np) = self.tape.input_sizes();
         let layout = self.tape.layout();
         let split = split.min(layout.outputs);
-        let needs = Needs {
+        let mut needs = Needs {
             q: nq,
             qd: nqd,
             params: np,
@@ -342,6 +385,9 @@ impl<'t> Emitter<'t> {
             self.store_output(b, k, v)?;
         }
         b.ins().return_(&[]);
+        if !self.memo.is_empty() {
+            needs.trig = needs.trig.max(self.memo_next);
+        }
         Ok(needs)
     }
 
@@ -396,19 +442,30 @@ impl<'t> Emitter<'t> {
         Ok(())
     }
 
-    /// `shim(args)`, made once per (shim, first argument) for the one-
-    /// argument functions.
+    /// `shim(args)`.
     fn call(&mut self, b: &mut FunctionBuilder<'_>, which: Which, args: &[Value]) -> Value {
-        let memo = matches!(which, Which::Sin | Which::Cos) && args.len() == 1;
-        if memo && let Some(&v) = self.calls.get(&(which, args[0])) {
-            return v;
-        }
         let call = b.ins().call(self.shims[which as usize], args);
-        let v = b.inst_results(call)[0];
-        if memo {
-            self.calls.insert((which, args[0]), v);
+        b.inst_results(call)[0]
+    }
+
+    /// (sin x, cos x) of a value other than a coordinate: once per value in
+    /// this function, and through a memo entry of the cache slice across
+    /// calls (see [`compile_split_memo_at`]).
+    fn sin_cos(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        x: Value,
+    ) -> Result<(Value, Value), JitError> {
+        if let Some(&sc) = self.memo.get(&x) {
+            return Ok(sc);
         }
-        v
+        let at = self.memo_next;
+        self.memo_next = at
+            .checked_add(3)
+            .ok_or_else(|| JitError::Compile("memo too large".into()))?;
+        let sc = self.memoized(b, x, at)?;
+        self.memo.insert(x, sc);
+        Ok(sc)
     }
 
     /// (sin, cos) of coordinate `k` (in register `a`) through the cache,
@@ -424,10 +481,23 @@ impl<'t> Emitter<'t> {
             return Ok(sc);
         }
         let x = self.get(b, a)?;
+        let sc = self.memoized(b, x, 3 * k as usize)?;
+        self.sincos.insert(k, sc);
+        Ok(sc)
+    }
+
+    /// (sin x, cos x) through the cache entries `at..at + 3` = (x, sin x,
+    /// cos x): a hit when the entry's x has the same bits, else both
+    /// computed (one call) and the entry rewritten.
+    fn memoized(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        x: Value,
+        at: usize,
+    ) -> Result<(Value, Value), JitError> {
         let trig = self
             .trig
             .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
-        let at = 3 * k as usize;
         let (o0, o1, o2) = (offset(at)?, offset(at + 1)?, offset(at + 2)?);
         let flags = MemFlagsData::trusted();
         let seen = b.ins().load(F64, flags, trig, o0);
@@ -453,9 +523,7 @@ impl<'t> Emitter<'t> {
         b.ins().jump(join, &[s.into(), c.into()]);
         b.switch_to_block(join);
         let params = b.block_params(join);
-        let sc = (params[0], params[1]);
-        self.sincos.insert(k, sc);
-        Ok(sc)
+        Ok((params[0], params[1]))
     }
 
     fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
@@ -523,11 +591,11 @@ impl<'t> Emitter<'t> {
             }
             Instr::Sin { dst, a } => {
                 let x = self.get(b, a)?;
-                (dst, self.call(b, Which::Sin, &[x]))
+                (dst, self.sin_cos(b, x)?.0)
             }
             Instr::Cos { dst, a } => {
                 let x = self.get(b, a)?;
-                (dst, self.call(b, Which::Cos, &[x]))
+                (dst, self.sin_cos(b, x)?.1)
             }
             Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k)?.0),
             Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k)?.1),
@@ -535,8 +603,8 @@ impl<'t> Emitter<'t> {
                 let x = self.get(b, a)?;
                 let v = match op {
                     kinema_expr::UnaryOp::Abs => b.ins().fabs(x),
-                    kinema_expr::UnaryOp::Sin => self.call(b, Which::Sin, &[x]),
-                    kinema_expr::UnaryOp::Cos => self.call(b, Which::Cos, &[x]),
+                    kinema_expr::UnaryOp::Sin => self.sin_cos(b, x)?.0,
+                    kinema_expr::UnaryOp::Cos => self.sin_cos(b, x)?.1,
                     op => {
                         let code = shims::unary_code(op).ok_or_else(|| {
                             JitError::Compile(format!("no compiled form of `{}`", op.name()))

@@ -4,7 +4,7 @@
 //! ordinary points and at non-finite ones.
 
 use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
-use kinema_jit::{JitError, compile, compile_split};
+use kinema_jit::{JitError, compile, compile_split, compile_split_memo_at};
 use proptest::prelude::*;
 
 /// A random expression over coordinates x0..x2, parameter p0 and time.
@@ -234,8 +234,9 @@ proptest! {
         // Also a tape of the derivatives alone, compiled into the same module.
         let second = Tape::compile(&a, &outputs[1..]);
         let jit = compile(&[&tape, &second]).expect("the host is supported");
-        // And the first split after the value (as Φ then Φ_q).
-        let split = compile_split(&[(&tape, 1)]).expect("the host is supported");
+        // And the first split after the value (as Φ then Φ_q), the memo of
+        // other sines and cosines after the three coordinates' entries.
+        let split = compile_split_memo_at(&[(&tape, 1)], 9).expect("the host is supported");
         let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
         for (tape, jit) in [(&tape, &jit[0]), (&second, &jit[1])] {
             let mut regs = vec![0.0; tape.registers()];
@@ -253,7 +254,7 @@ proptest! {
         prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
         // Through the sin/cos cache, split: primed at another point
         // (misses), then at this one twice (misses, then hits).
-        let mut trig = vec![f64::NAN; 9];
+        let mut trig = vec![f64::NAN; split[0].trig_len().max(9)];
         let (mut first, mut rest) = ([7.0], vec![7.0; tape.outputs() - 1]);
         let q_other = [x[1], x[2], x[0]];
         let other = TapeInputs { q: &q_other, ..inputs };
@@ -264,14 +265,21 @@ proptest! {
                 prop_assert!(same(*g, *w), "split, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
             }
         }
-        // The cache holds what the tape's would.
+        // The coordinates' cache holds what the tape's would, and every
+        // memo entry is a value with its own sine and cosine.
         let mut tape_trig = vec![f64::NAN; 9];
         let mut out = vec![0.0; tape.outputs()];
         prop_assert!(tape.eval_with_cache(&inputs, &mut regs, &mut tape_trig, &mut out).is_ok());
         let needed = split[0].trig_len();
-        prop_assert!(needed <= 9);
-        for k in 0..needed {
+        for k in 0..9 {
             prop_assert!(same(trig[k], tape_trig[k]), "cache entry {k}");
+        }
+        for (k, entry) in trig[9..].chunks(3).enumerate() {
+            let x = entry[0];
+            prop_assert!(
+                entry.len() == 3 && same(entry[1], x.sin()) && same(entry[2], x.cos()),
+                "memo entry {k}: {entry:?}"
+            );
         }
         if needed > 0 {
             let short = split[0].eval_split(&inputs, &mut trig[..needed - 1], &mut first, &mut rest);
