@@ -74,23 +74,30 @@ def table():
     lines = [f"Machine: {machine()}.", "",
              "Per full step (Newton to ‖Φ‖∞ ≤ 1e-12, velocity, acceleration), µs, medians. "
              "kinema 'same' = the peers' loop (`Options::same_algorithm()`), 'default' = kinema's "
-             "defaults (`Options::default()`: predictor, full Newton). Ratio = best peer / kinema same-algorithm generated (target ≥ 3).", "",
+             "defaults (`Options::default()`: predictor, full Newton). Ratio = best peer / kinema same-algorithm generated (target ≥ 3). "
+             "JIT = the model file compiled at load time (`Backend::Jit`, the default for model files; – above its size bounds, where it runs the tape); "
+             "JIT ratio = best peer / JIT same (target ≥ 3); JIT / generated = JIT same / generated same (target ≤ 1.5).", "",
              "| mechanism (n) | " + " | ".join(name for _, name in PEER_COLS)
              + " | best peer | kinema generated, same | generated, default | tape, same | tape, default "
-             "| hand-written, same | ratio | target |",
-             "|---|" + "---|" * (len(PEER_COLS) + 8)]
+             "| JIT, same | JIT, default | hand-written, same | ratio | JIT ratio | JIT / generated | target |",
+             "|---|" + "---|" * (len(PEER_COLS) + 12)]
     for key, name, n, target in MECHS:
         peer_vals = [p.get((key, col)) for col, _ in PEER_COLS]
         best = min((v for v in peer_vals if v is not None), default=None)
         k = {f"{b}/{m}": crit_median_us(f"step_{key}", f"{b}_{m}")
-             for b in ("generated", "tape", "handwritten") for m in ("same", "default")}
+             for b in ("generated", "tape", "jit", "handwritten") for m in ("same", "default")}
         ratio = best / k["generated/same"] if best and k["generated/same"] else None
+        jit_ratio = best / k["jit/same"] if best and k["jit/same"] else None
+        jit_gen = k["jit/same"] / k["generated/same"] if k["jit/same"] and k["generated/same"] else None
         ok = "" if target is None or k["generated/same"] is None else (
             f"≤ {fmt(target)} {'✓' if k['generated/same'] <= target else '✗'}")
         lines.append(f"| {name} ({n}) | " + " | ".join(fmt(v) for v in peer_vals)
                      + f" | {fmt(best)} | **{fmt(k['generated/same'])}** | {fmt(k['generated/default'])}"
-                     f" | {fmt(k['tape/same'])} | {fmt(k['tape/default'])} | {fmt(k['handwritten/same'])}"
-                     f" | {'–' if ratio is None else f'{ratio:.1f}×'} | {ok} |")
+                     f" | {fmt(k['tape/same'])} | {fmt(k['tape/default'])}"
+                     f" | {fmt(k['jit/same'])} | {fmt(k['jit/default'])} | {fmt(k['handwritten/same'])}"
+                     f" | {'–' if ratio is None else f'{ratio:.1f}×'}"
+                     f" | {'–' if jit_ratio is None else f'{jit_ratio:.1f}×'}"
+                     f" | {'–' if jit_gen is None else f'{jit_gen:.2f}'} | {ok} |")
     # Derivation of the N = 1000 chain.
     try:
         with open(os.path.join(PEERS, "casadi_chain1000.json")) as f:

@@ -157,6 +157,15 @@ pub fn jit(name: &str) -> kinema::TapeSystem {
     system
 }
 
+/// The benchmark mechanism's model compiled to native code at load time,
+/// or `None` where the JIT leaves it on the tape (above its size bounds:
+/// what [`kinema::Backend::Jit`] then runs is [`tape`]).
+#[must_use]
+pub fn jit_if_compiled(name: &str) -> Option<kinema::TapeSystem> {
+    let system = on(name, kinema::Backend::Jit);
+    system.jit_fallback().is_none().then_some(system)
+}
+
 fn on(name: &str, backend: kinema::Backend) -> kinema::TapeSystem {
     kinema::Model::from_source(&model_text(name), name)
         .unwrap_or_else(|e| panic!("{e}"))

@@ -247,6 +247,37 @@ pub enum Instr {
     },
 }
 
+impl Instr {
+    /// The register the instruction writes.
+    #[must_use]
+    pub fn dst(&self) -> Reg {
+        match *self {
+            Instr::Const { dst, .. }
+            | Instr::Copy { dst, .. }
+            | Instr::Neg { dst, .. }
+            | Instr::Scale { dst, .. }
+            | Instr::Add { dst, .. }
+            | Instr::Sub { dst, .. }
+            | Instr::MulAdd { dst, .. }
+            | Instr::AddConst { dst, .. }
+            | Instr::Mul { dst, .. }
+            | Instr::Div { dst, .. }
+            | Instr::Recip { dst, .. }
+            | Instr::Square { dst, .. }
+            | Instr::Sqrt { dst, .. }
+            | Instr::PowI { dst, .. }
+            | Instr::PowF { dst, .. }
+            | Instr::Sin { dst, .. }
+            | Instr::Cos { dst, .. }
+            | Instr::SinQ { dst, .. }
+            | Instr::CosQ { dst, .. }
+            | Instr::Unary { dst, .. }
+            | Instr::Pow { dst, .. }
+            | Instr::Atan2 { dst, .. } => dst,
+        }
+    }
+}
+
 /// A compiled list of instructions computing a vector of outputs.
 #[derive(Clone, Debug)]
 ///

@@ -5,8 +5,7 @@
 use std::collections::HashMap;
 
 use cranelift_codegen::ir::{
-    AbiParam, InstBuilder, MemFlagsData, Value, condcodes::FloatCC, condcodes::IntCC, types::F64,
-    types::I64,
+    AbiParam, InstBuilder, MemFlagsData, Value, condcodes::IntCC, types::F64, types::I64,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_module::{Linkage, Module};
@@ -346,6 +345,8 @@ fn emit_factor(
             .store(flags, x, scan, offset(check(k, SCAN, "scan")?)?);
         Ok(())
     };
+    // A running integer value into entry k (overwritten by the final one).
+    let put_bits = put;
     let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
     // Every constant still its constant, bit for bit: the differences'
     // bits ORed together are zero. Read as integers, straight from memory.
@@ -362,30 +363,82 @@ fn emit_factor(
     put(b, SCAN_SAME, same)?;
     // Scale and finiteness: the largest magnitude's bits (integer order is
     // the order of |x|) over the run-time entries, from the constants'.
+    // Each input is copied to the value array as it is loaded, and the
+    // running maximum stored (raw bits) to pin it there.
     let abs_mask = b.ins().iconst(I64, i64::MAX);
+    let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
     let mut max_bits = b.ins().iconst(I64, bits_of(plan.const_scale.abs()));
+    let mut v: Vec<Value> = Vec::with_capacity(needs.v);
     for &k in plan.inputs {
         let x = load(b, k as usize)?;
+        b.ins().store(flags, x, v_ptr, offset(v.len())?);
+        v.push(x);
         let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
         let bits = b.ins().band(bits, abs_mask);
         max_bits = b.ins().umax(max_bits, bits);
+        put_bits(b, SCAN_SCALE, max_bits)?;
     }
     let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
     put(b, SCAN_SCALE, scale)?;
-    let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
     let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
     let finite = b.ins().select(finite, one, zero);
     put(b, SCAN_FINITE, finite)?;
-    // The value array: inputs, then the operations.
-    let mut v: Vec<Value> = Vec::with_capacity(needs.v);
-    for &k in plan.inputs {
-        v.push(load(b, k as usize)?);
+    // The folds over the run-time pivots and multipliers, on magnitude bits
+    // (order-free, so each value is folded as it is made, its running
+    // result stored to pin it): the smallest pivot with a NaN as zero, the
+    // largest multiplier with a NaN above every number (made ∞ at the end),
+    // and the pivots' sign bits XORed.
+    let mut role = vec![(false, false); needs.v];
+    for &p in plan.pivot_vars {
+        let r = role
+            .get_mut(p as usize)
+            .ok_or_else(|| JitError::Compile(format!("pivot {p} beyond the values")))?;
+        r.0 = true;
+    }
+    for &l in plan.multiplier_vars {
+        let r = role
+            .get_mut(l as usize)
+            .ok_or_else(|| JitError::Compile(format!("multiplier {l} beyond the values")))?;
+        r.1 = true;
+    }
+    let zero_bits = b.ins().iconst(I64, 0);
+    let mut min_bits = b.ins().iconst(I64, bits_of(plan.const_min_pivot.abs()));
+    let mut signs = zero_bits;
+    let mut mult_bits = b
+        .ins()
+        .iconst(I64, bits_of(plan.const_max_multiplier.abs()));
+    let mut fold = |b: &mut FunctionBuilder<'_>, k: usize, x: Value| -> Result<(), JitError> {
+        let (pivot, multiplier) = role[k];
+        if !(pivot || multiplier) {
+            return Ok(());
+        }
+        let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
+        let magnitude = b.ins().band(bits, abs_mask);
+        if pivot {
+            signs = b.ins().bxor(signs, bits);
+            put_bits(b, SCAN_NEGATIVE, signs)?;
+            let nan = b
+                .ins()
+                .icmp(IntCC::UnsignedGreaterThan, magnitude, inf_bits);
+            let counted = b.ins().select(nan, zero_bits, magnitude);
+            min_bits = b.ins().umin(min_bits, counted);
+            put_bits(b, SCAN_MIN_PIVOT, min_bits)?;
+        }
+        if multiplier {
+            mult_bits = b.ins().umax(mult_bits, magnitude);
+            put_bits(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
+        }
+        Ok(())
+    };
+    for (k, &x) in v.iter().enumerate() {
+        fold(b, k, x)?;
     }
     let get = |v: &[Value], a: u32| -> Result<Value, JitError> {
         v.get(a as usize)
             .copied()
             .ok_or_else(|| JitError::Compile(format!("value {a} read before it is written")))
     };
+    // The operations, each result stored and folded as it is made.
     for op in plan.ops {
         let x = match *op {
             Op::Recip(a) => {
@@ -436,45 +489,25 @@ fn emit_factor(
                 b.ins().fsub(o, p)
             }
         };
+        let k = v.len();
+        b.ins().store(flags, x, v_ptr, offset(k)?);
         v.push(x);
+        fold(b, k, x)?;
     }
     if v.len() != needs.v {
         return Err(JitError::Compile("value array of another length".into()));
     }
-    for (k, &x) in v.iter().enumerate() {
-        b.ins().store(flags, x, v_ptr, offset(k)?);
-    }
-    // The run-time pivots' sign bits, XORed: the determinant's sign.
-    let mut signs = b.ins().iconst(I64, 0);
-    for &p in plan.pivot_vars {
-        let a = get(&v, p)?;
-        let bits = b.ins().bitcast(I64, MemFlagsData::new(), a);
-        signs = b.ins().bxor(signs, bits);
-    }
     let negative = b.ins().icmp_imm_s(IntCC::SignedLessThan, signs, 0);
     let negative = b.ins().select(negative, one, zero);
     put(b, SCAN_NEGATIVE, negative)?;
-    // The pivots' and multipliers' folds, in the interpreter's order.
-    let mut min_pivot = b.ins().f64const(plan.const_min_pivot);
-    for &p in plan.pivot_vars {
-        let a = get(&v, p)?;
-        let a = b.ins().fabs(a);
-        let keep = b.ins().fcmp(FloatCC::GreaterThanOrEqual, a, min_pivot);
-        let nan = b.ins().fcmp(FloatCC::Unordered, a, a);
-        let other = b.ins().select(nan, zero, a);
-        min_pivot = b.ins().select(keep, min_pivot, other);
-    }
+    let min_pivot = b.ins().bitcast(F64, MemFlagsData::new(), min_bits);
     put(b, SCAN_MIN_PIVOT, min_pivot)?;
-    let mut max_multiplier = b.ins().f64const(plan.const_max_multiplier);
+    let nan = b
+        .ins()
+        .icmp(IntCC::UnsignedGreaterThan, mult_bits, inf_bits);
+    let max_multiplier = b.ins().bitcast(F64, MemFlagsData::new(), mult_bits);
     let inf = b.ins().f64const(f64::INFINITY);
-    for &l in plan.multiplier_vars {
-        let a = get(&v, l)?;
-        let a = b.ins().fabs(a);
-        let keep = b.ins().fcmp(FloatCC::LessThanOrEqual, a, max_multiplier);
-        let nan = b.ins().fcmp(FloatCC::Unordered, a, a);
-        let other = b.ins().select(nan, inf, a);
-        max_multiplier = b.ins().select(keep, max_multiplier, other);
-    }
+    let max_multiplier = b.ins().select(nan, inf, max_multiplier);
     put(b, SCAN_MAX_MULTIPLIER, max_multiplier)?;
     b.ins().return_(&[]);
     Ok(())

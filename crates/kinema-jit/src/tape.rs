@@ -375,8 +375,29 @@ impl<'t> Emitter<'t> {
             let v = b.ins().f64const(c);
             self.set(layout.consts_base + k, v)?;
         }
+        // The coordinates' sines and cosines first, while almost nothing is
+        // live: each may call out, and a call spills every live value.
         for ins in self.tape.instructions() {
-            self.instr(b, *ins)?;
+            if let Instr::SinQ { k, .. } | Instr::CosQ { k, .. } = *ins
+                && (k as usize) < nq
+            {
+                let a = register(layout.q_base + k as usize)?;
+                self.cached(b, a, k)?;
+            }
+        }
+        // Each output is stored once, by the last instruction writing it.
+        let mut last_write = vec![usize::MAX; layout.outputs];
+        for (i, ins) in self.tape.instructions().iter().enumerate() {
+            if let Some(w) = last_write.get_mut(ins.dst() as usize) {
+                *w = i;
+            }
+        }
+        for (i, ins) in self.tape.instructions().iter().enumerate() {
+            let dst = ins.dst() as usize;
+            let v = self.instr(b, *ins)?;
+            if last_write.get(dst) == Some(&i) {
+                self.store_output(b, dst, v)?;
+            }
         }
         // Outputs whose last value is not stored yet (each instruction's
         // result is stored as it is made: its value dies there).
@@ -526,7 +547,8 @@ impl<'t> Emitter<'t> {
         Ok((params[0], params[1]))
     }
 
-    fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<(), JitError> {
+    /// Emits one instruction; returns the value it writes.
+    fn instr(&mut self, b: &mut FunctionBuilder<'_>, ins: Instr) -> Result<Value, JitError> {
         let (dst, v) = match ins {
             Instr::Const { dst, v } => (dst, b.ins().f64const(v)),
             Instr::Copy { dst, a } => (dst, self.get(b, a)?),
@@ -625,7 +647,7 @@ impl<'t> Emitter<'t> {
             }
         };
         self.set(dst as usize, v)?;
-        self.store_output(b, dst as usize, v)
+        Ok(v)
     }
 }
 

@@ -265,6 +265,16 @@ proptest! {
                 prop_assert!(same(*g, *w), "split, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
             }
         }
+        // The same through the default memo place (after the coordinates'
+        // entries of its tapes), in a cache of exactly the length it asks.
+        let default = compile_split(&[(&tape, 1)]).expect("the host is supported");
+        let mut own = vec![f64::NAN; default[0].trig_len()];
+        for pass in 0..2 {
+            prop_assert!(default[0].eval_split(&inputs, &mut own, &mut first, &mut rest).is_ok());
+            for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
+                prop_assert!(same(*g, *w), "default memo, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
+            }
+        }
         // The coordinates' cache holds what the tape's would, and every
         // memo entry is a value with its own sine and cosine.
         let mut tape_trig = vec![f64::NAN; 9];
