@@ -48,6 +48,8 @@ pub mod dynamics;
 pub mod equilibrium;
 #[cfg(feature = "model")]
 pub mod forward;
+#[cfg(feature = "jit")]
+mod jit;
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]

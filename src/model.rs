@@ -266,79 +266,12 @@ pub struct TapeSystem {
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
     zeros: Vec<f64>,
-    /// The tapes compiled to native code, if they were.
+    /// The JIT compiling (or having compiled) the hot path, shared by
+    /// clones.
     #[cfg(feature = "jit")]
-    jit: Option<Compiled>,
+    jit: Option<std::sync::Arc<crate::jit::Jit>>,
     /// Why the JIT was asked for and is not used.
     jit_fallback: Option<String>,
-}
-
-/// The tapes of the runtime's hot path, compiled (see [`Backend::Jit`]).
-#[cfg(feature = "jit")]
-#[derive(Clone, Debug)]
-struct Compiled {
-    phi: kinema_jit::JitTape,
-    jacobian: kinema_jit::JitTape,
-    /// Φ then Φ_q's values, split between the two.
-    both: kinema_jit::JitTape,
-    nu: kinema_jit::JitTape,
-    gamma: kinema_jit::JitTape,
-    /// Length of the scratch the compiled tapes read and write: the
-    /// coordinates' sin/cos cache, and from `memo_base` (after the
-    /// interpreter's registers) the memo of other sines and cosines.
-    cache_len: usize,
-}
-
-#[cfg(feature = "jit")]
-impl Compiled {
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        phi: &Tape,
-        jacobian: &Tape,
-        both: &Tape,
-        nu: &Tape,
-        gamma: &Tape,
-        n_phi: usize,
-        memo_base: usize,
-    ) -> Result<Compiled, kinema_jit::JitError> {
-        let compiled = kinema_jit::compile_split_memo_at(
-            &[
-                (phi, phi.outputs()),
-                (jacobian, jacobian.outputs()),
-                (both, n_phi),
-                (nu, nu.outputs()),
-                (gamma, gamma.outputs()),
-            ],
-            memo_base,
-        )?;
-        let cache_len = compiled
-            .iter()
-            .map(kinema_jit::JitTape::trig_len)
-            .max()
-            .unwrap_or(0);
-        let mut all = compiled.into_iter();
-        let mut next = || {
-            all.next()
-                .ok_or_else(|| kinema_jit::JitError::Compile("a tape is missing".into()))
-        };
-        Ok(Compiled {
-            phi: next()?,
-            jacobian: next()?,
-            both: next()?,
-            nu: next()?,
-            gamma: next()?,
-            cache_len,
-        })
-    }
-}
-
-/// Runs a compiled tape into `out` through the sin/cos cache `trig`; NaN
-/// on a size mismatch (as [`TapeSystem::run`]).
-#[cfg(feature = "jit")]
-fn run_jit(f: &kinema_jit::JitTape, inputs: &TapeInputs<'_>, trig: &mut [f64], out: &mut [f64]) {
-    if out.len() != f.outputs() || f.eval_with_cache(inputs, trig, out).is_err() {
-        out.fill(f64::NAN);
-    }
 }
 
 impl TapeSystem {
@@ -348,10 +281,13 @@ impl TapeSystem {
         TapeSystem::with_backend(d, Backend::Tape)
     }
 
-    /// Compiles the tapes of a derivation, and with [`Backend::Jit`] the
-    /// tapes of the hot path (Φ, Φ_q, ν, γ) to native code; if that fails,
-    /// the system runs on the tapes and [`jit_fallback`](Self::jit_fallback)
-    /// says why.
+    /// Compiles the tapes of a derivation, and with [`Backend::Jit`] starts
+    /// compiling the hot path (Φ, Φ_q, ν, γ, and the folded LU when a
+    /// solver is built) to native code on a thread of its own: the system
+    /// runs on the tapes until that code is ready, then on it, with the
+    /// same results bit for bit (see [`wait_for_jit`](Self::wait_for_jit)).
+    /// A model the JIT does not take runs on the tapes and
+    /// [`jit_fallback`](Self::jit_fallback) says why.
     #[must_use]
     pub fn with_backend(d: &Derivation, backend: Backend) -> TapeSystem {
         let a = &d.arena;
@@ -380,18 +316,21 @@ impl TapeSystem {
         #[cfg(feature = "jit")]
         let (jit, jit_fallback) = match backend {
             Backend::Tape => (None, None),
-            Backend::Jit => match Compiled::new(
-                &phi,
-                &jacobian,
-                &both,
-                &nu,
-                &gamma,
-                d.phi.len(),
-                3 * n + registers,
-            ) {
-                Ok(c) => (Some(c), None),
-                Err(e) => (None, Some(e.to_string())),
-            },
+            Backend::Jit => {
+                let hot = crate::jit::HotTapes {
+                    phi: &phi,
+                    jacobian: &jacobian,
+                    both: &both,
+                    nu: &nu,
+                    gamma: &gamma,
+                    n_phi: d.phi.len(),
+                };
+                // The memo after the interpreter's cache and registers.
+                match crate::jit::Jit::start(&hot, 3 * n + registers) {
+                    Ok(jit) => (Some(jit), None),
+                    Err(why) => (None, Some(why)),
+                }
+            }
         };
         #[cfg(not(feature = "jit"))]
         let jit_fallback = (backend == Backend::Jit)
@@ -427,24 +366,48 @@ impl TapeSystem {
         }
     }
 
-    /// The back end that evaluates this system: [`Backend::Jit`] if its
-    /// tapes were compiled to native code, else [`Backend::Tape`].
+    /// The back end that evaluates this system now: [`Backend::Jit`] once
+    /// its tapes are compiled to native code, else [`Backend::Tape`].
     #[must_use]
     pub fn backend(&self) -> Backend {
         #[cfg(feature = "jit")]
-        if self.jit.is_some() {
+        if self.compiled().is_some() {
             return Backend::Jit;
         }
         Backend::Tape
     }
 
+    /// Waits until every compilation this system (or a solver built on it)
+    /// has started is finished, and returns the back end then in use. Not
+    /// needed for correct results (the tape computes the same numbers); for
+    /// measurements and tests of the compiled code.
+    pub fn wait_for_jit(&self) -> Backend {
+        #[cfg(feature = "jit")]
+        if let Some(jit) = &self.jit {
+            jit.wait();
+        }
+        self.backend()
+    }
+
     /// Why [`Backend::Jit`] was asked for and the system runs on the tape
     /// instead (no native code for this host, a compilation that failed, a
     /// model too large to compile within the load-time budget, or the `jit`
-    /// feature off); `None` if it was not asked for or is in use.
+    /// feature off); `None` if it was not asked for, is in use or is still
+    /// compiling (a failure is known once it has happened).
     #[must_use]
     pub fn jit_fallback(&self) -> Option<&str> {
+        #[cfg(feature = "jit")]
+        if let Some(why) = self.jit.as_ref().and_then(|j| j.failure()) {
+            return Some(why);
+        }
         self.jit_fallback.as_deref()
+    }
+
+    /// The compiled tapes, once ready.
+    #[cfg(feature = "jit")]
+    #[inline]
+    fn compiled(&self) -> Option<&crate::jit::Compiled> {
+        self.jit.as_ref()?.compiled()
     }
 
     /// The parameters' names, in declaration order.
@@ -521,7 +484,7 @@ impl TapeSystem {
     /// registers), grown if the scratch came from another system.
     #[cfg(feature = "jit")]
     fn trig<'a>(&self, scratch: &'a mut Vec<f64>) -> &'a mut [f64] {
-        let n = self.jit.as_ref().map_or(0, |c| c.cache_len);
+        let n = self.jit.as_ref().map_or(0, |j| j.cache_len());
         if scratch.len() < n {
             scratch.resize(n, f64::NAN);
         }
@@ -548,7 +511,7 @@ impl System for TapeSystem {
         // The cache's angles NaN: no angle seen yet.
         let interpreter = self.trig_len() + self.registers;
         #[cfg(feature = "jit")]
-        let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |c| c.cache_len));
+        let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |j| j.cache_len()));
         vec![f64::NAN; interpreter]
     }
 
@@ -584,35 +547,28 @@ impl System for TapeSystem {
         self.constants.get(k).copied().flatten()
     }
 
-    /// With the JIT in use, the folded LU's solves are compiled too (a
-    /// compilation that fails leaves them interpreted: same results).
+    /// With the JIT asked for, the folded LU's solves are compiled too, in
+    /// the background (interpreted until then, or if that fails: same
+    /// results).
     #[cfg(feature = "jit")]
     fn compile_folded_solves(
         &self,
         solves: &kinema_runtime::linalg::FoldedSolves<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledSolves>> {
-        self.jit.as_ref()?;
-        if self.len() > kinema_jit::MAX_LU_DIMENSION {
-            return None;
-        }
-        let compiled = kinema_jit::compile_solves(solves).ok()?;
-        Some(Box::new(compiled))
+        let jit = self.jit.as_ref()?;
+        (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.solves(solves))
     }
 
-    /// With the JIT in use, the folded LU's factorization is compiled too
-    /// (same values, same scan; a compilation that fails leaves it
-    /// interpreted).
+    /// With the JIT asked for, the folded LU's factorization is compiled
+    /// too, in the background (same values, same scan; interpreted until
+    /// then, or if that fails).
     #[cfg(feature = "jit")]
     fn compile_folded_factor(
         &self,
         factor: &kinema_runtime::linalg::FoldedFactor<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledFactor>> {
-        self.jit.as_ref()?;
-        if self.len() > kinema_jit::MAX_LU_DIMENSION {
-            return None;
-        }
-        let compiled = kinema_jit::compile_factor(factor).ok()?;
-        Some(Box::new(compiled))
+        let jit = self.jit.as_ref()?;
+        (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.factor(factor))
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
@@ -623,8 +579,8 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = &self.jit {
-            return run_jit(&c.phi, &inputs, self.trig(registers), phi);
+        if let Some(c) = self.compiled() {
+            return crate::jit::run(&c.phi, &inputs, self.trig(registers), phi);
         }
         self.run(&self.phi, registers, &inputs, phi);
     }
@@ -637,8 +593,8 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = &self.jit {
-            return run_jit(&c.jacobian, &inputs, self.trig(registers), values);
+        if let Some(c) = self.compiled() {
+            return crate::jit::run(&c.jacobian, &inputs, self.trig(registers), values);
         }
         self.run(&self.jacobian, registers, &inputs, values);
     }
@@ -658,7 +614,7 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = &self.jit {
+        if let Some(c) = self.compiled() {
             if phi.len() + values.len() != c.both.outputs()
                 || c.both
                     .eval_split(&inputs, self.trig(registers), phi, values)
@@ -695,8 +651,8 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = &self.jit {
-            return run_jit(&c.nu, &inputs, self.trig(registers), nu);
+        if let Some(c) = self.compiled() {
+            return crate::jit::run(&c.nu, &inputs, self.trig(registers), nu);
         }
         self.run(&self.nu, registers, &inputs, nu);
     }
@@ -709,8 +665,8 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = &self.jit {
-            return run_jit(&c.gamma, &inputs, self.trig(registers), gamma);
+        if let Some(c) = self.compiled() {
+            return crate::jit::run(&c.gamma, &inputs, self.trig(registers), gamma);
         }
         self.run(&self.gamma, registers, &inputs, gamma);
     }

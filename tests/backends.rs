@@ -60,8 +60,9 @@ fn model_system(path: &str, backend: Backend) -> kinema::TapeSystem {
         .unwrap_or_else(|e| panic!("{e}"))
         .with_backend(backend);
     let system = model.system();
+    // The compiled code, not the tape it starts on while compiling.
     assert_eq!(
-        system.backend(),
+        system.wait_for_jit(),
         backend,
         "{path}: fell back: {:?}",
         system.jit_fallback()

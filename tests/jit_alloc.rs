@@ -1,7 +1,9 @@
 //! The kinematic step does not allocate on either back end of a model
 //! file, the tapes compiled to native code (kinema-jit) or the tape
-//! interpreter: a counting allocator (this thread's allocations only, as in
-//! the runtime's allocation test) around the steps of a running solver.
+//! interpreter, nor where a run switches from one to the other when the
+//! background compilation finishes: a counting allocator (this thread's
+//! allocations only, as in the runtime's allocation test) around the steps
+//! of a running solver.
 
 use kinema::{Backend, Model, Options, Solver};
 
@@ -22,17 +24,25 @@ fn model_steps_do_not_allocate_on_either_back_end() {
                 .with_backend(backend);
             let system = model.system();
             assert_eq!(
-                system.backend(),
+                system.wait_for_jit(),
                 backend,
                 "{path}: {:?}",
                 system.jit_fallback()
             );
-            for options in [
-                Options::default(),
-                Options::default().with_positions_only(true),
+            for (options, fresh) in [
+                (Options::default(), false),
+                (Options::default().with_positions_only(true), false),
+                // A system still compiling: the run starts on the tape and
+                // goes over to the compiled code when it is ready.
+                (Options::default(), true),
             ] {
+                let system = if fresh {
+                    model.system()
+                } else {
+                    system.clone()
+                };
                 let mut solver: Solver<_, kinema::Auto> =
-                    Solver::with_options(system.clone(), options).unwrap_or_else(|e| panic!("{e}"));
+                    Solver::with_options(system, options).unwrap_or_else(|e| panic!("{e}"));
                 // The first steps size what they reuse.
                 for k in 0..3 {
                     solver

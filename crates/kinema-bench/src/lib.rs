@@ -151,6 +151,9 @@ pub fn tape(name: &str) -> kinema::TapeSystem {
 /// (kinema-jit); panics if the JIT fell back to the tape.
 pub fn jit(name: &str) -> kinema::TapeSystem {
     let system = on(name, kinema::Backend::Jit);
+    // Compiled before it is measured (a solver built from it then compiles
+    // its LU at once).
+    system.wait_for_jit();
     if let Some(why) = system.jit_fallback() {
         panic!("{name}: no JIT: {why}");
     }
@@ -163,6 +166,7 @@ pub fn jit(name: &str) -> kinema::TapeSystem {
 #[must_use]
 pub fn jit_if_compiled(name: &str) -> Option<kinema::TapeSystem> {
     let system = on(name, kinema::Backend::Jit);
+    system.wait_for_jit();
     system.jit_fallback().is_none().then_some(system)
 }
 

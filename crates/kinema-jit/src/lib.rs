@@ -28,7 +28,10 @@ pub use lu::{
     JitFactor, JitSolves, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves,
 };
 
-pub use tape::{JitTape, MAX_INSTRUCTIONS, compile, compile_split, compile_split_memo_at};
+pub use tape::{
+    JitTape, MAX_INSTRUCTIONS, cache_len_bound, compile, compile_split, compile_split_memo_at,
+    host_supported,
+};
 
 /// Why tapes could not be compiled, or a compiled tape not called.
 #[derive(Clone, Debug, PartialEq, Eq)]

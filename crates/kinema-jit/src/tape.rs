@@ -223,6 +223,53 @@ pub fn compile_split_memo_at(
         .collect()
 }
 
+/// The length of cache slice that tapes compiled by
+/// [`compile_split_memo_at`] with this `memo_base` need at most, known
+/// without compiling them (each sin or cos of a value other than a
+/// coordinate counted as a memo entry of its own).
+///
+/// # Errors
+/// [`JitError::Compile`] if the length does not fit a `usize`.
+pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usize, JitError> {
+    let too_large = || JitError::Compile("cache too large".into());
+    tapes.iter().try_fold(0, |m, (tape, _)| {
+        let sites = tape
+            .instructions()
+            .iter()
+            .filter(|i| {
+                matches!(
+                    i,
+                    Instr::Sin { .. }
+                        | Instr::Cos { .. }
+                        | Instr::Unary {
+                            op: kinema_expr::UnaryOp::Sin | kinema_expr::UnaryOp::Cos,
+                            ..
+                        }
+                )
+            })
+            .count();
+        let memo = if sites == 0 {
+            0
+        } else {
+            sites
+                .checked_mul(3)
+                .and_then(|k| k.checked_add(memo_base))
+                .ok_or_else(too_large)?
+        };
+        Ok(m.max(trig_len(tape)?).max(memo))
+    })
+}
+
+/// Whether Cranelift can generate code for this machine.
+///
+/// # Errors
+/// [`JitError::Host`] if it cannot.
+pub fn host_supported() -> Result<(), JitError> {
+    cranelift_native::builder()
+        .map(|_| ())
+        .map_err(|e| JitError::Host(e.to_owned()))
+}
+
 /// A JIT module for the host, with the shims as symbols.
 pub(crate) fn new_module() -> Result<JITModule, JitError> {
     let mut flags = settings::builder();

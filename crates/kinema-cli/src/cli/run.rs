@@ -465,6 +465,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     let destination = csv.0.clone();
     let summary = summary(&SummaryInput {
         loaded,
+        backend: solver.system().backend(),
         grid,
         stats: &stats,
         csv: (&csv.0, csv.1, csv.2),
@@ -734,6 +735,8 @@ fn plot_title(loaded: &Loaded, grid: &Grid) -> String {
 
 struct SummaryInput<'a> {
     loaded: &'a Loaded,
+    /// What evaluated the model's equations.
+    backend: kinema::Backend,
     grid: &'a Grid,
     stats: &'a Stats,
     /// Where the CSV went, its rows and columns.
@@ -753,11 +756,15 @@ fn summary(s: &SummaryInput<'_>) -> String {
     let nb = c.bodies.len();
     let _ = writeln!(
         out,
-        "{} ({}): {nb} bod{}, {} coordinates, tape back end",
+        "{} ({}): {nb} bod{}, {} coordinates, {}",
         c.name,
         s.loaded.file,
         if nb == 1 { "y" } else { "ies" },
-        3 * nb + c.coords.len()
+        3 * nb + c.coords.len(),
+        match s.backend {
+            kinema::Backend::Jit => "compiled to native code at load (JIT)",
+            kinema::Backend::Tape => "tape interpreter",
+        }
     );
     let _ = writeln!(out, "  grid: {}", s.grid.description);
     let st = s.stats;
