@@ -41,6 +41,7 @@ impl std::fmt::Debug for JitSolves {
 }
 
 impl CompiledSolves for JitSolves {
+    #[inline]
     fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool {
         if transpose {
             self.transpose.call(v, rhs)
@@ -242,6 +243,7 @@ impl std::fmt::Debug for JitFactor {
 }
 
 impl CompiledFactor for JitFactor {
+    #[inline]
     fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
         let scan = self.f.call(values, v)?;
         Some(FactorScan {
