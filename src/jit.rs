@@ -1,9 +1,9 @@
 //! [`Backend::Jit`](crate::Backend::Jit): the hot path's tapes and the
 //! folded LU compiled to native code in the background.
 //!
-//! Building a system starts the compilation on its own thread and returns
-//! at once; until the code is ready every evaluation runs on the tape, then
-//! on the compiled code. The two compute the same numbers bit for bit
+//! Building a system queues the compilation on the process's compiling
+//! thread (one for all systems) and returns at once; until the code is
+//! ready every evaluation runs on the tape, then on the compiled code. The two compute the same numbers bit for bit
 //! (kinema-jit's property tests, `tests/backends.rs`), so results do not
 //! depend on when the switch happens, and a run is never slower than the
 //! interpreter's by more than the compiler's share of the cores: a short run
@@ -99,9 +99,38 @@ impl Progress {
     }
 }
 
-/// The JIT of one system, shared by its clones (a sweep's workers): one
-/// thread of its own runs the compilations in order (the tapes', then each
-/// solver's LU), so a run keeps the other cores.
+/// A compilation and the progress it counts toward.
+struct Queued {
+    job: Job,
+    progress: Arc<Progress>,
+}
+
+/// The process's compiling thread, shared by every system: compilations run
+/// one at a time, in the order asked, on one core, and a run keeps the
+/// others. `None` if the thread could not be started (jobs then run in
+/// place).
+fn queue() -> Option<&'static Mutex<Sender<Queued>>> {
+    static QUEUE: OnceLock<Option<Mutex<Sender<Queued>>>> = OnceLock::new();
+    QUEUE
+        .get_or_init(|| {
+            let (sender, jobs) = mpsc::channel::<Queued>();
+            std::thread::Builder::new()
+                .name("kinema-jit".into())
+                .spawn(move || {
+                    for queued in jobs {
+                        queued.progress.run(queued.job);
+                    }
+                })
+                .ok()
+                .map(|_| Mutex::new(sender))
+        })
+        .as_ref()
+}
+
+/// The JIT of one system, shared by its clones (a sweep's workers). Its
+/// compilations (the tapes', then each solver's LU) go to the process's
+/// compiling thread; one whose result nobody holds any more when its turn
+/// comes (a short run's system already dropped) is skipped.
 #[derive(Debug)]
 pub(crate) struct Jit {
     /// The compiled tapes, or why they could not be; empty while compiling.
@@ -110,10 +139,7 @@ pub(crate) struct Jit {
     /// coordinates' sin/cos cache and the memo after the interpreter's
     /// registers.
     cache_len: usize,
-    /// The compiling thread's queue (`None` if no thread could be made:
-    /// jobs then run in place). Dropped with the last clone, which ends
-    /// the thread once its queue is done.
-    queue: Mutex<Option<Sender<Job>>>,
+    /// This JIT's compilations not finished yet.
     progress: Arc<Progress>,
 }
 
@@ -130,27 +156,17 @@ impl Jit {
         kinema_jit::host_supported().map_err(|e| e.to_string())?;
         let cache_len =
             kinema_jit::cache_len_bound(&splits, memo_base).map_err(|e| e.to_string())?;
-        let progress = Arc::new(Progress::default());
-        let (sender, jobs) = mpsc::channel::<Job>();
-        let worker = Arc::clone(&progress);
-        let queue = std::thread::Builder::new()
-            .name("kinema-jit".into())
-            .spawn(move || {
-                for job in jobs {
-                    worker.run(job);
-                }
-            })
-            .ok()
-            .map(|_| sender);
         let jit = Arc::new(Jit {
             tapes: Arc::new(OnceLock::new()),
             cache_len,
-            queue: Mutex::new(queue),
-            progress,
+            progress: Arc::new(Progress::default()),
         });
         let owned: Vec<(Tape, usize)> = splits.iter().map(|&(t, s)| (t.clone(), s)).collect();
-        let target = Arc::clone(&jit.tapes);
+        let target = Arc::downgrade(&jit.tapes);
         jit.submit(Box::new(move || {
+            let Some(target) = target.upgrade() else {
+                return;
+            };
             let splits: Vec<(&Tape, usize)> = owned.iter().map(|(t, s)| (t, *s)).collect();
             let result = Compiled::new(&splits, memo_base).map_err(|e| e.to_string());
             let _ = target.set(result);
@@ -194,12 +210,21 @@ impl Jit {
     /// none).
     fn submit(&self, job: Job) {
         self.progress.add();
-        let refused = match &*self.queue.lock().unwrap_or_else(PoisonError::into_inner) {
-            Some(queue) => queue.send(job).err().map(|e| e.0),
-            None => Some(job),
+        let queued = Queued {
+            job,
+            progress: Arc::clone(&self.progress),
         };
-        if let Some(job) = refused {
-            self.progress.run(job);
+        let refused = match queue() {
+            Some(queue) => queue
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .send(queued)
+                .err()
+                .map(|e| e.0),
+            None => Some(queued),
+        };
+        if let Some(queued) = refused {
+            queued.progress.run(queued.job);
         }
     }
 
@@ -218,9 +243,11 @@ impl Jit {
             let _ = slot.set(kinema_jit::compile_factor(plan).ok());
         } else {
             let owned = OwnedFactor::new(plan);
-            let target = Arc::clone(&slot);
+            let target = Arc::downgrade(&slot);
             self.submit(Box::new(move || {
-                let _ = target.set(kinema_jit::compile_factor(&owned.view()).ok());
+                if let Some(target) = target.upgrade() {
+                    let _ = target.set(kinema_jit::compile_factor(&owned.view()).ok());
+                }
             }));
         }
         Box::new(LazyFactor { slot })
@@ -233,9 +260,11 @@ impl Jit {
             let _ = slot.set(kinema_jit::compile_solves(plan).ok());
         } else {
             let owned = OwnedSolves::new(plan);
-            let target = Arc::clone(&slot);
+            let target = Arc::downgrade(&slot);
             self.submit(Box::new(move || {
-                let _ = target.set(kinema_jit::compile_solves(&owned.view()).ok());
+                if let Some(target) = target.upgrade() {
+                    let _ = target.set(kinema_jit::compile_solves(&owned.view()).ok());
+                }
             }));
         }
         Box::new(LazySolves { slot })

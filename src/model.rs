@@ -283,7 +283,8 @@ impl TapeSystem {
 
     /// Compiles the tapes of a derivation, and with [`Backend::Jit`] starts
     /// compiling the hot path (Φ, Φ_q, ν, γ, and the folded LU when a
-    /// solver is built) to native code on a thread of its own: the system
+    /// solver is built) to native code on the process's compiling thread:
+    /// the system
     /// runs on the tapes until that code is ready, then on it, with the
     /// same results bit for bit (see [`wait_for_jit`](Self::wait_for_jit)).
     /// A model the JIT does not take runs on the tapes and
