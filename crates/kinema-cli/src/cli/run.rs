@@ -465,7 +465,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     let destination = csv.0.clone();
     let summary = summary(&SummaryInput {
         loaded,
-        backend: solver.system().backend(),
+        backend: (args.backend, solver.system().backend()),
         grid,
         stats: &stats,
         csv: (&csv.0, csv.1, csv.2),
@@ -735,8 +735,8 @@ fn plot_title(loaded: &Loaded, grid: &Grid) -> String {
 
 struct SummaryInput<'a> {
     loaded: &'a Loaded,
-    /// What evaluated the model's equations.
-    backend: kinema::Backend,
+    /// The back end asked for, and the one in use at the end.
+    backend: (Backend, kinema::Backend),
     grid: &'a Grid,
     stats: &'a Stats,
     /// Where the CSV went, its rows and columns.
@@ -762,8 +762,10 @@ fn summary(s: &SummaryInput<'_>) -> String {
         if nb == 1 { "y" } else { "ies" },
         3 * nb + c.coords.len(),
         match s.backend {
-            kinema::Backend::Jit => "compiled to native code at load (JIT)",
-            kinema::Backend::Tape => "tape interpreter",
+            (Backend::Tape, _) => "tape interpreter",
+            (Backend::Jit, kinema::Backend::Jit) => "tape, then native code (JIT)",
+            (Backend::Jit, kinema::Backend::Tape) =>
+                "tape interpreter (the JIT had not finished compiling)",
         }
     );
     let _ = writeln!(out, "  grid: {}", s.grid.description);
