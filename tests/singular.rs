@@ -21,6 +21,9 @@ mod generated {
     pub mod long_pendulum {
         kinema::mechanism!(file = "tests/singular/long_pendulum.kin");
     }
+    pub mod slider_crank {
+        kinema::mechanism!(file = "models/slider_crank.kin");
+    }
     pub mod six_bar {
         kinema::mechanism!(file = "tests/singular/six_bar.kin");
     }
@@ -428,6 +431,64 @@ fn a_run_ending_at_a_singular_configuration_says_so() {
             );
         }
     }
+}
+
+/// Output steps of many crank turns each (fuzz seed 16023: 100 turns a
+/// step): Newton from the prediction may land on the mirror assembly
+/// branch, det Φ_q changing sign with no singular configuration anywhere on
+/// the way. Either the run stays on its branch (the slider where the closed
+/// form puts it, no event) or it is refused, saying so, at the first step
+/// that jumps — never a bifurcation reported at every step (what it was, at
+/// a bisection's cost per step), never an answer from the other branch.
+#[test]
+fn steps_of_many_turns_stay_on_the_branch_or_are_refused_as_branch_jumps() {
+    let slider_x = |t: f64| {
+        let phi = FRAC_PI_4 + TAU * t;
+        0.3 * phi.cos() + (1.0 - (0.3 * phi.sin()).powi(2)).sqrt()
+    };
+    let mut refused = 0;
+    for turns_per_step in [7.5, 50.0, 100.0] {
+        let times: Vec<f64> = (0..=20).map(|k| f64::from(k) * turns_per_step).collect();
+        let generated = generated::slider_crank::SliderCrank::default()
+            .solver(Options::default())
+            .and_then(|mut s| s.run(&times));
+        let taped = run(tape("models/slider_crank.kin"), &times);
+        for (what, result) in [("generated", generated), ("tape", taped)] {
+            let what = format!("{what}, {turns_per_step} turns a step");
+            match result {
+                Ok(trajectory) => {
+                    assert!(
+                        trajectory.events().is_empty(),
+                        "{what}: {:?}",
+                        trajectory.events()
+                    );
+                    for state in trajectory.iter() {
+                        let x = state.q()[6];
+                        // Far from t = 0, the crank angle itself carries
+                        // roundoff of 2π t.
+                        let tolerance = 1e-9 * (1.0 + state.t());
+                        assert!((x - slider_x(state.t())).abs() < tolerance, "{what}: {x}");
+                    }
+                }
+                Err(Error::BranchJump {
+                    from,
+                    t,
+                    at,
+                    condition,
+                }) => {
+                    refused += 1;
+                    assert!(
+                        times.windows(2).any(|w| w == [from, t]),
+                        "{what}: {from}, {t}"
+                    );
+                    assert!(from < at && at < t, "{what}: at = {at}");
+                    assert!(condition < 1e4, "{what}: {condition}");
+                }
+                Err(e) => panic!("{what}: {e}"),
+            }
+        }
+    }
+    assert!(refused > 0, "the fuzz finding's grid jumps branches");
 }
 
 /// The Newton variants a user may pick: the peers' loop (no predictor, full

@@ -103,6 +103,33 @@ pub enum Error {
         /// Sub-steps tried.
         substeps: usize,
     },
+    /// det Φ_q has opposite signs at two successive solutions, but no
+    /// singular configuration lies between them: bisection along the branch
+    /// narrowed the change down to roundoff of t, and Φ_q is well
+    /// conditioned there. Newton reached the second solution on another
+    /// assembly branch (a mirror image) from a step too long for the motion
+    /// (a driver turning many times per output step, say).
+    #[error(
+        "the solution at t = {} is on another assembly branch than the one at t = {}: det Φ_q \
+         changes sign between them, yet the branch followed from t = {} is regular up to \
+         t = {} (Φ_q's condition number {condition:.1e}), with no singular configuration to \
+         pass; the motion changes too much between output times to be followed; use more steps",
+        Time(*.t),
+        Time(*.from),
+        Time(*.from),
+        Time(*.at)
+    )]
+    BranchJump {
+        /// The last time solved on the branch.
+        from: f64,
+        /// The time whose solution is on another branch.
+        t: f64,
+        /// Where bisection along the branch found det Φ_q still of the
+        /// branch's sign, within roundoff of the change.
+        at: f64,
+        /// Condition number of Φ_q (equilibrated) there.
+        condition: f64,
+    },
     /// A time grid without any time.
     #[error("the time grid is empty")]
     EmptyTimeGrid,

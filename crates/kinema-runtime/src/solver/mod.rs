@@ -626,7 +626,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     #[inline(never)]
     fn commit_events(&mut self, t: f64, sign: f64, near: bool, flipped: bool) -> Result<(), Error> {
         if flipped {
-            let event = self.locate_passage(t);
+            let event = self.locate_passage(t)?;
             if let Some(zone) = &mut self.zone {
                 zone.flipped = true;
             }

@@ -47,6 +47,20 @@ enum Outcome {
     Reject,
 }
 
+/// How the bisection of a change of sign of det Φ_q ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum End {
+    /// The interval is down to roundoff of t.
+    Narrowed,
+    /// At a singular configuration (Φ_q singular at a time tried).
+    Singular,
+    /// Newton failed or left the branch at every time tried towards the
+    /// left end, or a solution's sign was undecided.
+    GaveUp,
+    /// [`MAX_BISECTIONS`] rounds spent.
+    Rounds,
+}
+
 /// A run of near-singular states.
 #[derive(Debug, Clone)]
 pub(super) struct Zone {
@@ -412,20 +426,36 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// solve from the last state on the current side) to find where it
     /// changes, and diagnoses Φ_q there. Leaves `self.next` and the state as
     /// they were. Event path: allocates two states.
-    pub(super) fn locate_passage(&mut self, t: f64) -> SingularEvent {
+    ///
+    /// # Errors
+    /// [`Error::BranchJump`] when the bisection narrows the change down to
+    /// roundoff of t with the branch's last state there regular (full rank,
+    /// condition below the near-singular threshold τ^−0.4): a branch is
+    /// smooth where Φ_q is regular, so no singular configuration lies in
+    /// between, and the solution at `t` is on another branch that Newton
+    /// jumped to from a step too long for the motion. Reporting it as a
+    /// passage would name a singular configuration that is not there (and a
+    /// driver turning many times per step would do so at every step).
+    pub(super) fn locate_passage(&mut self, t: f64) -> Result<SingularEvent, Error> {
         let mut candidate = self.next.clone();
         // The left end: a copy of the current state, moved right as the
         // bisection proceeds; the current state itself is kept.
         let left_sign = self.branch_sign;
         let mut left = self.state.clone();
         let (mut lo, mut hi) = (self.state.t, t);
+        // The state may already be past `t` (a passage's limit
+        // taken at an output time just behind the sub-steps): then nothing
+        // is bisected, and nothing learnt of the branch between them.
+        let forward = lo < hi;
         std::mem::swap(&mut self.state, &mut left);
         let mut singular_at = None;
+        let mut end = End::Rounds;
         'bisection: for _ in 0..MAX_BISECTIONS {
             // Not the midpoint: grids symmetric about t* would put the first
             // one on it, where det Φ_q's sign is noise.
             let mut mid = lo + 0.4 * (hi - lo);
             if !(lo < mid && mid < hi) || hi - lo <= 1e-12 * (1.0 + hi.abs()) {
+                end = End::Narrowed;
                 break;
             }
             // From a coarse step, Newton may fail or leave the branch at the
@@ -441,6 +471,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                     // Φ_q is singular at mid itself (its det's sign is
                     // noise): that is the time.
                     singular_at = Some(mid);
+                    end = End::Singular;
                     break 'bisection;
                 }
                 let ok = attempt.is_ok() && (self.next.stats.near_singular || self.acceptable());
@@ -451,6 +482,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 mid = lo + 0.5 * (mid - lo);
                 let inside = lo < mid;
                 if tries > 60 || !inside {
+                    end = End::GaveUp;
                     break 'bisection;
                 }
             }
@@ -466,6 +498,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             } else if sign * left_sign < 0.0 {
                 hi = mid;
             } else {
+                end = End::GaveUp;
                 break;
             }
         }
@@ -483,14 +516,34 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             &self.ws.jac,
             self.options.singular_tolerance,
         );
+        // The state diagnosed is the branch's last one, at the interval's
+        // left end (not an older base: a near-singular solution there would
+        // not have become one).
+        let at = self.state.t;
         std::mem::swap(&mut self.state, &mut left);
         std::mem::swap(&mut self.next, &mut candidate);
         self.factorization = Factorization::None;
-        SingularEvent {
+        let regular = dependency.rank == Some(dependency.dim)
+            && dependency.condition.is_some_and(|c| {
+                c < crate::diagnose::near_singular_condition(self.options.singular_tolerance)
+            });
+        // A change down to roundoff with the branch regular there, or every
+        // round spent walking a regular branch (each midpoint too far for
+        // Newton to stay on it, as when a driver turns many times a step)
+        // without reaching the change: no singular configuration found.
+        if forward && matches!(end, End::Narrowed | End::Rounds) && at == lo && regular {
+            return Err(Error::BranchJump {
+                from: self.state.t,
+                t,
+                at,
+                condition: dependency.condition.unwrap_or(f64::NAN),
+            });
+        }
+        Ok(SingularEvent {
             t: t_star,
             kind: SingularKind::Bifurcation,
             dependency,
-        }
+        })
     }
 
     /// Newton converged at `t_good` (the current state) but not at `t_bad`:
