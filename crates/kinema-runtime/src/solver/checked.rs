@@ -64,6 +64,7 @@ pub(super) fn velocity_overflow<S: System>(
 /// the culprit: a non-finite equation (`quantities.0`) or else a solution
 /// that overflowed (`quantities.1`).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub(super) fn solve_checked<S: System, L: LinearSolver>(
     system: &S,
     scratch: &mut S::Scratch,
