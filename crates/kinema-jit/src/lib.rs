@@ -25,12 +25,13 @@ mod shims;
 mod tape;
 
 pub use lu::{
-    JitFactor, JitSolves, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves,
+    JitFactor, JitSolves, LU_CHUNK, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor,
+    compile_factor_chunked, compile_solves, compile_solves_chunked,
 };
 
 pub use tape::{
-    JitTape, MAX_INSTRUCTIONS, cache_len_bound, compile, compile_split, compile_split_memo_at,
-    host_supported,
+    CHUNK_INSTRUCTIONS, JitTape, MAX_INSTRUCTIONS, cache_len_bound, cache_len_bound_chunked,
+    compile, compile_chunked, compile_split, compile_split_memo_at, host_supported,
 };
 
 /// Why tapes could not be compiled, or a compiled tape not called.
