@@ -301,9 +301,9 @@ struct LazySolves {
 
 impl CompiledSolves for LazySolves {
     #[inline]
-    fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool {
+    fn solve(&self, v: &[f64], rhs: &mut [f64], work: &mut [f64], transpose: bool) -> bool {
         match self.slot.get() {
-            Some(Some(s)) => s.solve(v, rhs, transpose),
+            Some(Some(s)) => s.solve(v, rhs, work, transpose),
             _ => false,
         }
     }

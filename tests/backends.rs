@@ -477,6 +477,49 @@ fn jit_and_tape_agree_on_every_model() {
     assert_eq!(tape, jit, "dead point: tape vs jit");
 }
 
+/// Chains too large for one compiled function per tape (and, N = 100,
+/// n = 300, for one per folded-LU direction): compiled in chunks, values
+/// crossing the cuts through memory, they run on the compiled code and
+/// agree with the tape bit for bit. (The chain N = 200, n = 600, is over
+/// [`Auto::MAX_FOLDED`]: its LU is the sparse one, never compiled.)
+#[test]
+fn jit_and_tape_agree_on_chains_compiled_in_chunks() {
+    let times: Vec<f64> = (0..=40).map(|k| f64::from(k) / 40.0).collect();
+    for n in [100, 200] {
+        let text = kinema_model::chain::chain_kin(n);
+        let on = |backend| -> Trajectory {
+            let system = kinema::Model::from_source(&text, "chain")
+                .unwrap_or_else(|e| panic!("{e}"))
+                .with_backend(backend)
+                .system();
+            assert_eq!(
+                system.wait_for_jit(),
+                backend,
+                "chain N = {n}: fell back: {:?}",
+                system.jit_fallback()
+            );
+            let mut solver = Solver::<_, Auto>::with_options(system, Options::default())
+                .unwrap_or_else(|e| panic!("{e}"));
+            match solver.linear_solver() {
+                Auto::Folded(lu) => {
+                    assert_eq!(lu.has_compiled_solves(), backend == Backend::Jit);
+                    assert_eq!(lu.has_compiled_factor(), backend == Backend::Jit);
+                }
+                _ => assert!(3 * n > Auto::MAX_FOLDED, "chain N = {n}: not folded"),
+            }
+            solver.run(&times).unwrap_or_else(|e| panic!("{e}"))
+        };
+        let (tape, jit) = (on(Backend::Tape), on(Backend::Jit));
+        assert_eq!(tape.len(), jit.len());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (a, b) in tape.iter().zip(jit.iter()) {
+            for (x, y) in [(a.q(), b.q()), (a.qd(), b.qd()), (a.qdd(), b.qdd())] {
+                assert_eq!(bits(x), bits(y), "chain N = {n} at t = {}", a.t());
+            }
+        }
+    }
+}
+
 /// A model asked for with the JIT and the tape compute the same Φ, Φ_q,
 /// ν and γ bit for bit, also at non-finite coordinates (the System
 /// trait's rule: non-finite in, non-finite out, caught by the solver).

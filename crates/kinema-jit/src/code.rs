@@ -207,11 +207,14 @@ pub(crate) struct SolveNeeds {
     pub(crate) v: usize,
     /// Values read and written in the right-hand side.
     pub(crate) rhs: usize,
+    /// Values read and written in the scratch (a solve in chunks keeps
+    /// there what one chunk leaves to the next).
+    pub(crate) work: usize,
 }
 
-type RawSolve = unsafe extern "C" fn(*const f64, *mut f64);
+type RawSolve = unsafe extern "C" fn(*const f64, *mut f64, *mut f64);
 
-/// A compiled triangular solve: `(v, rhs) → rhs`.
+/// A compiled triangular solve: `(v, rhs, work) → rhs`.
 #[derive(Clone)]
 pub(crate) struct SolveFn {
     f: RawSolve,
@@ -233,7 +236,7 @@ impl SolveFn {
             return Err(JitError::Compile("no address for a compiled solve".into()));
         }
         // SAFETY: `p` is the finalized entry of a function declared with
-        // exactly this signature (a pointer, a pointer; no result; the C
+        // exactly this signature (three pointers; no result; the C
         // convention), and the memory stays mapped while `_code` lives.
         let f = unsafe { std::mem::transmute::<*const u8, RawSolve>(p) };
         Ok(SolveFn {
@@ -245,14 +248,15 @@ impl SolveFn {
 
     /// Runs the solve in place; `false` (nothing done) on short slices.
     #[inline]
-    pub(crate) fn call(&self, v: &[f64], rhs: &mut [f64]) -> bool {
-        if v.len() < self.needs.v || rhs.len() < self.needs.rhs {
+    pub(crate) fn call(&self, v: &[f64], rhs: &mut [f64], work: &mut [f64]) -> bool {
+        if v.len() < self.needs.v || rhs.len() < self.needs.rhs || work.len() < self.needs.work {
             return false;
         }
-        // SAFETY: the function reads only v[..needs.v] and reads and writes
-        // only rhs[..needs.rhs] (checked when it was compiled), and the
+        // SAFETY: the function reads only v[..needs.v], reads and writes
+        // only rhs[..needs.rhs] and work[..needs.work] (checked when it was
+        // compiled; `rhs` and `work` are distinct: `&mut` borrows), and the
         // lengths were just checked. The code is alive (`_code`).
-        unsafe { (self.f)(v.as_ptr(), rhs.as_mut_ptr()) };
+        unsafe { (self.f)(v.as_ptr(), rhs.as_mut_ptr(), work.as_mut_ptr()) };
         true
     }
 }

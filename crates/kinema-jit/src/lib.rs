@@ -14,6 +14,11 @@
 //! and the scan its acceptance test reads) and its solves, read from the
 //! LU's views and plugged back in through its hooks.
 //!
+//! A tape or an LU list too long for one function (Cranelift's time grows
+//! faster than a function's size) is compiled in chunks, one function
+//! each, the values crossing a cut passed through memory; one function
+//! calls the chunks in order (see [`CHUNK_INSTRUCTIONS`], [`LU_CHUNK`]).
+//!
 //! If Cranelift cannot target the host or a compilation fails, [`compile`]
 //! returns a [`JitError`] and the caller keeps the tape. The crate's one
 //! `unsafe` module (`code`) holds the call into machine code behind a
@@ -25,12 +30,13 @@ mod shims;
 mod tape;
 
 pub use lu::{
-    JitFactor, JitSolves, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor, compile_solves,
+    JitFactor, JitSolves, LU_CHUNK, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor,
+    compile_factor_chunked, compile_solves, compile_solves_chunked,
 };
 
 pub use tape::{
-    JitTape, MAX_INSTRUCTIONS, cache_len_bound, compile, compile_split, compile_split_memo_at,
-    host_supported,
+    CHUNK_INSTRUCTIONS, JitTape, MAX_INSTRUCTIONS, cache_len_bound, cache_len_bound_chunked,
+    compile, compile_chunked, compile_split, compile_split_memo_at, host_supported,
 };
 
 /// Why tapes could not be compiled, or a compiled tape not called.
@@ -41,8 +47,9 @@ pub enum JitError {
     /// Cranelift refused a function, or the tape is malformed (a register
     /// read before it is written).
     Compile(String),
-    /// The tapes are larger than [`MAX_INSTRUCTIONS`] in all: the tape
-    /// interpreter is the faster route to a first step.
+    /// The tapes are larger than [`MAX_INSTRUCTIONS`] in all (or an LU's
+    /// lists than [`MAX_SOLVE_OPERATIONS`]): compiling them would keep the
+    /// compiling thread busy for too long.
     TooLarge {
         /// Instructions of the tapes.
         instructions: usize,
@@ -66,7 +73,7 @@ impl std::fmt::Display for JitError {
             JitError::TooLarge { instructions } => write!(
                 f,
                 "the model's tapes have {instructions} instructions, more than the JIT compiles \
-                 ({MAX_INSTRUCTIONS}); the tape interpreter reaches the first step sooner"
+                 ({MAX_INSTRUCTIONS})"
             ),
             JitError::ShortSlice {
                 which,

@@ -4,11 +4,13 @@
 
 use std::collections::HashMap;
 
+use cranelift_codegen::Context;
 use cranelift_codegen::ir::{
-    AbiParam, InstBuilder, MemFlagsData, Value, condcodes::IntCC, types::F64, types::I64,
+    AbiParam, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64, types::I64,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
-use cranelift_module::{Linkage, Module};
+use cranelift_jit::JITModule;
+use cranelift_module::{FuncId, Linkage, Module};
 use kinema_runtime::linalg::{
     CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, Op, SolveOp,
 };
@@ -17,15 +19,31 @@ use crate::JitError;
 use crate::code::{Code, FactorFn, FactorNeeds, SCAN, SolveFn, SolveNeeds};
 
 /// The most solve operations (both directions; for the factorization, its
-/// operations and entries) the JIT compiles; above, they stay interpreted
-/// (as [`crate::MAX_INSTRUCTIONS`], for the same reason).
-pub const MAX_SOLVE_OPERATIONS: usize = 16_000;
+/// operations and entries) the JIT compiles; above, they stay interpreted.
+/// Longer lists than [`LU_CHUNK`] are compiled in chunks, so Cranelift's
+/// time and memory grow about linearly: the chain N = 100's (n = 300)
+/// factorization and solves compile in 93–145 ms (one function each:
+/// 223 ms). This caps a hostile plan at a few seconds on the compiling
+/// thread, as [`crate::MAX_INSTRUCTIONS`] does for tapes.
+pub const MAX_SOLVE_OPERATIONS: usize = 250_000;
 
-/// The largest dimension whose folded LU the JIT compiles: measured
-/// (release, 2 shared cores), the factorization and solves of the chain
-/// N = 20 (n = 60) compile in 21 ms, N = 50 (n = 150) in 68 ms, N = 100
-/// (n = 300) in 223 ms. Callers check it (the dimension is the system's).
-pub const MAX_LU_DIMENSION: usize = 160;
+/// The largest dimension whose folded LU the JIT compiles (callers check
+/// it: the dimension is the system's). With the factorization and solves
+/// compiled in chunks the operations' count is what costs, and
+/// [`MAX_SOLVE_OPERATIONS`] bounds it; this only keeps the scratch of a
+/// solve (n values) and the plan's orders sane. (The runtime plans a
+/// folded LU up to `Auto::MAX_FOLDED` = 400 anyway: above, the sparse LU
+/// runs, interpreted.)
+pub const MAX_LU_DIMENSION: usize = 100_000;
+
+/// The most operations (or items: a factorization's entries, a solve's
+/// scatter) compiled into one function; longer lists are cut into chunks
+/// of this many, each a function, the values crossing a cut passed
+/// through memory (the factorization's value array and scan, the solve's
+/// scratch), one function calling the chunks in order. Measured (release,
+/// 2 shared cores), one function of the chain N = 100's LU (n = 300)
+/// took 223 ms to compile; the chain N = 50's (n = 150) 68 ms.
+pub const LU_CHUNK: usize = 2_000;
 
 /// A folded LU's solves compiled to native code (see [`compile_solves`]).
 #[derive(Clone)]
@@ -42,11 +60,11 @@ impl std::fmt::Debug for JitSolves {
 
 impl CompiledSolves for JitSolves {
     #[inline]
-    fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool {
+    fn solve(&self, v: &[f64], rhs: &mut [f64], work: &mut [f64], transpose: bool) -> bool {
         if transpose {
-            self.transpose.call(v, rhs)
+            self.transpose.call(v, rhs, work)
         } else {
-            self.solve.call(v, rhs)
+            self.solve.call(v, rhs, work)
         }
     }
 }
@@ -59,6 +77,20 @@ impl CompiledSolves for JitSolves {
 /// [`JitError::Compile`] for an index outside the plan's lengths or a
 /// function Cranelift refuses.
 pub fn compile_solves(plan: &FoldedSolves<'_>) -> Result<JitSolves, JitError> {
+    compile_solves_chunked(plan, LU_CHUNK)
+}
+
+/// [`compile_solves`] with a direction longer than `chunk` operations
+/// (with its scatter) compiled in chunks of at most `chunk` (at least 1):
+/// for tests, which force small chunks. Not a stable interface.
+///
+/// # Errors
+/// As [`compile_solves`].
+#[doc(hidden)]
+pub fn compile_solves_chunked(
+    plan: &FoldedSolves<'_>,
+    chunk: usize,
+) -> Result<JitSolves, JitError> {
     let operations =
         plan.forward.len() + plan.backward.len() + plan.forward_t.len() + plan.backward_t.len();
     if operations > MAX_SOLVE_OPERATIONS {
@@ -66,12 +98,14 @@ pub fn compile_solves(plan: &FoldedSolves<'_>) -> Result<JitSolves, JitError> {
             instructions: operations,
         });
     }
+    let chunk = chunk.max(1);
     let mut module = crate::tape::new_module()?;
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
-    let needs = SolveNeeds {
+    let one = SolveNeeds {
         v: plan.values,
         rhs: plan.n,
+        work: 0,
     };
     let directions = [
         (plan.row_order, plan.forward, plan.backward, plan.col_order),
@@ -82,39 +116,318 @@ pub fn compile_solves(plan: &FoldedSolves<'_>) -> Result<JitSolves, JitError> {
             plan.row_order,
         ),
     ];
-    let mut ids = Vec::with_capacity(2);
+    let ptr = module.target_config().pointer_type();
+    let mut sig = module.make_signature();
+    for _ in 0..3 {
+        sig.params.push(AbiParam::new(ptr));
+    }
+    let mut fns = Vec::with_capacity(2);
     for (i, (gather, first, second, scatter)) in directions.into_iter().enumerate() {
-        let ptr = module.target_config().pointer_type();
-        let mut sig = module.make_signature();
-        sig.params.push(AbiParam::new(ptr));
-        sig.params.push(AbiParam::new(ptr));
-        let id = module
-            .declare_function(&format!("solve{i}"), Linkage::Local, &sig)
-            .map_err(|e| JitError::Compile(e.to_string()))?;
-        ctx.func.signature = sig;
-        {
-            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-            emit(&mut b, needs, gather, [first, second], scatter)?;
-            b.seal_all_blocks();
-            b.finalize(module.isa().frontend_config());
+        let name = format!("solve{i}");
+        if first.len() + second.len() + plan.n <= chunk {
+            let id = define(&mut module, &mut ctx, &mut fctx, &sig, &name, |b, _| {
+                emit(b, one, gather, [first, second], scatter)
+            })?;
+            fns.push((id, one));
+            continue;
         }
-        module
-            .define_function(id, &mut ctx)
-            .map_err(|e| JitError::Compile(format!("{e:?}")))?;
-        module.clear_context(&mut ctx);
-        ids.push(id);
+        let needs = SolveNeeds {
+            work: plan.n,
+            ..one
+        };
+        let mut chunks = SolveChunks::new(needs, gather, [first, second], scatter)?;
+        let ranges: Vec<_> = (0..chunks.items.len())
+            .step_by(chunk)
+            .map(|s| s..(s + chunk).min(chunks.items.len()))
+            .collect();
+        let mut parts = Vec::with_capacity(ranges.len());
+        for (c, range) in ranges.iter().enumerate() {
+            let last = c + 1 == ranges.len();
+            parts.push(define(
+                &mut module,
+                &mut ctx,
+                &mut fctx,
+                &sig,
+                &format!("{name}_{c}"),
+                |b, _| chunks.emit(b, range.clone(), c == 0, last),
+            )?);
+        }
+        let id = define(
+            &mut module,
+            &mut ctx,
+            &mut fctx,
+            &sig,
+            &name,
+            |b, module| calls(b, module, &parts),
+        )?;
+        fns.push((id, needs));
     }
     module
         .finalize_definitions()
         .map_err(|e| JitError::Compile(e.to_string()))?;
     let code = Code::new(module);
-    let [solve, transpose] = ids[..] else {
+    let [(solve, solve_needs), (transpose, transpose_needs)] = fns[..] else {
         return Err(JitError::Compile("two solves".into()));
     };
     Ok(JitSolves {
-        solve: SolveFn::new(&code, solve, needs)?,
-        transpose: SolveFn::new(&code, transpose, needs)?,
+        solve: SolveFn::new(&code, solve, solve_needs)?,
+        transpose: SolveFn::new(&code, transpose, transpose_needs)?,
     })
+}
+
+/// Declares and defines function `name` of `sig`, its body emitted by
+/// `body` (given the module to declare callees in).
+fn define(
+    module: &mut JITModule,
+    ctx: &mut Context,
+    fctx: &mut FunctionBuilderContext,
+    sig: &Signature,
+    name: &str,
+    body: impl FnOnce(&mut FunctionBuilder<'_>, &mut JITModule) -> Result<(), JitError>,
+) -> Result<FuncId, JitError> {
+    let id = module
+        .declare_function(name, Linkage::Local, sig)
+        .map_err(|e| JitError::Compile(e.to_string()))?;
+    ctx.func.signature = sig.clone();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, fctx);
+        body(&mut b, module)?;
+        b.seal_all_blocks();
+        b.finalize(module.isa().frontend_config());
+    }
+    module
+        .define_function(id, ctx)
+        .map_err(|e| JitError::Compile(format!("{e:?}")))?;
+    module.clear_context(ctx);
+    Ok(id)
+}
+
+/// A function's body calling `parts` in order with its own arguments.
+fn calls(
+    b: &mut FunctionBuilder<'_>,
+    module: &mut JITModule,
+    parts: &[FuncId],
+) -> Result<(), JitError> {
+    let block = b.create_block();
+    b.append_block_params_for_function_params(block);
+    b.switch_to_block(block);
+    let args = b.block_params(block).to_vec();
+    for &part in parts {
+        let f = module.declare_func_in_func(part, b.func);
+        b.ins().call(f, &args);
+    }
+    b.ins().return_(&[]);
+    Ok(())
+}
+
+/// Where a solve in chunks finds y[k] at a chunk's start.
+#[derive(Clone, Copy)]
+enum Y {
+    /// Not written yet: b[gather[k]] in the right-hand side.
+    Rhs,
+    /// In the scratch, `work[k]` (written by an earlier chunk).
+    Work,
+    /// Computed in this chunk.
+    Ready(Value),
+}
+
+/// What a solve in chunks does, item by item: the sweeps' operations, then
+/// the scatter (`Err(k)`: b[scatter[k]] = y[k]).
+type SolveItem = Result<SolveOp, usize>;
+
+/// One direction of a solve compiled in chunks. The first chunk copies
+/// every y[k] no operation writes into the scratch; each chunk stores there
+/// the y it writes (at its last write, unless it is the last chunk); so the
+/// scatter, at the end, reads only the scratch or values in registers and
+/// may overwrite b.
+struct SolveChunks<'p> {
+    needs: SolveNeeds,
+    gather: &'p [u32],
+    scatter: &'p [u32],
+    items: Vec<SolveItem>,
+    /// y indices no operation writes.
+    untouched: Vec<usize>,
+    /// Whether y[k] is in the scratch, after the chunks emitted so far.
+    in_work: Vec<bool>,
+}
+
+impl<'p> SolveChunks<'p> {
+    fn new(
+        needs: SolveNeeds,
+        gather: &'p [u32],
+        sweeps: [&[SolveOp]; 2],
+        scatter: &'p [u32],
+    ) -> Result<SolveChunks<'p>, JitError> {
+        let n = needs.rhs;
+        if gather.len() != n || scatter.len() != n {
+            return Err(JitError::Compile("orders of another length than n".into()));
+        }
+        let mut written = vec![false; n];
+        let mut items = Vec::new();
+        for &op in sweeps.into_iter().flatten() {
+            let dst = match op {
+                SolveOp::MulSub { dst, .. }
+                | SolveOp::ConstMulSub { dst, .. }
+                | SolveOp::Sub { dst, .. }
+                | SolveOp::Add { dst, .. }
+                | SolveOp::Scale { dst, .. }
+                | SolveOp::ConstScale { dst, .. } => dst as usize,
+            };
+            *written
+                .get_mut(dst)
+                .ok_or_else(|| JitError::Compile(format!("solve entry {dst} beyond n = {n}")))? =
+                true;
+            items.push(Ok(op));
+        }
+        items.extend((0..n).map(Err));
+        let untouched = (0..n).filter(|&k| !written[k]).collect();
+        Ok(SolveChunks {
+            needs,
+            gather,
+            scatter,
+            items,
+            untouched,
+            in_work: vec![false; n],
+        })
+    }
+
+    /// Emits the items `range` as one function `(v, rhs, work)`.
+    fn emit(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        range: std::ops::Range<usize>,
+        first: bool,
+        last: bool,
+    ) -> Result<(), JitError> {
+        let n = self.needs.rhs;
+        let block = b.create_block();
+        b.append_block_params_for_function_params(block);
+        b.switch_to_block(block);
+        let [v, rhs, work] = b.block_params(block)[..] else {
+            return Err(JitError::Compile("signature".into()));
+        };
+        let index = |k: usize| -> Result<usize, JitError> {
+            if k < n {
+                Ok(k)
+            } else {
+                Err(JitError::Compile(format!("solve entry {k} beyond n = {n}")))
+            }
+        };
+        let flags = MemFlagsData::trusted();
+        let mut y: Vec<Y> = self
+            .in_work
+            .iter()
+            .map(|&w| if w { Y::Work } else { Y::Rhs })
+            .collect();
+        if first {
+            for &k in &self.untouched {
+                let r = index(*self.gather.get(k).unwrap_or(&u32::MAX) as usize)?;
+                let x = b.ins().load(F64, flags, rhs, offset(r)?);
+                b.ins().store(flags, x, work, offset(k)?);
+                y[k] = Y::Ready(x);
+                self.in_work[k] = true;
+            }
+        }
+        let items = self
+            .items
+            .get(range)
+            .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
+        // The last item of this chunk writing each y (stored there).
+        let mut last_write = vec![usize::MAX; n];
+        for (i, item) in items.iter().enumerate() {
+            if let Ok(op) = item {
+                let (SolveOp::MulSub { dst, .. }
+                | SolveOp::ConstMulSub { dst, .. }
+                | SolveOp::Sub { dst, .. }
+                | SolveOp::Add { dst, .. }
+                | SolveOp::Scale { dst, .. }
+                | SolveOp::ConstScale { dst, .. }) = *op;
+                last_write[index(dst as usize)?] = i;
+            }
+        }
+        let gather = self.gather;
+        let get = |b: &mut FunctionBuilder<'_>, y: &mut [Y], k: u32| -> Result<Value, JitError> {
+            let k = index(k as usize)?;
+            let x = match y[k] {
+                Y::Ready(x) => return Ok(x),
+                Y::Work => b.ins().load(F64, flags, work, offset(k)?),
+                Y::Rhs => {
+                    let r = index(gather[k] as usize)?;
+                    b.ins().load(F64, flags, rhs, offset(r)?)
+                }
+            };
+            y[k] = Y::Ready(x);
+            Ok(x)
+        };
+        let mut vals: HashMap<u32, Value> = HashMap::new();
+        let needs_v = self.needs.v;
+        let mut value = |b: &mut FunctionBuilder<'_>, s: u32| -> Result<Value, JitError> {
+            if let Some(&x) = vals.get(&s) {
+                return Ok(x);
+            }
+            if s as usize >= needs_v {
+                return Err(JitError::Compile(format!(
+                    "factor value {s} beyond {needs_v}"
+                )));
+            }
+            let x = b
+                .ins()
+                .load(F64, flags.with_readonly(), v, offset(s as usize)?);
+            vals.insert(s, x);
+            Ok(x)
+        };
+        for (i, item) in items.iter().enumerate() {
+            let op = match *item {
+                Ok(op) => op,
+                Err(k) => {
+                    let x = get(b, &mut y, u32::try_from(k).unwrap_or(u32::MAX))?;
+                    let c = index(*self.scatter.get(k).unwrap_or(&u32::MAX) as usize)?;
+                    b.ins().store(flags, x, rhs, offset(c)?);
+                    continue;
+                }
+            };
+            let (dst, x) = match op {
+                SolveOp::MulSub { dst, src, s } => {
+                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
+                    let x = value(b, s)?;
+                    let p = b.ins().fmul(x, r);
+                    (dst, b.ins().fsub(d, p))
+                }
+                SolveOp::ConstMulSub { dst, src, c } => {
+                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
+                    let c = b.ins().f64const(c);
+                    let p = b.ins().fmul(c, r);
+                    (dst, b.ins().fsub(d, p))
+                }
+                SolveOp::Sub { dst, src } => {
+                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
+                    (dst, b.ins().fsub(d, r))
+                }
+                SolveOp::Add { dst, src } => {
+                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
+                    (dst, b.ins().fadd(d, r))
+                }
+                SolveOp::Scale { dst, s } => {
+                    let d = get(b, &mut y, dst)?;
+                    let x = value(b, s)?;
+                    (dst, b.ins().fmul(d, x))
+                }
+                SolveOp::ConstScale { dst, c } => {
+                    let d = get(b, &mut y, dst)?;
+                    let c = b.ins().f64const(c);
+                    (dst, b.ins().fmul(d, c))
+                }
+            };
+            let d = index(dst as usize)?;
+            y[d] = Y::Ready(x);
+            if !last && last_write[d] == i {
+                b.ins().store(flags, x, work, offset(d)?);
+                self.in_work[d] = true;
+            }
+        }
+        b.ins().return_(&[]);
+        Ok(())
+    }
 }
 
 /// One direction: y = gathered b, the sweeps, b = scattered y. Every index
@@ -133,7 +446,7 @@ fn emit(
     let block = b.create_block();
     b.append_block_params_for_function_params(block);
     b.switch_to_block(block);
-    let [v, rhs] = b.block_params(block)[..] else {
+    let [v, rhs, _work] = b.block_params(block)[..] else {
         return Err(JitError::Compile("signature".into()));
     };
     let y_index = |k: u32| -> Result<usize, JitError> {
@@ -267,10 +580,26 @@ impl CompiledFactor for JitFactor {
 /// # Errors
 /// As [`compile_solves`].
 pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
+    compile_factor_chunked(plan, LU_CHUNK)
+}
+
+/// [`compile_factor`] with a factorization of more than `chunk` items
+/// (constants, entries copied, entries folded, operations) compiled in
+/// chunks of at most `chunk` (at least 1): for tests, which force small
+/// chunks. Not a stable interface.
+///
+/// # Errors
+/// As [`compile_factor`].
+#[doc(hidden)]
+pub fn compile_factor_chunked(
+    plan: &FoldedFactor<'_>,
+    chunk: usize,
+) -> Result<JitFactor, JitError> {
     let size = plan.ops.len() + plan.nnz;
     if size > MAX_SOLVE_OPERATIONS {
         return Err(JitError::TooLarge { instructions: size });
     }
+    let chunk = chunk.max(1);
     let mut module = crate::tape::new_module()?;
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
@@ -283,20 +612,36 @@ pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
     for _ in 0..3 {
         sig.params.push(AbiParam::new(ptr));
     }
-    let id = module
-        .declare_function("factor", Linkage::Local, &sig)
-        .map_err(|e| JitError::Compile(e.to_string()))?;
-    ctx.func.signature = sig;
-    {
-        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        emit_factor(&mut b, plan, needs)?;
-        b.seal_all_blocks();
-        b.finalize(module.isa().frontend_config());
-    }
-    module
-        .define_function(id, &mut ctx)
-        .map_err(|e| JitError::Compile(format!("{e:?}")))?;
-    module.clear_context(&mut ctx);
+    let mut chunks = FactorChunks::new(plan, needs)?;
+    let id = if chunks.total <= chunk {
+        define(&mut module, &mut ctx, &mut fctx, &sig, "factor", |b, _| {
+            emit_factor(b, plan, needs)
+        })?
+    } else {
+        let ranges: Vec<_> = (0..chunks.total)
+            .step_by(chunk)
+            .map(|s| s..(s + chunk).min(chunks.total))
+            .collect();
+        let mut parts = Vec::with_capacity(ranges.len());
+        for (c, range) in ranges.iter().enumerate() {
+            parts.push(define(
+                &mut module,
+                &mut ctx,
+                &mut fctx,
+                &sig,
+                &format!("factor_{c}"),
+                |b, _| chunks.emit(b, range.clone()),
+            )?);
+        }
+        define(
+            &mut module,
+            &mut ctx,
+            &mut fctx,
+            &sig,
+            "factor",
+            |b, module| calls(b, module, &parts),
+        )?
+    };
     module
         .finalize_definitions()
         .map_err(|e| JitError::Compile(e.to_string()))?;
@@ -304,6 +649,290 @@ pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
     Ok(JitFactor {
         f: FactorFn::new(&code, id, needs)?,
     })
+}
+
+/// A factorization compiled in chunks: the items of [`emit_factor`] in its
+/// order (the constants' check, the entries copied to the value array,
+/// the copied entries folded, the operations), numbered; a chunk reads the
+/// values array's earlier entries from memory, and the running folds
+/// (raw bits) from the scan, where the chunk before left them.
+struct FactorChunks<'p> {
+    plan: &'p FoldedFactor<'p>,
+    needs: FactorNeeds,
+    /// Number of items.
+    total: usize,
+    /// (pivot, multiplier) roles of each value.
+    role: Vec<(bool, bool)>,
+}
+
+impl<'p> FactorChunks<'p> {
+    fn new(plan: &'p FoldedFactor<'p>, needs: FactorNeeds) -> Result<FactorChunks<'p>, JitError> {
+        let mut role = vec![(false, false); needs.v];
+        for &p in plan.pivot_vars {
+            role.get_mut(p as usize)
+                .ok_or_else(|| JitError::Compile(format!("pivot {p} beyond the values")))?
+                .0 = true;
+        }
+        for &l in plan.multiplier_vars {
+            role.get_mut(l as usize)
+                .ok_or_else(|| JitError::Compile(format!("multiplier {l} beyond the values")))?
+                .1 = true;
+        }
+        if plan.inputs.len() + plan.ops.len() != needs.v {
+            return Err(JitError::Compile("value array of another length".into()));
+        }
+        let total = plan.constants.len() + 2 * plan.inputs.len() + plan.ops.len();
+        Ok(FactorChunks {
+            plan,
+            needs,
+            total,
+            role,
+        })
+    }
+
+    /// Emits items `range` as one function `(values, v, scan)`.
+    #[allow(clippy::too_many_lines)] // one pass over the items, as emit_factor
+    fn emit(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        range: std::ops::Range<usize>,
+    ) -> Result<(), JitError> {
+        let plan = self.plan;
+        let needs = self.needs;
+        let block = b.create_block();
+        b.append_block_params_for_function_params(block);
+        b.switch_to_block(block);
+        let [values, v_ptr, scan] = b.block_params(block)[..] else {
+            return Err(JitError::Compile("signature".into()));
+        };
+        let flags = MemFlagsData::trusted();
+        let read = flags.with_readonly();
+        let check = |k: usize, len: usize, what: &str| -> Result<usize, JitError> {
+            if k < len {
+                Ok(k)
+            } else {
+                Err(JitError::Compile(format!("{what} index {k} beyond {len}")))
+            }
+        };
+        let put = |b: &mut FunctionBuilder<'_>, k: usize, x: Value| -> Result<(), JitError> {
+            b.ins()
+                .store(flags, x, scan, offset(check(k, SCAN, "scan")?)?);
+            Ok(())
+        };
+        let (nc, ni) = (plan.constants.len(), plan.inputs.len());
+        let (same_at, scale_at) = (nc, nc + ni);
+        let fold_end = nc + 2 * ni;
+        let start = range.start;
+        let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
+        let abs_mask = b.ins().iconst(I64, i64::MAX);
+        let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
+        let zero_bits = b.ins().iconst(I64, 0);
+        // The running state: from its start at the first chunk, else from
+        // the scan (raw bits) where the chunk before left it.
+        let state = |b: &mut FunctionBuilder<'_>, k: usize, init: i64| -> Result<Value, JitError> {
+            if start == 0 {
+                Ok(b.ins().iconst(I64, init))
+            } else {
+                Ok(b.ins()
+                    .load(I64, flags, scan, offset(check(k, SCAN, "scan")?)?))
+            }
+        };
+        let mut diff = state(b, SCAN_SAME, 0)?;
+        let mut max_bits = state(b, SCAN_SCALE, bits_of(plan.const_scale.abs()))?;
+        let mut signs = state(b, SCAN_NEGATIVE, 0)?;
+        let mut min_bits = state(b, SCAN_MIN_PIVOT, bits_of(plan.const_min_pivot.abs()))?;
+        let mut mult_bits = state(
+            b,
+            SCAN_MAX_MULTIPLIER,
+            bits_of(plan.const_max_multiplier.abs()),
+        )?;
+        // The value array's entries: earlier chunks' from memory.
+        let mut v: Vec<Option<Value>> = vec![None; needs.v];
+        let mut written =
+            start.saturating_sub(nc).min(ni) + start.saturating_sub(fold_end).min(plan.ops.len());
+        let get = |b: &mut FunctionBuilder<'_>,
+                   v: &mut [Option<Value>],
+                   written: usize,
+                   a: u32|
+         -> Result<Value, JitError> {
+            let a = a as usize;
+            if a >= written {
+                return Err(JitError::Compile(format!(
+                    "value {a} read before it is written"
+                )));
+            }
+            if let Some(x) = v[a] {
+                return Ok(x);
+            }
+            let x = b.ins().load(F64, flags, v_ptr, offset(a)?);
+            v[a] = Some(x);
+            Ok(x)
+        };
+        let role = &self.role;
+        let fold = |b: &mut FunctionBuilder<'_>,
+                    k: usize,
+                    x: Value,
+                    signs: &mut Value,
+                    min_bits: &mut Value,
+                    mult_bits: &mut Value|
+         -> Result<(), JitError> {
+            let (pivot, multiplier) = role[k];
+            if !(pivot || multiplier) {
+                return Ok(());
+            }
+            let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
+            let magnitude = b.ins().band(bits, abs_mask);
+            if pivot {
+                *signs = b.ins().bxor(*signs, bits);
+                put(b, SCAN_NEGATIVE, *signs)?;
+                let nan = b
+                    .ins()
+                    .icmp(IntCC::UnsignedGreaterThan, magnitude, inf_bits);
+                let counted = b.ins().select(nan, zero_bits, magnitude);
+                *min_bits = b.ins().umin(*min_bits, counted);
+                put(b, SCAN_MIN_PIVOT, *min_bits)?;
+            }
+            if multiplier {
+                *mult_bits = b.ins().umax(*mult_bits, magnitude);
+                put(b, SCAN_MAX_MULTIPLIER, *mult_bits)?;
+            }
+            Ok(())
+        };
+        let last = range.end >= self.total;
+        let end = if last { self.total + 1 } else { range.end };
+        for p in start..end {
+            if p == same_at {
+                let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
+                let same = b.ins().select(same, one, zero);
+                put(b, SCAN_SAME, same)?;
+            }
+            if p == scale_at {
+                let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
+                put(b, SCAN_SCALE, scale)?;
+                let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
+                let finite = b.ins().select(finite, one, zero);
+                put(b, SCAN_FINITE, finite)?;
+            }
+            if p >= self.total {
+                break;
+            }
+            if p < nc {
+                let (k, c) = plan.constants[p];
+                let k = check(k as usize, needs.values, "Jacobian value")?;
+                let x = b.ins().load(I64, read, values, offset(k)?);
+                let c = b.ins().iconst(I64, bits_of(c));
+                let d = b.ins().bxor(x, c);
+                diff = b.ins().bor(diff, d);
+            } else if p < scale_at {
+                let k = check(plan.inputs[p - nc] as usize, needs.values, "Jacobian value")?;
+                let x = b.ins().load(F64, read, values, offset(k)?);
+                b.ins().store(flags, x, v_ptr, offset(written)?);
+                v[written] = Some(x);
+                written += 1;
+                let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
+                let bits = b.ins().band(bits, abs_mask);
+                max_bits = b.ins().umax(max_bits, bits);
+                put(b, SCAN_SCALE, max_bits)?;
+            } else if p < fold_end {
+                let k = p - scale_at;
+                let x = get(b, &mut v, written, u32::try_from(k).unwrap_or(u32::MAX))?;
+                fold(b, k, x, &mut signs, &mut min_bits, &mut mult_bits)?;
+            } else {
+                let x = match plan.ops[p - fold_end] {
+                    Op::Recip(a) => {
+                        let a = get(b, &mut v, written, a)?;
+                        b.ins().fdiv(one, a)
+                    }
+                    Op::Neg(a) => {
+                        let a = get(b, &mut v, written, a)?;
+                        b.ins().fneg(a)
+                    }
+                    Op::Scale(c, a) => {
+                        let c = b.ins().f64const(c);
+                        let a = get(b, &mut v, written, a)?;
+                        b.ins().fmul(c, a)
+                    }
+                    Op::Mul(a, c) => {
+                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
+                        b.ins().fmul(a, c)
+                    }
+                    Op::SubConst(a, c) => {
+                        let c = b.ins().f64const(c);
+                        let a = get(b, &mut v, written, a)?;
+                        b.ins().fsub(a, c)
+                    }
+                    Op::Sub(o, a) => {
+                        let (o, a) = (get(b, &mut v, written, o)?, get(b, &mut v, written, a)?);
+                        b.ins().fsub(o, a)
+                    }
+                    Op::Add(o, a) => {
+                        let (o, a) = (get(b, &mut v, written, o)?, get(b, &mut v, written, a)?);
+                        b.ins().fadd(o, a)
+                    }
+                    Op::SubScaled(o, c, a) => {
+                        let c = b.ins().f64const(c);
+                        let a = get(b, &mut v, written, a)?;
+                        let p = b.ins().fmul(c, a);
+                        let o = get(b, &mut v, written, o)?;
+                        b.ins().fsub(o, p)
+                    }
+                    Op::SubMul(o, a, c) => {
+                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
+                        let p = b.ins().fmul(a, c);
+                        let o = get(b, &mut v, written, o)?;
+                        b.ins().fsub(o, p)
+                    }
+                    Op::ConstSubScaled(o, c, a) => {
+                        let c = b.ins().f64const(c);
+                        let a = get(b, &mut v, written, a)?;
+                        let p = b.ins().fmul(c, a);
+                        let o = b.ins().f64const(o);
+                        b.ins().fsub(o, p)
+                    }
+                    Op::ConstSubMul(o, a, c) => {
+                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
+                        let p = b.ins().fmul(a, c);
+                        let o = b.ins().f64const(o);
+                        b.ins().fsub(o, p)
+                    }
+                };
+                let k = written;
+                b.ins()
+                    .store(flags, x, v_ptr, offset(check(k, needs.v, "value")?)?);
+                v[k] = Some(x);
+                written += 1;
+                fold(b, k, x, &mut signs, &mut min_bits, &mut mult_bits)?;
+            }
+        }
+        if last {
+            let negative = b.ins().icmp_imm_s(IntCC::SignedLessThan, signs, 0);
+            let negative = b.ins().select(negative, one, zero);
+            put(b, SCAN_NEGATIVE, negative)?;
+            let min_pivot = b.ins().bitcast(F64, MemFlagsData::new(), min_bits);
+            put(b, SCAN_MIN_PIVOT, min_pivot)?;
+            let nan = b
+                .ins()
+                .icmp(IntCC::UnsignedGreaterThan, mult_bits, inf_bits);
+            let max_multiplier = b.ins().bitcast(F64, MemFlagsData::new(), mult_bits);
+            let inf = b.ins().f64const(f64::INFINITY);
+            let max_multiplier = b.ins().select(nan, inf, max_multiplier);
+            put(b, SCAN_MAX_MULTIPLIER, max_multiplier)?;
+        } else {
+            // The running state for the next chunk (raw bits; the scan's
+            // final values are written by the last chunk).
+            if range.end <= same_at {
+                put(b, SCAN_SAME, diff)?;
+            }
+            if range.end <= scale_at {
+                put(b, SCAN_SCALE, max_bits)?;
+            }
+            put(b, SCAN_NEGATIVE, signs)?;
+            put(b, SCAN_MIN_PIVOT, min_bits)?;
+            put(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
+        }
+        b.ins().return_(&[]);
+        Ok(())
+    }
 }
 
 /// The factorization's body; every index checked against `needs`.

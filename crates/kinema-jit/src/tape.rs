@@ -18,14 +18,27 @@ use crate::shims::{self, Shape, Which};
 
 /// The most instructions (all tapes of one [`compile`] together) the JIT
 /// compiles. Above it [`compile`] returns [`JitError::TooLarge`] and the
-/// caller runs the interpreter: Cranelift's time grows faster than the
-/// tapes (measured, release build, 2 shared cores, with the sin/cos cache's
-/// branches: chain N = 10 (646 instructions) 6 ms, N = 20 21 ms, N = 50
-/// 52 ms, N = 100 (6 586) 114 ms, N = 200 314 ms, N = 1000 (65 986) over
-/// 1 s; the tapes themselves take 0.1–14 ms). At this bound (≈ chain
-/// N = 60) compiling costs at most ≈ 70 ms; the chain N = 1000 runs on the
-/// tape, text → first step ≈ 0.09–0.16 s.
-pub const MAX_INSTRUCTIONS: usize = 4_000;
+/// caller runs the interpreter. A tape longer than [`CHUNK_INSTRUCTIONS`]
+/// is compiled in chunks (see there), so Cranelift's time and memory grow
+/// about linearly with the tapes: measured (release, 2 shared cores, the
+/// background compilation of a chain's five hot tapes), N = 100 (6 586
+/// instructions) 110–250 ms, N = 200 (≈ 13 000) 335–385 ms, N = 1000
+/// (65 986) 1.74–1.87 s, ≈ 27 µs per instruction, the process's peak
+/// memory 50 MB against the tape's 27 MB at N = 1000. So this bound caps
+/// a hostile model's compilation at ≈ 7 s and ≈ 100 MB on the compiling
+/// thread (the run meanwhile on the tape).
+pub const MAX_INSTRUCTIONS: usize = 250_000;
+
+/// The most instructions of a tape compiled as one function. Cranelift's
+/// time grows faster than a function's size (its register allocator and
+/// optimizer see every value at once), so a longer tape is cut into chunks
+/// of this many instructions, each a function of its own, the values
+/// crossing a cut passed through the scratch after the memo (see
+/// [`cache_len_bound`]), and one function calls the chunks in order.
+/// Every tape of the benchmark's mechanisms up to chain N = 50 fits in one
+/// (single functions took, before chunking, 6 ms for 646 instructions,
+/// 114 ms for 6 586, over 1 s for 65 986 and growing faster).
+pub const CHUNK_INSTRUCTIONS: usize = 2_000;
 
 /// A tape compiled to native code. Cloning shares the code.
 #[derive(Clone)]
@@ -168,6 +181,22 @@ pub fn compile_split_memo_at(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
 ) -> Result<Vec<JitTape>, JitError> {
+    compile_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
+}
+
+/// [`compile_split_memo_at`] with tapes longer than `chunk` instructions
+/// compiled in chunks of at most `chunk` (at least 1): for tests, which
+/// force small chunks so that values cross their boundaries. Not a stable
+/// interface.
+///
+/// # Errors
+/// As [`compile_split_memo_at`].
+#[doc(hidden)]
+pub fn compile_chunked(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    chunk: usize,
+) -> Result<Vec<JitTape>, JitError> {
     if memo_base < default_memo_base(tapes)? {
         return Err(JitError::Compile(
             "the sin/cos memo overlaps the coordinates' cache".into(),
@@ -177,25 +206,35 @@ pub fn compile_split_memo_at(
     if instructions > MAX_INSTRUCTIONS {
         return Err(JitError::TooLarge { instructions });
     }
+    let chunk = chunk.max(1);
+    // Values crossing a chunk boundary go through the scratch after the
+    // memo's last possible entry (and after `memo_base`: the caller's own
+    // values lie below it): register r at `spill_base + r`.
+    let spill_base = memo_bound(tapes, memo_base)?.max(memo_base);
     let mut module = new_module()?;
     let shims = declare_shims(&mut module)?;
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
     let mut compiled = Vec::with_capacity(tapes.len());
-    for (i, &(tape, split)) in tapes.iter().enumerate() {
-        let mut sig = module.make_signature();
-        let ptr = module.target_config().pointer_type();
-        for ty in [ptr, ptr, ptr, F64, ptr, ptr, ptr] {
-            sig.params.push(AbiParam::new(ty));
-        }
+    let ptr = module.target_config().pointer_type();
+    let mut sig = module.make_signature();
+    for ty in [ptr, ptr, ptr, F64, ptr, ptr, ptr] {
+        sig.params.push(AbiParam::new(ty));
+    }
+    let mut define = |module: &mut JITModule,
+                      name: String,
+                      body: &mut dyn FnMut(
+        &mut JITModule,
+        &mut FunctionBuilder<'_>,
+    ) -> Result<Needs, JitError>|
+     -> Result<(FuncId, Needs), JitError> {
         let id = module
-            .declare_function(&format!("tape{i}"), Linkage::Local, &sig)
+            .declare_function(&name, Linkage::Local, &sig)
             .map_err(|e| JitError::Compile(e.to_string()))?;
-        ctx.func.signature = sig;
+        ctx.func.signature = sig.clone();
         let needs = {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-            let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-            let needs = Emitter::new(tape, refs, memo_base).emit(&mut b, split)?;
+            let needs = body(module, &mut b)?;
             b.seal_all_blocks();
             b.finalize(module.isa().frontend_config());
             needs
@@ -204,6 +243,47 @@ pub fn compile_split_memo_at(
             .define_function(id, &mut ctx)
             .map_err(|e| JitError::Compile(format!("{e:?}")))?;
         module.clear_context(&mut ctx);
+        Ok((id, needs))
+    };
+    for (i, &(tape, split)) in tapes.iter().enumerate() {
+        let (id, needs) = if tape.len() <= chunk {
+            define(&mut module, format!("tape{i}"), &mut |module, b| {
+                let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
+                Emitter::new(tape, refs, memo_base).emit(b, split)
+            })?
+        } else {
+            // Chunks, then a function calling them in order with its own
+            // arguments.
+            let plan = SpillPlan::new(tape, chunk, spill_base)?;
+            let mut emitter: Option<Emitter<'_>> = None;
+            let mut parts = Vec::with_capacity(plan.chunks.len());
+            for c in 0..plan.chunks.len() {
+                let part = define(&mut module, format!("tape{i}_{c}"), &mut |module, b| {
+                    let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
+                    let e = emitter.get_or_insert_with(|| Emitter::new(tape, refs, memo_base));
+                    e.shims = refs;
+                    e.emit_chunk(b, split, &plan, c)
+                })?;
+                parts.push(part);
+            }
+            let needs = parts
+                .iter()
+                .map(|&(_, n)| n)
+                .reduce(widest)
+                .ok_or_else(|| JitError::Compile("no chunk".into()))?;
+            define(&mut module, format!("tape{i}"), &mut |module, b| {
+                let block = b.create_block();
+                b.append_block_params_for_function_params(block);
+                b.switch_to_block(block);
+                let args = b.block_params(block).to_vec();
+                for &(part, _) in &parts {
+                    let f = module.declare_func_in_func(part, b.func);
+                    b.ins().call(f, &args);
+                }
+                b.ins().return_(&[]);
+                Ok(needs)
+            })?
+        };
         compiled.push((id, needs, tape));
     }
     module
@@ -223,6 +303,106 @@ pub fn compile_split_memo_at(
         .collect()
 }
 
+/// Which registers each chunk of a tape stores into the scratch for later
+/// chunks: those it writes that a later chunk reads before writing them
+/// (live across the boundary), found by one backward scan.
+struct SpillPlan {
+    /// The chunks' instruction ranges, in order.
+    chunks: Vec<std::ops::Range<usize>>,
+    /// Per chunk, the registers it stores at their last write in it.
+    out: Vec<Vec<u32>>,
+    /// Where register 0 goes in the scratch.
+    base: usize,
+    /// Registers of the tape: the scratch holds `base + registers` values.
+    registers: usize,
+}
+
+impl SpillPlan {
+    fn new(tape: &Tape, chunk: usize, base: usize) -> Result<SpillPlan, JitError> {
+        let instrs = tape.instructions();
+        let registers = tape.registers();
+        let chunks: Vec<_> = (0..instrs.len())
+            .step_by(chunk)
+            .map(|s| s..(s + chunk).min(instrs.len()))
+            .collect();
+        let mut live = vec![false; registers];
+        let mut out = vec![Vec::new(); chunks.len()];
+        let reg = |r: u32| -> Result<usize, JitError> {
+            let r = r as usize;
+            if r < registers {
+                Ok(r)
+            } else {
+                Err(JitError::Compile(format!("register {r} out of range")))
+            }
+        };
+        for (c, range) in chunks.iter().enumerate().rev() {
+            let mut written = Vec::new();
+            for ins in instrs[range.clone()].iter().rev() {
+                let d = reg(ins.dst())?;
+                if live[d] {
+                    written.push(ins.dst());
+                }
+                live[d] = false;
+                let (srcs, n) = sources(ins);
+                for &s in &srcs[..n] {
+                    live[reg(s)?] = true;
+                }
+            }
+            // A register written twice in the chunk and live after it is
+            // listed once: only its last value is stored.
+            written.sort_unstable();
+            written.dedup();
+            out[c] = written;
+        }
+        Ok(SpillPlan {
+            chunks,
+            out,
+            base,
+            registers,
+        })
+    }
+}
+
+/// The lengths a function calling two others needs.
+fn widest(a: Needs, b: Needs) -> Needs {
+    Needs {
+        q: a.q.max(b.q),
+        qd: a.qd.max(b.qd),
+        params: a.params.max(b.params),
+        out: a.out.max(b.out),
+        out2: a.out2.max(b.out2),
+        trig: a.trig.max(b.trig),
+    }
+}
+
+/// The registers an instruction reads (the first `n` of the array).
+fn sources(ins: &Instr) -> ([u32; 2], usize) {
+    match *ins {
+        Instr::Const { .. } => ([0, 0], 0),
+        Instr::Copy { a, .. }
+        | Instr::Neg { a, .. }
+        | Instr::Scale { a, .. }
+        | Instr::AddConst { a, .. }
+        | Instr::Recip { a, .. }
+        | Instr::Square { a, .. }
+        | Instr::Sqrt { a, .. }
+        | Instr::PowI { a, .. }
+        | Instr::PowF { a, .. }
+        | Instr::Sin { a, .. }
+        | Instr::Cos { a, .. }
+        | Instr::SinQ { a, .. }
+        | Instr::CosQ { a, .. }
+        | Instr::Unary { a, .. } => ([a, 0], 1),
+        Instr::Add { a, b, .. }
+        | Instr::Sub { a, b, .. }
+        | Instr::Mul { a, b, .. }
+        | Instr::Div { a, b, .. }
+        | Instr::Pow { a, b, .. } => ([a, b], 2),
+        Instr::MulAdd { acc, a, .. } => ([acc, a], 2),
+        Instr::Atan2 { y, x, .. } => ([y, x], 2),
+    }
+}
+
 /// The length of cache slice that tapes compiled by
 /// [`compile_split_memo_at`] with this `memo_base` need at most, known
 /// without compiling them (each sin or cos of a value other than a
@@ -231,6 +411,38 @@ pub fn compile_split_memo_at(
 /// # Errors
 /// [`JitError::Compile`] if the length does not fit a `usize`.
 pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usize, JitError> {
+    cache_len_bound_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
+}
+
+/// [`cache_len_bound`] for [`compile_chunked`] with this `chunk`: past the
+/// memo's entries, a tape compiled in chunks keeps the values crossing
+/// their boundaries at `spill + r` for its register r. Not a stable
+/// interface.
+///
+/// # Errors
+/// As [`cache_len_bound`].
+#[doc(hidden)]
+pub fn cache_len_bound_chunked(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    chunk: usize,
+) -> Result<usize, JitError> {
+    let memo = memo_bound(tapes, memo_base)?;
+    let spill = memo.max(memo_base);
+    let chunk = chunk.max(1);
+    tapes.iter().try_fold(memo, |m, (tape, _)| {
+        if tape.len() <= chunk {
+            return Ok(m);
+        }
+        spill
+            .checked_add(tape.registers())
+            .map(|n| m.max(n))
+            .ok_or_else(|| JitError::Compile("cache too large".into()))
+    })
+}
+
+/// The end of the coordinates' cache and the memo's last possible entry.
+fn memo_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usize, JitError> {
     let too_large = || JitError::Compile("cache too large".into());
     tapes.iter().try_fold(0, |m, (tape, _)| {
         let sites = tape
@@ -326,6 +538,9 @@ enum Slot {
     /// first read, so that it does not live (spilled across the sin/cos
     /// calls) from the function's start.
     Input(Value, i32),
+    /// A value an earlier chunk left in the scratch at this byte offset,
+    /// loaded at the first read.
+    Spill(i32),
 }
 
 /// Where the outputs go: `out[k]` below the split, `out2[k - split]` above.
@@ -355,6 +570,12 @@ struct Emitter<'t> {
     /// already read through it.
     trig: Option<Value>,
     sincos: HashMap<u32, (Value, Value)>,
+    /// Where the memo starts.
+    memo_start: usize,
+    /// Index of the last instruction writing each output (filled once).
+    last_write: Vec<usize>,
+    /// Registers written by the chunks emitted so far (chunked tapes).
+    written: Vec<bool>,
 }
 
 impl<'t> Emitter<'t> {
@@ -368,12 +589,44 @@ impl<'t> Emitter<'t> {
             memo_next,
             trig: None,
             sincos: HashMap::new(),
+            memo_start: memo_next,
+            last_write: Vec::new(),
+            written: Vec::new(),
         }
     }
 
     /// Emits the body; returns the slice lengths every load and store was
     /// checked against.
     fn emit(&mut self, b: &mut FunctionBuilder<'_>, split: usize) -> Result<Needs, JitError> {
+        self.emit_range(b, split, 0..self.tape.len(), None)
+    }
+
+    /// Emits chunk `c` of `plan` (the emitter is used for the chunks in
+    /// order): its instructions, reading the values earlier chunks left in
+    /// the scratch and leaving there those later ones read.
+    fn emit_chunk(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        split: usize,
+        plan: &SpillPlan,
+        c: usize,
+    ) -> Result<Needs, JitError> {
+        let range = plan
+            .chunks
+            .get(c)
+            .cloned()
+            .ok_or_else(|| JitError::Compile("no such chunk".into()))?;
+        self.emit_range(b, split, range, Some((plan, c)))
+    }
+
+    /// Emits instructions `range` of the tape as one function.
+    fn emit_range(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        split: usize,
+        range: std::ops::Range<usize>,
+        chunk: Option<(&SpillPlan, usize)>,
+    ) -> Result<Needs, JitError> {
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
@@ -392,13 +645,21 @@ impl<'t> Emitter<'t> {
             out2: layout.outputs - split,
             trig: trig_len(self.tape)?,
         };
+        // A new function: no value of the last one is visible here.
+        self.vals.fill(Slot::Empty);
+        self.memo.clear();
+        self.sincos.clear();
         self.trig = Some(trig);
+        let stored = match self.sink.take() {
+            Some(sink) => sink.stored,
+            None => vec![false; layout.outputs],
+        };
         self.sink = Some(Sink {
             out,
             out2,
             split,
             outputs: layout.outputs,
-            stored: vec![false; layout.outputs],
+            stored,
         });
         // Inputs where the tape's layout has them (loaded at their first
         // read; every offset below its slice's checked length), constants.
@@ -422,9 +683,38 @@ impl<'t> Emitter<'t> {
             let v = b.ins().f64const(c);
             self.set(layout.consts_base + k, v)?;
         }
+        // Registers earlier chunks wrote: in the scratch if this chunk or
+        // a later one reads them (else never read again).
+        let mut spill_here = Vec::new();
+        if let Some((plan, c)) = chunk {
+            needs.trig = needs.trig.max(
+                plan.base
+                    .checked_add(plan.registers)
+                    .ok_or_else(|| JitError::Compile("cache too large".into()))?,
+            );
+            for (r, slot) in self.vals.iter_mut().enumerate() {
+                if self.written.get(r) == Some(&true) {
+                    *slot = Slot::Spill(offset(plan.base + r)?);
+                }
+            }
+            spill_here = vec![false; plan.registers];
+            for &r in plan.out.get(c).map_or(&[][..], Vec::as_slice) {
+                if let Some(s) = spill_here.get_mut(r as usize) {
+                    *s = true;
+                }
+            }
+            if self.written.is_empty() {
+                self.written = vec![false; plan.registers];
+            }
+        }
+        let instrs = self
+            .tape
+            .instructions()
+            .get(range.clone())
+            .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
         // The coordinates' sines and cosines first, while almost nothing is
         // live: each may call out, and a call spills every live value.
-        for ins in self.tape.instructions() {
+        for ins in instrs {
             if let Instr::SinQ { k, .. } | Instr::CosQ { k, .. } = *ins
                 && (k as usize) < nq
             {
@@ -432,28 +722,50 @@ impl<'t> Emitter<'t> {
                 self.cached(b, a, k)?;
             }
         }
-        // Each output is stored once, by the last instruction writing it.
-        let mut last_write = vec![usize::MAX; layout.outputs];
-        for (i, ins) in self.tape.instructions().iter().enumerate() {
-            if let Some(w) = last_write.get_mut(ins.dst() as usize) {
-                *w = i;
+        // Each output is stored once, by the last instruction writing it;
+        // each register a later chunk reads, by the last writing it here.
+        if self.last_write.is_empty() {
+            self.last_write = vec![usize::MAX; layout.outputs];
+            for (i, ins) in self.tape.instructions().iter().enumerate() {
+                if let Some(w) = self.last_write.get_mut(ins.dst() as usize) {
+                    *w = i;
+                }
             }
         }
-        for (i, ins) in self.tape.instructions().iter().enumerate() {
+        let mut last_here = Vec::new();
+        if !spill_here.is_empty() {
+            last_here = vec![usize::MAX; spill_here.len()];
+            for (i, ins) in instrs.iter().enumerate() {
+                if let Some(w) = last_here.get_mut(ins.dst() as usize) {
+                    *w = i;
+                }
+            }
+        }
+        for (i, ins) in instrs.iter().enumerate() {
             let dst = ins.dst() as usize;
             let v = self.instr(b, *ins)?;
-            if last_write.get(dst) == Some(&i) {
+            if self.last_write.get(dst) == Some(&(range.start + i)) {
                 self.store_output(b, dst, v)?;
+            }
+            if last_here.get(dst) == Some(&i) && spill_here.get(dst) == Some(&true) {
+                let (plan, _) = chunk.ok_or_else(|| JitError::Compile("no plan".into()))?;
+                b.ins()
+                    .store(MemFlagsData::trusted(), v, trig, offset(plan.base + dst)?);
+            }
+            if let Some(w) = self.written.get_mut(dst) {
+                *w = true;
             }
         }
         // Outputs whose last value is not stored yet (each instruction's
         // result is stored as it is made: its value dies there).
-        for k in 0..layout.outputs {
-            let v = self.get(b, register(k)?)?;
-            self.store_output(b, k, v)?;
+        if range.end >= self.tape.len() {
+            for k in 0..layout.outputs {
+                let v = self.get(b, register(k)?)?;
+                self.store_output(b, k, v)?;
+            }
         }
         b.ins().return_(&[]);
-        if !self.memo.is_empty() {
+        if self.memo_next > self.memo_start {
             needs.trig = needs.trig.max(self.memo_next);
         }
         Ok(needs)
@@ -478,6 +790,15 @@ impl<'t> Emitter<'t> {
             Some(Slot::Input(ptr, at)) => {
                 let flags = MemFlagsData::trusted().with_readonly();
                 let v = b.ins().load(F64, flags, ptr, at);
+                self.vals[r as usize] = Slot::Ready(v);
+                Ok(v)
+            }
+            Some(Slot::Spill(at)) => {
+                let trig = self
+                    .trig
+                    .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
+                // Not read-only: a later store of this chunk may rewrite it.
+                let v = b.ins().load(F64, MemFlagsData::trusted(), trig, at);
                 self.vals[r as usize] = Slot::Ready(v);
                 Ok(v)
             }

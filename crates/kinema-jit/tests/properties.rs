@@ -4,7 +4,10 @@
 //! ordinary points and at non-finite ones.
 
 use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
-use kinema_jit::{JitError, compile, compile_split, compile_split_memo_at};
+use kinema_jit::{
+    JitError, cache_len_bound_chunked, compile, compile_chunked, compile_split,
+    compile_split_memo_at,
+};
 use proptest::prelude::*;
 
 /// A random expression over coordinates x0..x2, parameter p0 and time.
@@ -297,6 +300,48 @@ proptest! {
                 matches!(short, Err(JitError::ShortSlice { which: "sin/cos cache", .. })),
                 "a short cache is refused"
             );
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// A tape compiled in chunks of at most `chunk` instructions (values
+    /// crossing the cuts through the scratch) computes exactly what the
+    /// tape computes, through a cache of the length the bound promises,
+    /// at a first call (misses) and a second (hits), split as Φ then Φ_q.
+    #[test]
+    fn chunked_jit_equals_tape(t in expr(), x in point(), chunk in 1usize..6, memo in 9usize..20) {
+        let mut a = Arena::new();
+        let syms = symbols(&mut a);
+        let e = build(&mut a, &t, false);
+        let mut outputs = vec![e];
+        for &s in &syms {
+            outputs.push(a.diff(e, s));
+        }
+        let tape = Tape::compile(&a, &outputs);
+        let second = Tape::compile(&a, &outputs[1..]);
+        let tapes = [(&tape, 1), (&second, second.outputs())];
+        let jit = compile_chunked(&tapes, memo, chunk).expect("the host is supported");
+        let len = cache_len_bound_chunked(&tapes, memo, chunk).expect("a bound");
+        let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
+        let mut trig = vec![f64::NAN; len];
+        for ((tape, split), jit) in tapes.iter().zip(&jit) {
+            prop_assert!(jit.trig_len() <= len, "{} > {len}", jit.trig_len());
+            let mut regs = vec![0.0; tape.registers()];
+            let mut want = vec![0.0; tape.outputs()];
+            prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+            let split = (*split).min(tape.outputs());
+            for pass in 0..2 {
+                let mut first = vec![7.0; split];
+                let mut rest = vec![7.0; tape.outputs() - split];
+                prop_assert!(jit.eval_split(&inputs, &mut trig, &mut first, &mut rest).is_ok());
+                for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
+                    prop_assert!(same(*g, *w),
+                        "chunk {chunk}, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
+                }
+            }
         }
     }
 }

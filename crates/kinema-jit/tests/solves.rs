@@ -3,7 +3,7 @@
 //! the same verdicts, the same pivot reports, the same bits in both
 //! directions, and the same fallback (a changed constant, a NaN entry).
 
-use kinema_jit::{compile_factor, compile_solves};
+use kinema_jit::{compile_factor, compile_factor_chunked, compile_solves, compile_solves_chunked};
 use kinema_runtime::{FoldedLu, LinearSolver};
 use proptest::prelude::*;
 
@@ -58,10 +58,21 @@ proptest! {
     #[test]
     fn compiled_solves_equal_interpreted((n, pattern, constants, values) in matrix(),
                                          rhs in proptest::collection::vec(-3.0f64..3.0, 12),
-                                         moved in -0.5f64..0.5) {
+                                         moved in -0.5f64..0.5,
+                                         chunk in 1usize..12) {
         let mut plain = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
         let mut jit = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
+        // And one compiled in chunks of at most `chunk` items, so values
+        // cross the chunks' boundaries (through the value array, the scan
+        // and the solve's scratch).
+        let mut chunked = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
         prop_assume!(plain.is_planned());
+        let plan = chunked.solves().expect("a plan");
+        let compiled = compile_solves_chunked(&plan, chunk).expect("the host is supported");
+        chunked.set_compiled_solves(Box::new(compiled));
+        let factor = chunked.factorization().expect("a plan");
+        let compiled = compile_factor_chunked(&factor, chunk).expect("the host is supported");
+        chunked.set_compiled_factor(Box::new(compiled));
         let plan = jit.solves().expect("a plan");
         let compiled = compile_solves(&plan).expect("the host is supported");
         jit.set_compiled_solves(Box::new(compiled));
@@ -83,23 +94,35 @@ proptest! {
                 let (a, b) = (plain.factor(vals, tol), jit.factor(vals, tol));
                 prop_assert_eq!(a.is_ok(), b.is_ok());
                 prop_assert_eq!(plain.pivot_report(), jit.pivot_report(), "tolerance {}", tol);
+                let c = chunked.factor(vals, tol);
+                prop_assert_eq!(a.is_ok(), c.is_ok());
+                prop_assert_eq!(plain.pivot_report(), chunked.pivot_report(), "chunked, tolerance {}", tol);
             }
             let (a, b) = (plain.factor(vals, 1e-12), jit.factor(vals, 1e-12));
             prop_assert_eq!(a.is_ok(), b.is_ok());
             prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
+            let c = chunked.factor(vals, 1e-12);
+            prop_assert_eq!(a.is_ok(), c.is_ok());
+            prop_assert_eq!(plain.pivot_report(), chunked.pivot_report());
             if a.is_err() {
                 continue;
             }
             let mut x = rhs[..n].to_vec();
             let mut y = rhs[..n].to_vec();
+            let mut z = rhs[..n].to_vec();
             prop_assert!(plain.solve_in_place(&mut x).is_ok());
             prop_assert!(jit.solve_in_place(&mut y).is_ok());
+            prop_assert!(chunked.solve_in_place(&mut z).is_ok());
             prop_assert!(same(&x, &y), "solve: {x:?} vs {y:?}");
+            prop_assert!(same(&x, &z), "chunked solve: {x:?} vs {z:?}");
             let mut x = rhs[..n].to_vec();
             let mut y = rhs[..n].to_vec();
+            let mut z = rhs[..n].to_vec();
             prop_assert!(plain.solve_transpose_in_place(&mut x).is_ok());
             prop_assert!(jit.solve_transpose_in_place(&mut y).is_ok());
+            prop_assert!(chunked.solve_transpose_in_place(&mut z).is_ok());
             prop_assert!(same(&x, &y), "transposed: {x:?} vs {y:?}");
+            prop_assert!(same(&x, &z), "chunked transposed: {x:?} vs {z:?}");
         }
         // A changed constant, a NaN or an infinite entry: both fall back to
         // the general solver alike.
@@ -111,6 +134,9 @@ proptest! {
             let (a, b) = (plain.factor(&changed, 1e-12), jit.factor(&changed, 1e-12));
             prop_assert_eq!(a.is_ok(), b.is_ok());
             prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
+            let c = chunked.factor(&changed, 1e-12);
+            prop_assert_eq!(a.is_ok(), c.is_ok());
+            prop_assert_eq!(plain.pivot_report(), chunked.pivot_report());
             if a.is_ok() {
                 let mut x = rhs[..n].to_vec();
                 let mut y = rhs[..n].to_vec();

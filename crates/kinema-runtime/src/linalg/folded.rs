@@ -229,10 +229,11 @@ pub struct FoldedSolves<'a> {
 /// the interpreted solve computes from the same v and b.
 pub trait CompiledSolves: std::fmt::Debug + Send + Sync {
     /// Solves in place from the factors' values `v`; `transpose` for Aᵀ.
-    /// Returns `false` (and leaves `rhs` as it was) if it cannot, for
-    /// instance on slices of unexpected lengths: the interpreter then
-    /// solves.
-    fn solve(&self, v: &[f64], rhs: &mut [f64], transpose: bool) -> bool;
+    /// `work` is scratch of n values (the interpreter's y; its contents on
+    /// entry and on return mean nothing). Returns `false` (and leaves
+    /// `rhs` as it was) if it cannot, for instance on slices of unexpected
+    /// lengths: the interpreter then solves.
+    fn solve(&self, v: &[f64], rhs: &mut [f64], work: &mut [f64], transpose: bool) -> bool;
 }
 
 /// An entry of the active matrix during the simulated elimination.
@@ -659,7 +660,7 @@ impl Folded {
     #[inline]
     fn solve(&mut self, rhs: &mut [f64], transpose: bool) {
         if let Some(c) = &self.compiled
-            && c.solve(&self.v, rhs, transpose)
+            && c.solve(&self.v, rhs, &mut self.work, transpose)
         {
             return;
         }
