@@ -977,7 +977,6 @@ fn emit_factor(
         Ok(())
     };
     // A running integer value into entry k (overwritten by the final one).
-    let put_bits = put;
     let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
     // Every constant still its constant, bit for bit: the differences'
     // bits ORed together are zero. Read as integers, straight from memory.
@@ -1007,7 +1006,7 @@ fn emit_factor(
         let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
         let bits = b.ins().band(bits, abs_mask);
         max_bits = b.ins().umax(max_bits, bits);
-        put_bits(b, SCAN_SCALE, max_bits)?;
+        put(b, SCAN_SCALE, max_bits)?;
     }
     let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
     put(b, SCAN_SCALE, scale)?;
@@ -1047,17 +1046,17 @@ fn emit_factor(
         let magnitude = b.ins().band(bits, abs_mask);
         if pivot {
             signs = b.ins().bxor(signs, bits);
-            put_bits(b, SCAN_NEGATIVE, signs)?;
+            put(b, SCAN_NEGATIVE, signs)?;
             let nan = b
                 .ins()
                 .icmp(IntCC::UnsignedGreaterThan, magnitude, inf_bits);
             let counted = b.ins().select(nan, zero_bits, magnitude);
             min_bits = b.ins().umin(min_bits, counted);
-            put_bits(b, SCAN_MIN_PIVOT, min_bits)?;
+            put(b, SCAN_MIN_PIVOT, min_bits)?;
         }
         if multiplier {
             mult_bits = b.ins().umax(mult_bits, magnitude);
-            put_bits(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
+            put(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
         }
         Ok(())
     };
