@@ -477,11 +477,11 @@ fn jit_and_tape_agree_on_every_model() {
     assert_eq!(tape, jit, "dead point: tape vs jit");
 }
 
-/// Chains too large for one compiled function per tape (and, N = 100,
-/// n = 300, for one per folded-LU direction): compiled in chunks, values
-/// crossing the cuts through memory, they run on the compiled code and
-/// agree with the tape bit for bit. (The chain N = 200, n = 600, is over
-/// [`Auto::MAX_FOLDED`]: its LU is the sparse one, never compiled.)
+/// Chains too large for one compiled function per tape and per folded-LU
+/// direction: compiled in chunks, values crossing the cuts through memory
+/// (the factorization's entries looped, the solves' y resident in their
+/// scratch), they run on the compiled code and agree with the tape bit
+/// for bit.
 #[test]
 fn jit_and_tape_agree_on_chains_compiled_in_chunks() {
     let times: Vec<f64> = (0..=40).map(|k| f64::from(k) / 40.0).collect();
@@ -500,13 +500,11 @@ fn jit_and_tape_agree_on_chains_compiled_in_chunks() {
             );
             let mut solver = Solver::<_, Auto>::with_options(system, Options::default())
                 .unwrap_or_else(|e| panic!("{e}"));
-            match solver.linear_solver() {
-                Auto::Folded(lu) => {
-                    assert_eq!(lu.has_compiled_solves(), backend == Backend::Jit);
-                    assert_eq!(lu.has_compiled_factor(), backend == Backend::Jit);
-                }
-                _ => assert!(3 * n > Auto::MAX_FOLDED, "chain N = {n}: not folded"),
-            }
+            let Auto::Folded(lu) = solver.linear_solver() else {
+                panic!("chain N = {n}: not folded");
+            };
+            assert_eq!(lu.has_compiled_solves(), backend == Backend::Jit);
+            assert_eq!(lu.has_compiled_factor(), backend == Backend::Jit);
             solver.run(&times).unwrap_or_else(|e| panic!("{e}"))
         };
         let (tape, jit) = (on(Backend::Tape), on(Backend::Jit));

@@ -311,13 +311,24 @@ impl FactorFn {
         })
     }
 
-    /// Runs the factorization; `None` (nothing done) on short slices.
+    /// Whether `values` and `v` are long enough for the factorization.
     #[inline]
-    pub(crate) fn call(&self, values: &[f64], v: &mut [f64]) -> Option<[f64; SCAN]> {
-        if values.len() < self.needs.values || v.len() < self.needs.v {
+    pub(crate) fn fits(&self, values: &[f64], v: &[f64]) -> bool {
+        values.len() >= self.needs.values && v.len() >= self.needs.v
+    }
+
+    /// Runs the factorization from the scan `scan` (the running folds a
+    /// prologue left, or zeros); `None` (nothing done) on short slices.
+    #[inline]
+    pub(crate) fn call(
+        &self,
+        values: &[f64],
+        v: &mut [f64],
+        mut scan: [f64; SCAN],
+    ) -> Option<[f64; SCAN]> {
+        if !self.fits(values, v) {
             return None;
         }
-        let mut scan = [0.0; SCAN];
         // SAFETY: the function reads only values[..needs.values], writes
         // and reads only v[..needs.v] and writes only scan[..SCAN] (checked
         // when it was compiled); the lengths were just checked. The code is

@@ -30,8 +30,8 @@ mod shims;
 mod tape;
 
 pub use lu::{
-    JitFactor, JitSolves, LU_CHUNK, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS, compile_factor,
-    compile_factor_chunked, compile_solves, compile_solves_chunked,
+    JitFactor, JitSolves, LOOPED_ENTRIES, LU_CHUNK, MAX_LU_DIMENSION, MAX_SOLVE_OPERATIONS,
+    REGISTER_SOLVE, compile_factor, compile_factor_chunked, compile_solves, compile_solves_chunked,
 };
 
 pub use tape::{

@@ -32,8 +32,8 @@ pub const MAX_SOLVE_OPERATIONS: usize = 250_000;
 /// compiled in chunks the operations' count is what costs, and
 /// [`MAX_SOLVE_OPERATIONS`] bounds it; this only keeps the scratch of a
 /// solve (n values) and the plan's orders sane. (The runtime plans a
-/// folded LU up to `Auto::MAX_FOLDED` = 400 anyway: above, the sparse LU
-/// runs, interpreted.)
+/// folded LU up to `Auto::MAX_FOLDED` = 10 000 anyway: above, the sparse
+/// LU runs, interpreted.)
 pub const MAX_LU_DIMENSION: usize = 100_000;
 
 /// The most operations (or items: a factorization's entries, a solve's
@@ -44,6 +44,17 @@ pub const MAX_LU_DIMENSION: usize = 100_000;
 /// 2 shared cores), one function of the chain N = 100's LU (n = 300)
 /// took 223 ms to compile; the chain N = 50's (n = 150) 68 ms.
 pub const LU_CHUNK: usize = 2_000;
+
+/// Above this many constant and run-time entries, a factorization checks
+/// the constants and copies the entries in loops before its compiled part
+/// (see [`JitFactor`]'s prologue); up to it, straight-line code does.
+pub const LOOPED_ENTRIES: usize = 256;
+
+/// The largest dimension whose solves keep every y in a register from the
+/// gather to the scatter (one function, [`emit`]); above, y lives in the
+/// solve's scratch (see [`Resident`]), as it does in a solve of more than
+/// [`LU_CHUNK`] items.
+pub const REGISTER_SOLVE: usize = 32;
 
 /// A folded LU's solves compiled to native code (see [`compile_solves`]).
 #[derive(Clone)]
@@ -77,12 +88,14 @@ impl CompiledSolves for JitSolves {
 /// [`JitError::Compile`] for an index outside the plan's lengths or a
 /// function Cranelift refuses.
 pub fn compile_solves(plan: &FoldedSolves<'_>) -> Result<JitSolves, JitError> {
-    compile_solves_chunked(plan, LU_CHUNK)
+    compile_solves_chunked(plan, LU_CHUNK, REGISTER_SOLVE)
 }
 
 /// [`compile_solves`] with a direction longer than `chunk` operations
-/// (with its scatter) compiled in chunks of at most `chunk` (at least 1):
-/// for tests, which force small chunks. Not a stable interface.
+/// (with its scatter) compiled in chunks of at most `chunk` (at least 1),
+/// and y resident in the scratch above dimension `register` (instead of
+/// [`REGISTER_SOLVE`]): for tests, which force small chunks and both
+/// forms. Not a stable interface.
 ///
 /// # Errors
 /// As [`compile_solves`].
@@ -90,6 +103,7 @@ pub fn compile_solves(plan: &FoldedSolves<'_>) -> Result<JitSolves, JitError> {
 pub fn compile_solves_chunked(
     plan: &FoldedSolves<'_>,
     chunk: usize,
+    register: usize,
 ) -> Result<JitSolves, JitError> {
     let operations =
         plan.forward.len() + plan.backward.len() + plan.forward_t.len() + plan.backward_t.len();
@@ -124,7 +138,8 @@ pub fn compile_solves_chunked(
     let mut fns = Vec::with_capacity(2);
     for (i, (gather, first, second, scatter)) in directions.into_iter().enumerate() {
         let name = format!("solve{i}");
-        if first.len() + second.len() + plan.n <= chunk {
+        let items = first.len() + second.len() + plan.n;
+        if plan.n <= register && items <= chunk {
             let id = define(&mut module, &mut ctx, &mut fctx, &sig, &name, |b, _| {
                 emit(b, one, gather, [first, second], scatter)
             })?;
@@ -135,21 +150,23 @@ pub fn compile_solves_chunked(
             work: plan.n,
             ..one
         };
-        let mut chunks = SolveChunks::new(needs, gather, [first, second], scatter)?;
-        let ranges: Vec<_> = (0..chunks.items.len())
-            .step_by(chunk)
-            .map(|s| s..(s + chunk).min(chunks.items.len()))
-            .collect();
-        let mut parts = Vec::with_capacity(ranges.len());
-        for (c, range) in ranges.iter().enumerate() {
-            let last = c + 1 == ranges.len();
+        let resident = Resident::new(needs, gather, [first, second], scatter)?;
+        if items <= chunk {
+            let id = define(&mut module, &mut ctx, &mut fctx, &sig, &name, |b, _| {
+                resident.emit(b, 0..items, true)
+            })?;
+            fns.push((id, needs));
+            continue;
+        }
+        let mut parts = Vec::with_capacity(items.div_ceil(chunk));
+        for (c, s) in (0..items).step_by(chunk).enumerate() {
             parts.push(define(
                 &mut module,
                 &mut ctx,
                 &mut fctx,
                 &sig,
                 &format!("{name}_{c}"),
-                |b, _| chunks.emit(b, range.clone(), c == 0, last),
+                |b, _| resident.emit(b, s..(s + chunk).min(items), c == 0),
             )?);
         }
         let id = define(
@@ -220,210 +237,196 @@ fn calls(
     Ok(())
 }
 
-/// Where a solve in chunks finds y[k] at a chunk's start.
-#[derive(Clone, Copy)]
-enum Y {
-    /// Not written yet: b[gather[k]] in the right-hand side.
-    Rhs,
-    /// In the scratch, `work[k]` (written by an earlier chunk).
-    Work,
-    /// Computed in this chunk.
-    Ready(Value),
-}
-
-/// What a solve in chunks does, item by item: the sweeps' operations, then
+/// What a resident solve does, item by item: the sweeps' operations, then
 /// the scatter (`Err(k)`: b[scatter[k]] = y[k]).
 type SolveItem = Result<SolveOp, usize>;
 
-/// One direction of a solve compiled in chunks. The first chunk copies
-/// every y[k] no operation writes into the scratch; each chunk stores there
-/// the y it writes (at its last write, unless it is the last chunk); so the
-/// scatter, at the end, reads only the scratch or values in registers and
-/// may overwrite b.
-struct SolveChunks<'p> {
+/// The y entry an operation writes.
+fn destination(op: SolveOp) -> u32 {
+    match op {
+        SolveOp::MulSub { dst, .. }
+        | SolveOp::ConstMulSub { dst, .. }
+        | SolveOp::Sub { dst, .. }
+        | SolveOp::Add { dst, .. }
+        | SolveOp::Scale { dst, .. }
+        | SolveOp::ConstScale { dst, .. } => dst,
+    }
+}
+
+/// One direction of a solve with y resident in the scratch (`work`, n
+/// values), for systems above [`REGISTER_SOLVE`] or solves longer than a
+/// chunk: the first chunk gathers b into the scratch, every operation
+/// stores the y it writes there, the last items scatter it back into b.
+///
+/// Keeping every y in a register for the whole solve, as [`emit`] does,
+/// leaves Cranelift's allocator hundreds of live values on a large system:
+/// it spills them all (the chain N = 200's forward solve spent 5 500 of its
+/// 10 500 instructions moving spills). Here a value is reused from its
+/// register only within [`WINDOW`] items of where it was last loaded or
+/// computed, and read back from the scratch after that, so few values are
+/// ever live and nothing spills; a chain of dependent operations, the
+/// latency that matters, stays in registers.
+struct Resident<'p> {
     needs: SolveNeeds,
     gather: &'p [u32],
     scatter: &'p [u32],
     items: Vec<SolveItem>,
-    /// y indices no operation writes.
-    untouched: Vec<usize>,
-    /// Whether y[k] is in the scratch, after the chunks emitted so far.
-    in_work: Vec<bool>,
 }
 
-impl<'p> SolveChunks<'p> {
+/// How many items a resident solve reuses a value's register for.
+const WINDOW: usize = 8;
+
+impl<'p> Resident<'p> {
+    /// Checks every index against `needs` (n = `needs.rhs`, the factors'
+    /// values `needs.v`) before anything is emitted.
     fn new(
         needs: SolveNeeds,
         gather: &'p [u32],
         sweeps: [&[SolveOp]; 2],
         scatter: &'p [u32],
-    ) -> Result<SolveChunks<'p>, JitError> {
+    ) -> Result<Resident<'p>, JitError> {
         let n = needs.rhs;
-        if gather.len() != n || scatter.len() != n {
+        if gather.len() != n || scatter.len() != n || needs.work < n {
             return Err(JitError::Compile("orders of another length than n".into()));
         }
-        let mut written = vec![false; n];
+        let entry = |k: u32| -> Result<(), JitError> {
+            if (k as usize) < n {
+                Ok(())
+            } else {
+                Err(JitError::Compile(format!("solve entry {k} beyond n = {n}")))
+            }
+        };
+        for &k in gather.iter().chain(scatter) {
+            entry(k)?;
+        }
         let mut items = Vec::new();
         for &op in sweeps.into_iter().flatten() {
-            let dst = match op {
-                SolveOp::MulSub { dst, .. }
-                | SolveOp::ConstMulSub { dst, .. }
-                | SolveOp::Sub { dst, .. }
-                | SolveOp::Add { dst, .. }
-                | SolveOp::Scale { dst, .. }
-                | SolveOp::ConstScale { dst, .. } => dst as usize,
-            };
-            *written
-                .get_mut(dst)
-                .ok_or_else(|| JitError::Compile(format!("solve entry {dst} beyond n = {n}")))? =
-                true;
+            entry(destination(op))?;
+            match op {
+                SolveOp::MulSub { src, s, .. } => {
+                    entry(src)?;
+                    if s as usize >= needs.v {
+                        return Err(JitError::Compile(format!(
+                            "factor value {s} beyond {}",
+                            needs.v
+                        )));
+                    }
+                }
+                SolveOp::ConstMulSub { src, .. }
+                | SolveOp::Sub { src, .. }
+                | SolveOp::Add { src, .. } => entry(src)?,
+                SolveOp::Scale { s, .. } if s as usize >= needs.v => {
+                    return Err(JitError::Compile(format!(
+                        "factor value {s} beyond {}",
+                        needs.v
+                    )));
+                }
+                SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => {}
+            }
             items.push(Ok(op));
         }
         items.extend((0..n).map(Err));
-        let untouched = (0..n).filter(|&k| !written[k]).collect();
-        Ok(SolveChunks {
+        Ok(Resident {
             needs,
             gather,
             scatter,
             items,
-            untouched,
-            in_work: vec![false; n],
         })
     }
 
-    /// Emits the items `range` as one function `(v, rhs, work)`.
+    /// Emits the items `range` as one function `(v, rhs, work)`; the first
+    /// chunk (`first`) also gathers b into the scratch.
     fn emit(
-        &mut self,
+        &self,
         b: &mut FunctionBuilder<'_>,
         range: std::ops::Range<usize>,
         first: bool,
-        last: bool,
     ) -> Result<(), JitError> {
-        let n = self.needs.rhs;
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
         let [v, rhs, work] = b.block_params(block)[..] else {
             return Err(JitError::Compile("signature".into()));
         };
-        let index = |k: usize| -> Result<usize, JitError> {
-            if k < n {
-                Ok(k)
-            } else {
-                Err(JitError::Compile(format!("solve entry {k} beyond n = {n}")))
-            }
-        };
         let flags = MemFlagsData::trusted();
-        let mut y: Vec<Y> = self
-            .in_work
-            .iter()
-            .map(|&w| if w { Y::Work } else { Y::Rhs })
-            .collect();
         if first {
-            for &k in &self.untouched {
-                let r = index(*self.gather.get(k).unwrap_or(&u32::MAX) as usize)?;
-                let x = b.ins().load(F64, flags, rhs, offset(r)?);
+            for (k, &r) in self.gather.iter().enumerate() {
+                let x = b.ins().load(F64, flags, rhs, offset(r as usize)?);
                 b.ins().store(flags, x, work, offset(k)?);
-                y[k] = Y::Ready(x);
-                self.in_work[k] = true;
             }
         }
         let items = self
             .items
             .get(range)
             .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
-        // The last item of this chunk writing each y (stored there).
-        let mut last_write = vec![usize::MAX; n];
-        for (i, item) in items.iter().enumerate() {
-            if let Ok(op) = item {
-                let (SolveOp::MulSub { dst, .. }
-                | SolveOp::ConstMulSub { dst, .. }
-                | SolveOp::Sub { dst, .. }
-                | SolveOp::Add { dst, .. }
-                | SolveOp::Scale { dst, .. }
-                | SolveOp::ConstScale { dst, .. }) = *op;
-                last_write[index(dst as usize)?] = i;
-            }
-        }
-        let gather = self.gather;
-        let get = |b: &mut FunctionBuilder<'_>, y: &mut [Y], k: u32| -> Result<Value, JitError> {
-            let k = index(k as usize)?;
-            let x = match y[k] {
-                Y::Ready(x) => return Ok(x),
-                Y::Work => b.ins().load(F64, flags, work, offset(k)?),
-                Y::Rhs => {
-                    let r = index(gather[k] as usize)?;
-                    b.ins().load(F64, flags, rhs, offset(r)?)
-                }
-            };
-            y[k] = Y::Ready(x);
-            Ok(x)
-        };
-        let mut vals: HashMap<u32, Value> = HashMap::new();
-        let needs_v = self.needs.v;
-        let mut value = |b: &mut FunctionBuilder<'_>, s: u32| -> Result<Value, JitError> {
-            if let Some(&x) = vals.get(&s) {
+        // y[k]'s register and the item it was last loaded or computed at.
+        let mut recent: Vec<Option<(Value, usize)>> = vec![None; self.needs.rhs];
+        let get = |b: &mut FunctionBuilder<'_>,
+                   recent: &mut [Option<(Value, usize)>],
+                   k: u32,
+                   at: usize|
+         -> Result<Value, JitError> {
+            let k = k as usize;
+            if let Some((x, t)) = recent[k]
+                && at - t <= WINDOW
+            {
                 return Ok(x);
             }
-            if s as usize >= needs_v {
-                return Err(JitError::Compile(format!(
-                    "factor value {s} beyond {needs_v}"
-                )));
-            }
-            let x = b
-                .ins()
-                .load(F64, flags.with_readonly(), v, offset(s as usize)?);
-            vals.insert(s, x);
+            let x = b.ins().load(F64, flags, work, offset(k)?);
+            recent[k] = Some((x, at));
             Ok(x)
         };
-        for (i, item) in items.iter().enumerate() {
+        let factor = |b: &mut FunctionBuilder<'_>, s: u32| -> Result<Value, JitError> {
+            Ok(b.ins()
+                .load(F64, flags.with_readonly(), v, offset(s as usize)?))
+        };
+        for (at, item) in items.iter().enumerate() {
             let op = match *item {
                 Ok(op) => op,
                 Err(k) => {
-                    let x = get(b, &mut y, u32::try_from(k).unwrap_or(u32::MAX))?;
-                    let c = index(*self.scatter.get(k).unwrap_or(&u32::MAX) as usize)?;
-                    b.ins().store(flags, x, rhs, offset(c)?);
+                    let x = get(b, &mut recent, u32::try_from(k).unwrap_or(u32::MAX), at)?;
+                    b.ins()
+                        .store(flags, x, rhs, offset(self.scatter[k] as usize)?);
                     continue;
                 }
             };
-            let (dst, x) = match op {
+            let x = match op {
                 SolveOp::MulSub { dst, src, s } => {
-                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
-                    let x = value(b, s)?;
+                    let (d, r, x) = (
+                        get(b, &mut recent, dst, at)?,
+                        get(b, &mut recent, src, at)?,
+                        factor(b, s)?,
+                    );
                     let p = b.ins().fmul(x, r);
-                    (dst, b.ins().fsub(d, p))
+                    b.ins().fsub(d, p)
                 }
                 SolveOp::ConstMulSub { dst, src, c } => {
-                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
+                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
                     let c = b.ins().f64const(c);
                     let p = b.ins().fmul(c, r);
-                    (dst, b.ins().fsub(d, p))
+                    b.ins().fsub(d, p)
                 }
                 SolveOp::Sub { dst, src } => {
-                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
-                    (dst, b.ins().fsub(d, r))
+                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
+                    b.ins().fsub(d, r)
                 }
                 SolveOp::Add { dst, src } => {
-                    let (d, r) = (get(b, &mut y, dst)?, get(b, &mut y, src)?);
-                    (dst, b.ins().fadd(d, r))
+                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
+                    b.ins().fadd(d, r)
                 }
                 SolveOp::Scale { dst, s } => {
-                    let d = get(b, &mut y, dst)?;
-                    let x = value(b, s)?;
-                    (dst, b.ins().fmul(d, x))
+                    let (d, x) = (get(b, &mut recent, dst, at)?, factor(b, s)?);
+                    b.ins().fmul(d, x)
                 }
                 SolveOp::ConstScale { dst, c } => {
-                    let d = get(b, &mut y, dst)?;
+                    let d = get(b, &mut recent, dst, at)?;
                     let c = b.ins().f64const(c);
-                    (dst, b.ins().fmul(d, c))
+                    b.ins().fmul(d, c)
                 }
             };
-            let d = index(dst as usize)?;
-            y[d] = Y::Ready(x);
-            if !last && last_write[d] == i {
-                b.ins().store(flags, x, work, offset(d)?);
-                self.in_work[d] = true;
-            }
+            let d = destination(op) as usize;
+            b.ins().store(flags, x, work, offset(d)?);
+            recent[d] = Some((x, at));
         }
         b.ins().return_(&[]);
         Ok(())
@@ -547,6 +550,170 @@ fn offset(k: usize) -> Result<i32, JitError> {
 #[derive(Clone)]
 pub struct JitFactor {
     f: FactorFn,
+    /// For a factorization of more than [`LOOPED_ENTRIES`] entries: the
+    /// constants' check and the run-time entries' copy, run as loops here
+    /// before `f`.
+    prologue: Option<Prologue>,
+}
+
+/// The per-entry start of a large factorization, as loops over tables:
+/// emitted straight-line, the chain N = 200's 1 000 constants and 800
+/// copies were 13 000 instructions of code run once per factorization,
+/// more than the instruction caches keep (the generated LU loops over
+/// tables beyond a few entries for the same reason). The loops compute
+/// the interpreter's numbers — the constants' differences or-ed; integer
+/// maxima and minima of magnitude bits, which no order changes, in four
+/// lanes; the sign bits' parity — and leave the running folds in the
+/// scan, where the compiled part (the operations) reads them.
+#[derive(Clone, Debug)]
+struct Prologue {
+    /// Pattern position and bits of each constant entry.
+    constants: Box<[(u32, u64)]>,
+    /// Pattern position of each run-time entry (value array entry i).
+    inputs: Box<[u32]>,
+    /// Value array entries among the run-time entries that are pivots.
+    pivots: Box<[u32]>,
+    /// Value array entries among the run-time entries that are multipliers.
+    multipliers: Box<[u32]>,
+    /// The folds' starts: the constants' scale, smallest pivot and largest
+    /// multiplier (magnitude bits).
+    scale: u64,
+    min_pivot: u64,
+    max_multiplier: u64,
+}
+
+/// The sign bit cleared: the integer order of the bits is the order of |x|.
+const ABS: u64 = u64::MAX >> 1;
+/// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
+/// cleared.
+const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
+
+impl Prologue {
+    /// The prologue of `plan`, its indices checked against `needs`.
+    fn new(plan: &FoldedFactor<'_>, needs: FactorNeeds) -> Result<Prologue, JitError> {
+        let inside = |k: u32| -> Result<u32, JitError> {
+            if (k as usize) < needs.values {
+                Ok(k)
+            } else {
+                Err(JitError::Compile(format!(
+                    "Jacobian value index {k} beyond {}",
+                    needs.values
+                )))
+            }
+        };
+        let ni = plan.inputs.len();
+        if ni > needs.v {
+            return Err(JitError::Compile("more entries than values".into()));
+        }
+        let copied = |vars: &[u32]| -> Box<[u32]> {
+            vars.iter()
+                .copied()
+                .filter(|&k| (k as usize) < ni)
+                .collect()
+        };
+        Ok(Prologue {
+            constants: plan
+                .constants
+                .iter()
+                .map(|&(k, c)| Ok((inside(k)?, c.to_bits())))
+                .collect::<Result<_, JitError>>()?,
+            inputs: plan
+                .inputs
+                .iter()
+                .map(|&k| inside(k))
+                .collect::<Result<_, JitError>>()?,
+            pivots: copied(plan.pivot_vars),
+            multipliers: copied(plan.multiplier_vars),
+            scale: plan.const_scale.to_bits() & ABS,
+            min_pivot: plan.const_min_pivot.to_bits() & ABS,
+            max_multiplier: plan.const_max_multiplier.to_bits() & ABS,
+        })
+    }
+
+    /// Checks the constants, copies the run-time entries into `v` and
+    /// folds them; the scan the compiled part starts from (final scale,
+    /// finiteness and constants' check; the pivots' and multipliers' folds
+    /// as running state, raw bits). The caller has checked `values` and `v` against the
+    /// needs the indices were checked with.
+    #[inline]
+    fn run(&self, values: &[f64], v: &mut [f64]) -> [f64; SCAN] {
+        let bits = |x: f64| x.to_bits();
+        let mut diff = 0;
+        for &(k, c) in &*self.constants {
+            diff |= bits(values[k as usize]) ^ c;
+        }
+        let scale = {
+            let (inputs, v) = (&*self.inputs, &mut v[..self.inputs.len()]);
+            let split = inputs.len() / 4 * 4;
+            let (mut m, mut rest) = ([self.scale, 0, 0, 0], self.scale);
+            for (x, k) in v[..split]
+                .chunks_exact_mut(4)
+                .zip(inputs[..split].chunks_exact(4))
+            {
+                for lane in 0..4 {
+                    let y = values[k[lane] as usize];
+                    x[lane] = y;
+                    m[lane] = m[lane].max(bits(y) & ABS);
+                }
+            }
+            for (x, &k) in v[split..].iter_mut().zip(&inputs[split..]) {
+                *x = values[k as usize];
+                rest = rest.max(bits(*x) & ABS);
+            }
+            rest.max(lanes(m, u64::max))
+        };
+        let v = &*v;
+        let mut signs = 0;
+        // A NaN pivot counts as zero.
+        let pivot = |p: u32| {
+            let m = bits(v[p as usize]) & ABS;
+            if m > INFINITY_BITS { 0 } else { m }
+        };
+        let min_pivot = fold4(&self.pivots, self.min_pivot, u64::MAX, u64::min, |p| {
+            signs ^= bits(v[p as usize]);
+            pivot(p)
+        });
+        let max_multiplier = fold4(&self.multipliers, self.max_multiplier, 0, u64::max, |l| {
+            bits(v[l as usize]) & ABS
+        });
+        let mut scan = [0.0; SCAN];
+        scan[SCAN_SAME] = if diff == 0 { 1.0 } else { 0.0 };
+        scan[SCAN_SCALE] = f64::from_bits(scale);
+        scan[SCAN_FINITE] = if scale < INFINITY_BITS { 1.0 } else { 0.0 };
+        scan[SCAN_NEGATIVE] = f64::from_bits(signs);
+        scan[SCAN_MIN_PIVOT] = f64::from_bits(min_pivot);
+        scan[SCAN_MAX_MULTIPLIER] = f64::from_bits(max_multiplier);
+        scan
+    }
+}
+
+/// `f` of the four lanes, pairwise.
+#[inline]
+fn lanes(x: [u64; 4], f: fn(u64, u64) -> u64) -> u64 {
+    f(f(x[0], x[1]), f(x[2], x[3]))
+}
+
+/// `fold` (min or max, order-free) of `map` over `items` from `start`, in
+/// four independent lanes (`identity` the others' start) so the folds do
+/// not wait on each other.
+#[inline]
+fn fold4(
+    items: &[u32],
+    start: u64,
+    identity: u64,
+    fold: fn(u64, u64) -> u64,
+    mut map: impl FnMut(u32) -> u64,
+) -> u64 {
+    let mut m = [start, identity, identity, identity];
+    let chunks = items.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for lane in 0..4 {
+            m[lane] = fold(m[lane], map(c[lane]));
+        }
+    }
+    rest.iter()
+        .fold(lanes(m, fold), |acc, &k| fold(acc, map(k)))
 }
 
 impl std::fmt::Debug for JitFactor {
@@ -558,7 +725,12 @@ impl std::fmt::Debug for JitFactor {
 impl CompiledFactor for JitFactor {
     #[inline]
     fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
-        let scan = self.f.call(values, v)?;
+        let scan = match &self.prologue {
+            Some(p) if self.f.fits(values, v) => p.run(values, v),
+            Some(_) => return None,
+            None => [0.0; SCAN],
+        };
+        let scan = self.f.call(values, v, scan)?;
         Some(FactorScan {
             scale: scan[SCAN_SCALE],
             finite: scan[SCAN_FINITE] != 0.0,
@@ -580,13 +752,14 @@ impl CompiledFactor for JitFactor {
 /// # Errors
 /// As [`compile_solves`].
 pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
-    compile_factor_chunked(plan, LU_CHUNK)
+    compile_factor_chunked(plan, LU_CHUNK, LOOPED_ENTRIES)
 }
 
 /// [`compile_factor`] with a factorization of more than `chunk` items
 /// (constants, entries copied, entries folded, operations) compiled in
-/// chunks of at most `chunk` (at least 1): for tests, which force small
-/// chunks. Not a stable interface.
+/// chunks of at most `chunk` (at least 1), its entries looped above
+/// `looped` of them (instead of [`LOOPED_ENTRIES`]): for tests, which force
+/// small chunks and both forms. Not a stable interface.
 ///
 /// # Errors
 /// As [`compile_factor`].
@@ -594,6 +767,7 @@ pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
 pub fn compile_factor_chunked(
     plan: &FoldedFactor<'_>,
     chunk: usize,
+    looped: usize,
 ) -> Result<JitFactor, JitError> {
     let size = plan.ops.len() + plan.nnz;
     if size > MAX_SOLVE_OPERATIONS {
@@ -612,35 +786,54 @@ pub fn compile_factor_chunked(
     for _ in 0..3 {
         sig.params.push(AbiParam::new(ptr));
     }
-    let mut chunks = FactorChunks::new(plan, needs)?;
-    let id = if chunks.total <= chunk {
+    let looped = plan.constants.len() + plan.inputs.len() > looped;
+    let mut chunks = FactorChunks::new(plan, needs, looped)?;
+    let id = if !looped && chunks.total <= chunk {
         define(&mut module, &mut ctx, &mut fctx, &sig, "factor", |b, _| {
             emit_factor(b, plan, needs)
         })?
     } else {
-        let ranges: Vec<_> = (0..chunks.total)
+        // A looped factorization compiles the operations (at least one
+        // function, which writes the scan's final values).
+        let from = if looped { chunks.operations_at() } else { 0 };
+        let total = chunks.total;
+        let mut ranges: Vec<_> = (from..total)
             .step_by(chunk)
-            .map(|s| s..(s + chunk).min(chunks.total))
+            .map(|s| s..(s + chunk).min(total))
             .collect();
-        let mut parts = Vec::with_capacity(ranges.len());
-        for (c, range) in ranges.iter().enumerate() {
-            parts.push(define(
+        if ranges.is_empty() {
+            ranges.push(total..total);
+        }
+        if let [range] = &ranges[..] {
+            define(&mut module, &mut ctx, &mut fctx, &sig, "factor", |b, _| {
+                chunks.emit(b, range.clone())
+            })?
+        } else {
+            let mut parts = Vec::with_capacity(ranges.len());
+            for (c, range) in ranges.iter().enumerate() {
+                parts.push(define(
+                    &mut module,
+                    &mut ctx,
+                    &mut fctx,
+                    &sig,
+                    &format!("factor_{c}"),
+                    |b, _| chunks.emit(b, range.clone()),
+                )?);
+            }
+            define(
                 &mut module,
                 &mut ctx,
                 &mut fctx,
                 &sig,
-                &format!("factor_{c}"),
-                |b, _| chunks.emit(b, range.clone()),
-            )?);
+                "factor",
+                |b, module| calls(b, module, &parts),
+            )?
         }
-        define(
-            &mut module,
-            &mut ctx,
-            &mut fctx,
-            &sig,
-            "factor",
-            |b, module| calls(b, module, &parts),
-        )?
+    };
+    let prologue = if looped {
+        Some(Prologue::new(plan, needs)?)
+    } else {
+        None
     };
     module
         .finalize_definitions()
@@ -648,6 +841,7 @@ pub fn compile_factor_chunked(
     let code = Code::new(module);
     Ok(JitFactor {
         f: FactorFn::new(&code, id, needs)?,
+        prologue,
     })
 }
 
@@ -663,10 +857,18 @@ struct FactorChunks<'p> {
     total: usize,
     /// (pivot, multiplier) roles of each value.
     role: Vec<(bool, bool)>,
+    /// Whether a [`Prologue`] checks the constants, copies the entries and
+    /// folds them (the compiled items then start at
+    /// [`FactorChunks::operations_at`]).
+    looped: bool,
 }
 
 impl<'p> FactorChunks<'p> {
-    fn new(plan: &'p FoldedFactor<'p>, needs: FactorNeeds) -> Result<FactorChunks<'p>, JitError> {
+    fn new(
+        plan: &'p FoldedFactor<'p>,
+        needs: FactorNeeds,
+        looped: bool,
+    ) -> Result<FactorChunks<'p>, JitError> {
         let mut role = vec![(false, false); needs.v];
         for &p in plan.pivot_vars {
             role.get_mut(p as usize)
@@ -687,7 +889,14 @@ impl<'p> FactorChunks<'p> {
             needs,
             total,
             role,
+            looped,
         })
+    }
+
+    /// The first operation's item, after the constants' check, the copies
+    /// and their folds.
+    fn operations_at(&self) -> usize {
+        self.plan.constants.len() + 2 * self.plan.inputs.len()
     }
 
     /// Emits items `range` as one function `(values, v, scan)`.
@@ -747,12 +956,15 @@ impl<'p> FactorChunks<'p> {
             bits_of(plan.const_max_multiplier.abs()),
         )?;
         // The value array's entries: earlier chunks' from memory.
-        let mut v: Vec<Option<Value>> = vec![None; needs.v];
+        // A value's register and the item it was last loaded or computed
+        // at: reused within [`WINDOW`] items, else read back (every value
+        // is stored), so few values stay live (see [`Resident`]).
+        let mut v: Vec<Option<(Value, usize)>> = vec![None; needs.v];
         let mut written =
             start.saturating_sub(nc).min(ni) + start.saturating_sub(fold_end).min(plan.ops.len());
         let get = |b: &mut FunctionBuilder<'_>,
-                   v: &mut [Option<Value>],
-                   written: usize,
+                   v: &mut [Option<(Value, usize)>],
+                   (written, at): (usize, usize),
                    a: u32|
          -> Result<Value, JitError> {
             let a = a as usize;
@@ -761,11 +973,13 @@ impl<'p> FactorChunks<'p> {
                     "value {a} read before it is written"
                 )));
             }
-            if let Some(x) = v[a] {
+            if let Some((x, t)) = v[a]
+                && at - t <= WINDOW
+            {
                 return Ok(x);
             }
             let x = b.ins().load(F64, flags, v_ptr, offset(a)?);
-            v[a] = Some(x);
+            v[a] = Some((x, at));
             Ok(x)
         };
         let role = &self.role;
@@ -801,12 +1015,12 @@ impl<'p> FactorChunks<'p> {
         let last = range.end >= self.total;
         let end = if last { self.total + 1 } else { range.end };
         for p in start..end {
-            if p == same_at {
+            if p == same_at && !self.looped {
                 let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
                 let same = b.ins().select(same, one, zero);
                 put(b, SCAN_SAME, same)?;
             }
-            if p == scale_at {
+            if p == scale_at && !self.looped {
                 let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
                 put(b, SCAN_SCALE, scale)?;
                 let finite = b.ins().icmp(IntCC::UnsignedLessThan, max_bits, inf_bits);
@@ -827,7 +1041,7 @@ impl<'p> FactorChunks<'p> {
                 let k = check(plan.inputs[p - nc] as usize, needs.values, "Jacobian value")?;
                 let x = b.ins().load(F64, read, values, offset(k)?);
                 b.ins().store(flags, x, v_ptr, offset(written)?);
-                v[written] = Some(x);
+                v[written] = Some((x, p));
                 written += 1;
                 let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
                 let bits = b.ins().band(bits, abs_mask);
@@ -835,71 +1049,91 @@ impl<'p> FactorChunks<'p> {
                 put(b, SCAN_SCALE, max_bits)?;
             } else if p < fold_end {
                 let k = p - scale_at;
-                let x = get(b, &mut v, written, u32::try_from(k).unwrap_or(u32::MAX))?;
+                let x = get(
+                    b,
+                    &mut v,
+                    (written, p),
+                    u32::try_from(k).unwrap_or(u32::MAX),
+                )?;
                 fold(b, k, x, &mut signs, &mut min_bits, &mut mult_bits)?;
             } else {
                 let x = match plan.ops[p - fold_end] {
                     Op::Recip(a) => {
-                        let a = get(b, &mut v, written, a)?;
+                        let a = get(b, &mut v, (written, p), a)?;
                         b.ins().fdiv(one, a)
                     }
                     Op::Neg(a) => {
-                        let a = get(b, &mut v, written, a)?;
+                        let a = get(b, &mut v, (written, p), a)?;
                         b.ins().fneg(a)
                     }
                     Op::Scale(c, a) => {
                         let c = b.ins().f64const(c);
-                        let a = get(b, &mut v, written, a)?;
+                        let a = get(b, &mut v, (written, p), a)?;
                         b.ins().fmul(c, a)
                     }
                     Op::Mul(a, c) => {
-                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
+                        let (a, c) = (
+                            get(b, &mut v, (written, p), a)?,
+                            get(b, &mut v, (written, p), c)?,
+                        );
                         b.ins().fmul(a, c)
                     }
                     Op::SubConst(a, c) => {
                         let c = b.ins().f64const(c);
-                        let a = get(b, &mut v, written, a)?;
+                        let a = get(b, &mut v, (written, p), a)?;
                         b.ins().fsub(a, c)
                     }
                     Op::Sub(o, a) => {
-                        let (o, a) = (get(b, &mut v, written, o)?, get(b, &mut v, written, a)?);
+                        let (o, a) = (
+                            get(b, &mut v, (written, p), o)?,
+                            get(b, &mut v, (written, p), a)?,
+                        );
                         b.ins().fsub(o, a)
                     }
                     Op::Add(o, a) => {
-                        let (o, a) = (get(b, &mut v, written, o)?, get(b, &mut v, written, a)?);
+                        let (o, a) = (
+                            get(b, &mut v, (written, p), o)?,
+                            get(b, &mut v, (written, p), a)?,
+                        );
                         b.ins().fadd(o, a)
                     }
                     Op::SubScaled(o, c, a) => {
                         let c = b.ins().f64const(c);
-                        let a = get(b, &mut v, written, a)?;
-                        let p = b.ins().fmul(c, a);
-                        let o = get(b, &mut v, written, o)?;
-                        b.ins().fsub(o, p)
+                        let a = get(b, &mut v, (written, p), a)?;
+                        let product = b.ins().fmul(c, a);
+                        let o = get(b, &mut v, (written, p), o)?;
+                        b.ins().fsub(o, product)
                     }
                     Op::SubMul(o, a, c) => {
-                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
-                        let p = b.ins().fmul(a, c);
-                        let o = get(b, &mut v, written, o)?;
-                        b.ins().fsub(o, p)
+                        let (a, c) = (
+                            get(b, &mut v, (written, p), a)?,
+                            get(b, &mut v, (written, p), c)?,
+                        );
+                        let product = b.ins().fmul(a, c);
+                        let o = get(b, &mut v, (written, p), o)?;
+                        b.ins().fsub(o, product)
                     }
                     Op::ConstSubScaled(o, c, a) => {
                         let c = b.ins().f64const(c);
-                        let a = get(b, &mut v, written, a)?;
-                        let p = b.ins().fmul(c, a);
+                        let a = get(b, &mut v, (written, p), a)?;
+                        let product = b.ins().fmul(c, a);
                         let o = b.ins().f64const(o);
-                        b.ins().fsub(o, p)
+                        b.ins().fsub(o, product)
                     }
                     Op::ConstSubMul(o, a, c) => {
-                        let (a, c) = (get(b, &mut v, written, a)?, get(b, &mut v, written, c)?);
-                        let p = b.ins().fmul(a, c);
+                        let (a, c) = (
+                            get(b, &mut v, (written, p), a)?,
+                            get(b, &mut v, (written, p), c)?,
+                        );
+                        let product = b.ins().fmul(a, c);
                         let o = b.ins().f64const(o);
-                        b.ins().fsub(o, p)
+                        b.ins().fsub(o, product)
                     }
                 };
                 let k = written;
                 b.ins()
                     .store(flags, x, v_ptr, offset(check(k, needs.v, "value")?)?);
-                v[k] = Some(x);
+                v[k] = Some((x, p));
                 written += 1;
                 fold(b, k, x, &mut signs, &mut min_bits, &mut mult_bits)?;
             }

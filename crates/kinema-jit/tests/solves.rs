@@ -8,7 +8,10 @@ use kinema_runtime::{FoldedLu, LinearSolver};
 use proptest::prelude::*;
 
 /// An n × n pattern: the diagonal and random off-diagonal entries, some
-/// of them constants ±1 or 2.5; values at the "initial guess".
+/// of them constants ±1 or 2.5; values at the "initial guess". Half the
+/// matrices have a constant unit diagonal and small run-time entries (as
+/// a mechanism's x and y rows): their pivots are constants and their
+/// multipliers the run-time entries themselves.
 /// (n, pattern, constants, values).
 type Matrix = (usize, Vec<(u32, u32)>, Vec<Option<f64>>, Vec<f64>);
 
@@ -19,12 +22,18 @@ fn matrix() -> impl Strategy<Value = Matrix> {
             Just(n),
             proptest::collection::vec((0..cells, 0u8..6, -2.0f64..2.0), n..3 * n),
             proptest::collection::vec(1.0f64..3.0, n),
+            any::<bool>(),
         )
-            .prop_map(|(n, extra, diag)| {
+            .prop_map(|(n, extra, diag, unit)| {
                 let mut entries: std::collections::BTreeMap<(u32, u32), (Option<f64>, f64)> =
                     std::collections::BTreeMap::new();
                 for (i, d) in diag.iter().enumerate() {
-                    entries.insert((i as u32, i as u32), (None, 4.0 + d));
+                    let entry = if unit {
+                        (Some(1.0), 1.0)
+                    } else {
+                        (None, 4.0 + d)
+                    };
+                    entries.insert((i as u32, i as u32), entry);
                 }
                 for (cell, kind, v) in extra {
                     let (r, c) = ((cell / n) as u32, (cell % n) as u32);
@@ -36,7 +45,7 @@ fn matrix() -> impl Strategy<Value = Matrix> {
                     };
                     entries
                         .entry((r, c))
-                        .or_insert((constant, constant.unwrap_or(v)));
+                        .or_insert((constant, constant.unwrap_or(if unit { 0.2 * v } else { v })));
                 }
                 let pattern = entries.keys().copied().collect();
                 let constants = entries.values().map(|e| e.0).collect();
@@ -59,7 +68,9 @@ proptest! {
     fn compiled_solves_equal_interpreted((n, pattern, constants, values) in matrix(),
                                          rhs in proptest::collection::vec(-3.0f64..3.0, 12),
                                          moved in -0.5f64..0.5,
-                                         chunk in 1usize..12) {
+                                         chunk in 1usize..12,
+                                         register in 0usize..12,
+                                         looped in 0usize..40) {
         let mut plain = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
         let mut jit = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
         // And one compiled in chunks of at most `chunk` items, so values
@@ -68,10 +79,10 @@ proptest! {
         let mut chunked = FoldedLu::new(n, &pattern, &constants, &values).expect("analysis");
         prop_assume!(plain.is_planned());
         let plan = chunked.solves().expect("a plan");
-        let compiled = compile_solves_chunked(&plan, chunk).expect("the host is supported");
+        let compiled = compile_solves_chunked(&plan, chunk, register).expect("the host is supported");
         chunked.set_compiled_solves(Box::new(compiled));
         let factor = chunked.factorization().expect("a plan");
-        let compiled = compile_factor_chunked(&factor, chunk).expect("the host is supported");
+        let compiled = compile_factor_chunked(&factor, chunk, looped).expect("the host is supported");
         chunked.set_compiled_factor(Box::new(compiled));
         let plan = jit.solves().expect("a plan");
         let compiled = compile_solves(&plan).expect("the host is supported");
@@ -87,7 +98,14 @@ proptest! {
             .zip(&constants)
             .map(|(v, c)| c.unwrap_or(v + moved * v.abs()))
             .collect();
-        for vals in [&values, &moved] {
+        // Run-time entries 30 times larger: multipliers over 1/θ where a
+        // constant pivots, so the multipliers' fold decides the verdict.
+        let boosted: Vec<f64> = values
+            .iter()
+            .zip(&constants)
+            .map(|(v, c)| c.unwrap_or(30.0 * v))
+            .collect();
+        for vals in [&values, &moved, &boosted] {
             // The acceptance test at tolerances up to its limits: the same
             // verdict (the folded order's report or the fallback's) each time.
             for tol in [0.5, 0.2, 0.1, 0.05, 0.02, 1e-3] {

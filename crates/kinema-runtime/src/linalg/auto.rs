@@ -37,8 +37,13 @@ impl Auto {
     pub const DEFAULT_THRESHOLD: usize = 12;
 
     /// Largest dimension for which [`analyze_system`](LinearSolver::analyze_system)
-    /// plans a [`FoldedLu`] (the plan's search grows faster than the system).
-    pub const MAX_FOLDED: usize = 400;
+    /// plans a [`FoldedLu`]. The plan itself gives up past a bound on its
+    /// pivot search and on its operations (then the general solver runs);
+    /// this bounds the dense work of setting it up. A mechanism's folded
+    /// plan beats the sparse LU's replay at every size measured: the chain
+    /// N = 200 (n = 600) needs no factorization arithmetic at all, where the
+    /// replay computes every L and U entry (`BENCHMARKS.md`, issue 20).
+    pub const MAX_FOLDED: usize = 10_000;
 
     /// Analyses the pattern with dense LU if `n < threshold`, else sparse LU.
     pub fn with_threshold(

@@ -40,6 +40,13 @@ const CHOICE_THRESHOLD: f64 = 0.5;
 /// Above this many operations the plan is not built (the general solver
 /// does the work instead).
 const MAX_OPERATIONS: usize = 200_000;
+/// Above this many entries looked at by the pivot search (candidates and
+/// their columns' magnitudes), the plan is given up for the general
+/// solver: the search costs up to the active entries per pivot, so a large
+/// system without cheap pivots would otherwise plan for seconds. Mechanisms
+/// find a constant of cost 0 early in most steps (the chain N = 1000,
+/// n = 3000, plans in about 5 ms).
+const MAX_SEARCH: usize = 20_000_000;
 
 /// A value during the simulated elimination.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -319,6 +326,8 @@ struct Plan {
     by_count: BTreeSet<(usize, u32)>,
     ops: Vec<Op>,
     inputs: usize,
+    /// Entries the pivot search has looked at so far (see [`MAX_SEARCH`]).
+    searched: usize,
 }
 
 impl FoldedLu {
@@ -770,14 +779,17 @@ impl Plan {
             by_count,
             ops: Vec::new(),
             inputs: inputs.len(),
+            searched: 0,
         };
         Some((plan, inputs, constant_entries))
     }
 
     /// The next pivot (row, column): least Markowitz cost among the entries
     /// passing the threshold, constants first among equals, then the largest
-    /// magnitude relative to its column, then the smallest (row, column).
-    fn choose(&self) -> Option<(u32, u32)> {
+    /// magnitude relative to its column, then the smallest (row, column);
+    /// `None` once the search has looked at more than [`MAX_SEARCH`]
+    /// entries in all.
+    fn choose(&mut self) -> Option<(u32, u32)> {
         // (fails threshold, cost, run-time value, −relative magnitude, row, column)
         type Key = (bool, usize, bool, f64, u32, u32);
         let better = |a: &Key, b: &Key| {
@@ -789,6 +801,7 @@ impl Plan {
         };
         let mut col_max: BTreeMap<u32, f64> = BTreeMap::new();
         let mut best: Option<Key> = None;
+        let mut searched = 0;
         for &(count, r) in &self.by_count {
             if count == 0 {
                 continue;
@@ -798,7 +811,9 @@ impl Plan {
                 break;
             }
             for (&c, cell) in &self.rows[r as usize] {
+                searched += 1;
                 let max = *col_max.entry(c).or_insert_with(|| {
+                    searched += self.cols[c as usize].len();
                     self.cols[c as usize]
                         .iter()
                         .filter_map(|&i| self.rows[i as usize].get(&c))
@@ -813,6 +828,10 @@ impl Plan {
                     best = Some(key);
                 }
             }
+        }
+        self.searched += searched;
+        if self.searched > MAX_SEARCH {
+            return None;
         }
         best.map(|b| (b.4, b.5))
     }
