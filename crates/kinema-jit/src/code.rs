@@ -317,10 +317,16 @@ impl FactorFn {
         values.len() >= self.needs.values && v.len() >= self.needs.v
     }
 
-    /// Runs the factorization from the scan `scan` (the running folds a
-    /// prologue left, or zeros); `None` (nothing done) on short slices.
+    /// Runs the factorization; `None` (nothing done) on short slices.
     #[inline]
-    pub(crate) fn call(
+    pub(crate) fn call(&self, values: &[f64], v: &mut [f64]) -> Option<[f64; SCAN]> {
+        self.call_from(values, v, [0.0; SCAN])
+    }
+
+    /// Runs the factorization from the scan `scan` (the running folds a
+    /// prologue left); `None` (nothing done) on short slices.
+    #[inline]
+    pub(crate) fn call_from(
         &self,
         values: &[f64],
         v: &mut [f64],

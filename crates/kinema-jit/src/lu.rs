@@ -634,8 +634,9 @@ impl Prologue {
     /// folds them; the scan the compiled part starts from (final scale,
     /// finiteness and constants' check; the pivots' and multipliers' folds
     /// as running state, raw bits). The caller has checked `values` and `v` against the
-    /// needs the indices were checked with.
-    #[inline]
+    /// needs the indices were checked with. Out of line: the small
+    /// systems' factorization, which has no prologue, stays lean.
+    #[inline(never)]
     fn run(&self, values: &[f64], v: &mut [f64]) -> [f64; SCAN] {
         let bits = |x: f64| x.to_bits();
         let mut diff = 0;
@@ -726,11 +727,13 @@ impl CompiledFactor for JitFactor {
     #[inline]
     fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
         let scan = match &self.prologue {
-            Some(p) if self.f.fits(values, v) => p.run(values, v),
+            None => self.f.call(values, v)?,
+            Some(p) if self.f.fits(values, v) => {
+                let start = p.run(values, v);
+                self.f.call_from(values, v, start)?
+            }
             Some(_) => return None,
-            None => [0.0; SCAN],
         };
-        let scan = self.f.call(values, v, scan)?;
         Some(FactorScan {
             scale: scan[SCAN_SCALE],
             finite: scan[SCAN_FINITE] != 0.0,
