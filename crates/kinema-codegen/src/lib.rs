@@ -122,7 +122,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let cache_items = if cache.is_empty() {
         quote!()
     } else {
-        cache.items(&d.arena, &cache_name, &params)
+        cache.items(&d.arena, (&cache_name, &params), options.chunk_nodes)
     };
     let scratch = if cache.is_empty() {
         quote!(())
@@ -376,8 +376,9 @@ fn guess_body(
 
 /// The evaluation methods' bodies: Φ, Φ_q, both at once (one schedule, so
 /// sin/cos are computed once per body), ν and γ, each refreshing the cache
-/// it reads first; and the chunk functions that the bodies of a large model
-/// call ([`Chunk`]; `rt` is the runtime's path, for their scratch type).
+/// it reads first; and the chunk functions that the bodies (and refreshes,
+/// [`cache::Cache::refresh_split`]) of a large model call ([`Chunk`]; `rt`
+/// is the runtime's path, for their scratch type).
 fn evaluation_methods(
     d: &Derivation,
     params: &[Ident],
@@ -399,11 +400,19 @@ fn evaluation_methods(
                   outputs: &[kinema_expr::ExprId],
                   target: &dyn Fn(usize) -> TokenStream,
                   places: &[(&str, usize)]| {
-        let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
+        // A check is about four nodes: a comparison, a store, a `sin_cos`.
+        let split = cache::Split {
+            label,
+            checks: (chunk_nodes / 4).max(1),
+            nc,
+            rt,
+        };
+        let mut helpers = Vec::new();
+        let (refresh, reads_q, reads_t) = cache.refresh_split(a, outputs, &split, &mut helpers);
         let stop = |e| cache.lookup(e).is_some();
         let ranges = emit::chunks(a, outputs, &stop, chunk_nodes);
         let scratch = reads_q || reads_t;
-        let (body, mut used, helpers) = if ranges.len() > 1 {
+        let (body, mut used, chunks) = if ranges.len() > 1 {
             let chunk = Chunk {
                 label,
                 nc,
@@ -418,6 +427,7 @@ fn evaluation_methods(
         };
         used.q |= reads_q;
         used.t |= reads_t;
+        helpers.extend(chunks);
         let method = Method {
             body: quote!(#refresh #body),
             used,

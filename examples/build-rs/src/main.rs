@@ -52,8 +52,9 @@ mod tests {
         Ok(())
     }
 
-    /// The chain of ten links generated with chunked evaluation methods,
-    /// initial guess and LU solves (by build.rs) and in one body each (by
+    /// The chain of ten links generated with chunked evaluation methods
+    /// (the refreshes of its cache too), initial guess and LU
+    /// solves (by build.rs) and in one body each (by
     /// the macro): the same trajectory and the same linear algebra, to the
     /// bit, and the chunked source really has chunks.
     #[test]
@@ -70,6 +71,8 @@ mod tests {
         let source = include_str!(concat!(env!("OUT_DIR"), "/chain10_chunked.rs"));
         for chunk in [
             "fn __kinema_phi_and_jacobian_",
+            "fn __kinema_phi_and_jacobian_angles_",
+            "fn __kinema_refresh_time_",
             "fn __kinema_initial_guess_",
             "fn __kinema_solve_",
             "fn __kinema_solve_transpose_",
