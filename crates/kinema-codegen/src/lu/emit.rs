@@ -97,9 +97,13 @@ fn split(
         let name = format_ident!("__kinema_{}_{}", label, i);
         calls.extend(quote!(Self::#name(#args);));
         helpers.push(quote! {
+            // `y[k] = (y[k] - …) * f[…]` is the shape of the inline solve's
+            // statements, which clippy would rather see as `-=` when there
+            // is one term.
             #[inline(never)]
             #[allow(
                 unused_variables,
+                clippy::assign_op_pattern,
                 clippy::approx_constant,
                 clippy::excessive_precision,
                 clippy::unreadable_literal,
@@ -519,12 +523,15 @@ impl Plan {
         let solve_transpose =
             self.emit_solve_fn(rt, quote!(solve_transpose_in_place), solve_transpose);
         let inherent = emit_inherent(rt, ty, &memo.invalidate, &helpers);
+        // `!(x >= min_pivot)` is meant: a NaN pivot or multiplier must fail
+        // the acceptance test (`emit_pivots`, `emit_multipliers`).
         quote! {
             #definition
 
             #[allow(
                 clippy::approx_constant,
                 clippy::excessive_precision,
+                clippy::neg_cmp_op_on_partial_ord,
                 clippy::unreadable_literal,
                 unused_parens
             )]
@@ -802,10 +809,10 @@ impl Plan {
                 }
             };
             let ops = 1 + terms.len();
-            if large {
-                stmts.push((quote!(#yk = #value;), ops));
-            } else if terms.is_empty() && matches!(self.inv[k], Val::Const(c) if c == 1.0) {
+            if terms.is_empty() && matches!(self.inv[k], Val::Const(c) if c == 1.0) {
                 // y_k is already x_k.
+            } else if large {
+                stmts.push((quote!(#yk = #value;), ops));
             } else {
                 stmts.push((quote!(let #yk = #value;), ops));
             }
