@@ -156,7 +156,7 @@ impl Cache {
     }
 
     /// [`Cache::refresh`] for a method of a generated system, with the angle
-    /// checks (a comparison and perhaps a `sin_cos` each, three lines of
+    /// checks (a comparison and perhaps a `sin_cos` each, four lines of
     /// source) past `split.checks` of them split into private
     /// `#[inline(never)]` functions of that many, pushed onto `helpers`:
     /// a 1000-body chain's refresh was a 4 000-line body in each method.
@@ -272,7 +272,8 @@ impl Cache {
             };
             // Past `chunk_nodes` scheduled nodes, in private functions of
             // about that many (a 1000-body chain's drivers make 2000
-            // functions of time), each with the same statements.
+            // functions of time), each computing its functions with the
+            // same operations as one body would.
             let ranges = emit::chunks(arena, &self.time, &|_| false, chunk_nodes);
             let (body, chunks) = if ranges.len() > 1 {
                 let mut calls = TokenStream::new();
