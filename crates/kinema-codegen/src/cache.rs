@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use kinema_expr::{Arena, ExprId, NodeRef, SymKind, UnaryOp};
 use proc_macro2::{Ident, Literal, TokenStream};
-use quote::quote;
+use quote::{format_ident, quote};
 
 use crate::emit;
 
@@ -31,6 +31,32 @@ pub(crate) struct Cache {
     /// Functions of t alone, in slot order.
     time: Vec<ExprId>,
     time_slot: BTreeMap<ExprId, usize>,
+}
+
+/// Angle checks in the method's own body, on `c` borrowed from its scratch
+/// (nothing when there are none).
+fn inline_checks(checks: &[TokenStream]) -> TokenStream {
+    if checks.is_empty() {
+        return quote!();
+    }
+    quote! {
+        {
+            let c = &mut *scratch;
+            #(#checks)*
+        }
+    }
+}
+
+/// How [`Cache::refresh_split`] splits a method's angle checks.
+pub(crate) struct Split<'a> {
+    /// The method's name, in the functions' names.
+    pub label: &'a str,
+    /// Checks per function.
+    pub checks: usize,
+    /// The coordinate count (the length of `q`).
+    pub nc: usize,
+    /// The runtime's path, for the scratch type.
+    pub rt: &'a syn::Path,
 }
 
 /// Which inputs a node depends on.
@@ -124,8 +150,54 @@ impl Cache {
     /// Statements bringing the cache up to date for `outputs` (at the
     /// current `q` and `t`), and whether they read q and t.
     pub(crate) fn refresh(&self, arena: &Arena, outputs: &[ExprId]) -> (TokenStream, bool, bool) {
+        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs);
+        out.extend(inline_checks(&checks));
+        (out, !checks.is_empty(), uses_time)
+    }
+
+    /// [`Cache::refresh`] for a method of a generated system, with the angle
+    /// checks (a comparison and perhaps a `sin_cos` each, four lines of
+    /// source) past `split.checks` of them split into private
+    /// `#[inline(never)]` functions of that many, pushed onto `helpers`:
+    /// a 1000-body chain's refresh was a 4 000-line body in each method.
+    /// The checks are the same statements in the same order.
+    pub(crate) fn refresh_split(
+        &self,
+        arena: &Arena,
+        outputs: &[ExprId],
+        split: &Split<'_>,
+        helpers: &mut Vec<TokenStream>,
+    ) -> (TokenStream, bool, bool) {
+        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs);
+        if checks.len() <= split.checks {
+            out.extend(inline_checks(&checks));
+            return (out, !checks.is_empty(), uses_time);
+        }
+        let nc = Literal::usize_unsuffixed(split.nc);
+        let rt = split.rt;
+        for (i, run) in checks.chunks(split.checks).enumerate() {
+            let name = format_ident!("__kinema_{}_angles_{}", split.label, i);
+            out.extend(quote!(Self::#name(q, scratch);));
+            helpers.push(quote! {
+                #[inline(never)]
+                fn #name(q: &[f64; #nc], c: &mut <Self as #rt::System>::Scratch) {
+                    #(#run)*
+                }
+            });
+        }
+        (out, true, uses_time)
+    }
+
+    /// The refresh of the functions of time (when `outputs` read one), the
+    /// check of each angle `outputs` read (on `c`, the scratch), and
+    /// whether they read t.
+    fn refresh_parts(
+        &self,
+        arena: &Arena,
+        outputs: &[ExprId],
+    ) -> (TokenStream, Vec<TokenStream>, bool) {
         if self.is_empty() {
-            return (quote!(), false, false);
+            return (quote!(), Vec::new(), false);
         }
         let reached = emit::reachable(arena, outputs, &|e| self.lookup(e).is_some());
         let mut slots: Vec<usize> = reached
@@ -143,8 +215,9 @@ impl Cache {
                 }
             });
         }
-        if !slots.is_empty() {
-            let checks = slots.iter().map(|&slot| {
+        let checks = slots
+            .iter()
+            .map(|&slot| {
                 let i = Literal::usize_unsuffixed(self.angles[slot] as usize);
                 let k = Literal::usize_unsuffixed(slot);
                 quote! {
@@ -153,19 +226,20 @@ impl Cache {
                         (c.sin[#k], c.cos[#k]) = q[#i].sin_cos();
                     }
                 }
-            });
-            out.extend(quote! {
-                {
-                    let c = &mut *scratch;
-                    #(#checks)*
-                }
-            });
-        }
-        (out, !slots.is_empty(), uses_time)
+            })
+            .collect();
+        (out, checks, uses_time)
     }
 
-    /// The cache type `name` and the field declaration for the system.
-    pub(crate) fn items(&self, arena: &Arena, name: &Ident, params: &[Ident]) -> TokenStream {
+    /// The cache type `name` and the field declaration for the system;
+    /// its refresh of the functions of time split past `chunk_nodes`
+    /// scheduled nodes ([`emit::chunks`]).
+    pub(crate) fn items(
+        &self,
+        arena: &Arena,
+        (name, params): (&Ident, &[Ident]),
+        chunk_nodes: usize,
+    ) -> TokenStream {
         let k = Literal::usize_unsuffixed(self.angles.len());
         let m = Literal::usize_unsuffixed(self.time.len());
         let (angle_fields, angle_init) = if self.angles.is_empty() {
@@ -196,7 +270,30 @@ impl Cache {
                 let k = Literal::usize_unsuffixed(k);
                 quote!(self.time[#k])
             };
-            let (body, _) = emit::body(arena, &self.time, &to, &inputs);
+            // Past `chunk_nodes` scheduled nodes, in private functions of
+            // about that many (a 1000-body chain's drivers make 2000
+            // functions of time), each computing its functions with the
+            // same operations as one body would.
+            let ranges = emit::chunks(arena, &self.time, &|_| false, chunk_nodes);
+            let (body, chunks) = if ranges.len() > 1 {
+                let mut calls = TokenStream::new();
+                let mut chunks = TokenStream::new();
+                for (i, r) in ranges.into_iter().enumerate() {
+                    let name = format_ident!("__kinema_refresh_time_{}", i);
+                    let start = r.start;
+                    let (body, _) = emit::body(arena, &self.time[r], &|k| to(start + k), &inputs);
+                    calls.extend(quote!(self.#name(t);));
+                    chunks.extend(quote! {
+                        #[inline(never)]
+                        fn #name(&mut self, t: f64) {
+                            #body
+                        }
+                    });
+                }
+                (calls, chunks)
+            } else {
+                (emit::body(arena, &self.time, &to, &inputs).0, quote!())
+            };
             (
                 quote! {
                     t: f64,
@@ -214,6 +311,8 @@ impl Cache {
                             self.t = t;
                             #body
                         }
+
+                        #chunks
                     }
                 },
             )

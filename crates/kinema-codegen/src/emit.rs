@@ -209,9 +209,12 @@ pub(crate) fn body(
 pub(crate) const CHUNK_NODES: usize = 2000;
 
 /// `outputs` split into consecutive ranges whose bodies schedule at most
-/// about `budget` nodes each (a single output larger than that is a chunk
-/// of its own), not descending below nodes for which `stop` holds. One
-/// range when the whole fits. A node shared by two chunks is computed in
+/// about `budget` nodes and stores each (a single output larger than that
+/// is a chunk of its own), not descending below nodes for which `stop`
+/// holds. One range when the whole fits. Each output's store counts as a
+/// node: thousands of outputs that are shared constants or values already
+/// computed (a Jacobian's ±1, ν's zeros) schedule nothing new, yet each is a
+/// statement of the chunk. A node shared by two chunks is computed in
 /// each: outputs are taken in order, and the derivation's rows follow the
 /// model's bodies, so neighbouring outputs share most of what they read.
 pub(crate) fn chunks(
@@ -241,12 +244,12 @@ pub(crate) fn chunks(
     let mut ranges = Vec::new();
     let (mut start, mut size, mut chunk) = (0, 0, 1u32);
     for (k, &o) in outputs.iter().enumerate() {
-        let added = count_new(o, chunk);
+        let added = count_new(o, chunk) + 1;
         if size > 0 && size + added > budget {
             ranges.push(start..k);
             start = k;
             chunk += 1;
-            size = count_new(o, chunk);
+            size = count_new(o, chunk) + 1;
         } else {
             size += added;
         }

@@ -65,11 +65,14 @@ pub struct Config {
     /// solves, runtime fallback) and make `solver()` use it.
     pub static_lu: bool,
     /// Scheduled expression nodes past which an evaluation method (Φ, Φ_q,
-    /// ν, γ) is split into private functions of about this many nodes each,
-    /// called in order: rustc's and LLVM's time on one function grows
-    /// faster than its size, and a 1000-body chain's Φ_q as one body took
-    /// half its build. The results are the same to the bit (each chunk
-    /// computes its outputs with the same operations).
+    /// ν, γ) or the initial guess is split into private functions of about
+    /// this many nodes each, called in order; likewise, counted in
+    /// floating-point operations, the generated LU's factorization and each
+    /// of its solves. rustc's and LLVM's time on one function grows faster
+    /// than its size, and a 1000-body chain's Φ_q as one body took half its
+    /// build. The results are the same to the bit (each chunk does the same
+    /// operations in the same order, values crossing between chunks through
+    /// arrays).
     pub chunk_nodes: usize,
 }
 
@@ -119,7 +122,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let cache_items = if cache.is_empty() {
         quote!()
     } else {
-        cache.items(&d.arena, &cache_name, &params)
+        cache.items(&d.arena, (&cache_name, &params), options.chunk_nodes)
     };
     let scratch = if cache.is_empty() {
         quote!(())
@@ -334,8 +337,15 @@ impl Method {
     }
 }
 
-/// The initial guess's statements (parameters only, no cache), writing `q`.
-fn guess_body(d: &Derivation, params: &[Ident]) -> TokenStream {
+/// The initial guess's statements (parameters only, no cache), writing `q`,
+/// and the chunk functions they call when the guesses schedule more than
+/// `chunk_nodes` nodes (a 1000-body chain's 3000 guesses were one of its
+/// largest functions).
+fn guess_body(
+    d: &Derivation,
+    params: &[Ident],
+    (rt, chunk_nodes): (&syn::Path, usize),
+) -> (TokenStream, Vec<TokenStream>) {
     let q = format_ident!("q");
     let no_cache = |_| None;
     let inputs = emit::Inputs {
@@ -343,13 +353,32 @@ fn guess_body(d: &Derivation, params: &[Ident]) -> TokenStream {
         cached: &no_cache,
     };
     let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
-    emit::body(&d.arena, &guesses, &|k| emit::index(&q, k), &inputs).0
+    let target = |k| emit::index(&q, k);
+    let ranges = emit::chunks(&d.arena, &guesses, &|_| false, chunk_nodes);
+    if ranges.len() > 1 {
+        let nc = d.nc();
+        let chunk = Chunk {
+            label: "initial_guess",
+            nc,
+            places: &[("q", nc)],
+            scratch: false,
+            rt,
+        };
+        let (body, _, helpers) = chunk.emit(&d.arena, &guesses, &ranges, &target, &inputs);
+        (body, helpers)
+    } else {
+        (
+            emit::body(&d.arena, &guesses, &target, &inputs).0,
+            Vec::new(),
+        )
+    }
 }
 
 /// The evaluation methods' bodies: Φ, Φ_q, both at once (one schedule, so
 /// sin/cos are computed once per body), ν and γ, each refreshing the cache
-/// it reads first; and the chunk functions that the bodies of a large model
-/// call ([`Chunk`]; `rt` is the runtime's path, for their scratch type).
+/// it reads first; and the chunk functions that the bodies (and refreshes,
+/// [`cache::Cache::refresh_split`]) of a large model call ([`Chunk`]; `rt`
+/// is the runtime's path, for their scratch type).
 fn evaluation_methods(
     d: &Derivation,
     params: &[Ident],
@@ -371,11 +400,19 @@ fn evaluation_methods(
                   outputs: &[kinema_expr::ExprId],
                   target: &dyn Fn(usize) -> TokenStream,
                   places: &[(&str, usize)]| {
-        let (refresh, reads_q, reads_t) = cache.refresh(a, outputs);
+        // A check is about four nodes: a comparison, a store, a `sin_cos`.
+        let split = cache::Split {
+            label,
+            checks: (chunk_nodes / 4).max(1),
+            nc,
+            rt,
+        };
+        let mut helpers = Vec::new();
+        let (refresh, reads_q, reads_t) = cache.refresh_split(a, outputs, &split, &mut helpers);
         let stop = |e| cache.lookup(e).is_some();
         let ranges = emit::chunks(a, outputs, &stop, chunk_nodes);
         let scratch = reads_q || reads_t;
-        let (body, mut used, helpers) = if ranges.len() > 1 {
+        let (body, mut used, chunks) = if ranges.len() > 1 {
             let chunk = Chunk {
                 label,
                 nc,
@@ -390,6 +427,7 @@ fn evaluation_methods(
         };
         used.q |= reads_q;
         used.t |= reads_t;
+        helpers.extend(chunks);
         let method = Method {
             body: quote!(#refresh #body),
             used,
@@ -518,9 +556,10 @@ fn system_impl(
     let nc = d.nc();
     let nc_lit = Literal::usize_unsuffixed(nc);
     let nnz = d.phi_q.entries.len();
-    let guess = guess_body(d, params);
-    let ([phi, jac, both, nu, gamma], helpers) =
+    let (guess, mut helpers) = guess_body(d, params, (rt, options.chunk_nodes));
+    let ([phi, jac, both, nu, gamma], methods) =
         evaluation_methods(d, params, cache, (rt, options.chunk_nodes));
+    helpers.extend(methods);
     let chunks = if helpers.is_empty() {
         quote!()
     } else {
@@ -633,7 +672,11 @@ fn solver_items(d: &Derivation, name: &Ident, options: &Config) -> (TokenStream,
     } else {
         quote!(#rt::Auto)
     };
-    let plan = options.static_lu.then(|| static_lu_plan(d)).flatten();
+    let plan = options
+        .static_lu
+        .then(|| static_lu_plan(d))
+        .flatten()
+        .map(|plan| plan.split_above(options.chunk_nodes));
     let (lu_type, lu_items, doc) = match plan {
         Some(plan) => {
             let lu_name = format_ident!("{}Lu", name);

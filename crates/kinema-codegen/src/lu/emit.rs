@@ -59,6 +59,64 @@ fn table(name: &str, ks: &[usize]) -> TokenStream {
     quote!(const #name: [usize; #len] = [#(#ks),*];)
 }
 
+/// Statements of one emitted function in the order they run, each with the
+/// floating-point operations it does (at least 1).
+type Stmts = Vec<(TokenStream, usize)>;
+
+/// `stmts` inline (`budget` is `None`), or split into consecutive runs of
+/// about `budget` operations, each a private `#[inline(never)]` associated
+/// function `__kinema_{label}_{i}(params)` pushed onto `helpers`, and the
+/// calls of them in order (with `args`). The statements touch only what
+/// `params` names, under the same names, so each computes in a run exactly
+/// what it computed inline: the results are the same to the bit. Values
+/// cross from one run to the next through the arrays in `params`.
+fn split(
+    label: &str,
+    stmts: Stmts,
+    budget: Option<usize>,
+    (params, args): (&TokenStream, &TokenStream),
+    helpers: &mut Vec<TokenStream>,
+) -> TokenStream {
+    let Some(budget) = budget else {
+        return stmts.into_iter().map(|(stmt, _)| stmt).collect();
+    };
+    let mut runs: Vec<TokenStream> = Vec::new();
+    let mut size = 0;
+    for (stmt, ops) in stmts {
+        match runs.last_mut() {
+            Some(run) if size + ops <= budget => run.extend(stmt),
+            _ => {
+                runs.push(stmt);
+                size = 0;
+            }
+        }
+        size += ops;
+    }
+    let mut calls = TokenStream::new();
+    for (i, run) in runs.into_iter().enumerate() {
+        let name = format_ident!("__kinema_{}_{}", label, i);
+        calls.extend(quote!(Self::#name(#args);));
+        helpers.push(quote! {
+            // `y[k] = (y[k] - …) * f[…]` is the shape of the inline solve's
+            // statements, which clippy would rather see as `-=` when there
+            // is one term.
+            #[inline(never)]
+            #[allow(
+                unused_variables,
+                clippy::assign_op_pattern,
+                clippy::approx_constant,
+                clippy::excessive_precision,
+                clippy::unreadable_literal,
+                unused_parens
+            )]
+            fn #name(#params) {
+                #run
+            }
+        });
+    }
+    calls
+}
+
 /// The memo of the last accepted factorization's run-time inputs: fields,
 /// their initial values, the early return when the inputs repeat, the
 /// update after an accepted factorization, and its invalidation. All empty
@@ -75,10 +133,17 @@ struct Memo {
 /// Numerics → statements: each piece of the generated `factor`, in the order
 /// it runs.
 impl Plan {
-    /// Factorizations with more operations than this keep their values in a
-    /// local array `w` instead of `let`s.
+    /// Whether the factorization keeps its values in a local array `w`
+    /// instead of `let`s: past [`MAX_LETS`] operations, or when it is split
+    /// into functions ([`Plan::factor_chunked`]), which hand `w` on.
     fn large(&self) -> bool {
-        self.operations() > MAX_LETS
+        self.operations() > MAX_LETS || self.factor_chunked()
+    }
+
+    /// Whether the elimination is split into functions of about
+    /// `chunk_ops` operations.
+    fn factor_chunked(&self) -> bool {
+        self.operations() > self.chunk_ops
     }
 
     /// How the factorization reads var `x`: an input `a[k]`, a `let` `f{x}`,
@@ -159,27 +224,44 @@ impl Plan {
     }
 
     /// The elimination's arithmetic, one statement per computed value,
-    /// after the declaration of the work array of large factorizations.
-    fn emit_elimination(&self) -> TokenStream {
+    /// after the declaration of the work array of large factorizations; in
+    /// functions `__kinema_factor_{i}(a, w)` pushed onto `helpers` when
+    /// [`Plan::factor_chunked`].
+    fn emit_elimination(&self, helpers: &mut Vec<TokenStream>) -> TokenStream {
         let large = self.large();
+        let nv = Literal::usize_unsuffixed(self.vars.len());
         let mut body = if large {
-            let nv = Literal::usize_unsuffixed(self.vars.len());
             quote!(let mut w = [0.0f64; #nv];)
         } else {
             TokenStream::new()
         };
+        let mut stmts = Stmts::new();
         for (x, def) in self.vars.iter().enumerate() {
             if matches!(def, Def::Input(_)) {
                 continue;
             }
             let value = self.def_value(def);
             let place = self.var(x as u32);
-            body.extend(if large {
-                quote!(#place = #value;)
-            } else {
-                quote!(let #place = #value;)
-            });
+            stmts.push((
+                if large {
+                    quote!(#place = #value;)
+                } else {
+                    quote!(let #place = #value;)
+                },
+                1,
+            ));
         }
+        let nnz = Literal::usize_unsuffixed(self.nnz);
+        body.extend(split(
+            "factor",
+            stmts,
+            self.factor_chunked().then_some(self.chunk_ops),
+            (
+                &quote!(a: &[f64; #nnz], w: &mut [f64; #nv]),
+                &quote!(a, &mut w),
+            ),
+            helpers,
+        ));
         body
     }
 
@@ -429,23 +511,27 @@ impl Plan {
         let stored = self.stored();
         let memo = self.emit_memo();
         let definition = self.emit_struct(names, stored.len(), &memo.fields);
-        let factor = self.emit_factor(rt, &stored, &memo);
+        // The functions that large factorizations and solves are split into.
+        let mut helpers = Vec::new();
+        let factor = self.emit_factor(rt, &stored, &memo, &mut helpers);
         let n_lit = Literal::usize_unsuffixed(self.n);
         let nf_lit = Literal::usize_unsuffixed(stored.len().max(1));
         let memo_init = &memo.init;
-        let solve = self.emit_solve_fn(rt, quote!(solve_in_place), self.emit_solve(&stored));
-        let solve_transpose = self.emit_solve_fn(
-            rt,
-            quote!(solve_transpose_in_place),
-            self.emit_solve_transpose(&stored),
-        );
-        let inherent = emit_inherent(rt, ty, &memo.invalidate);
+        let solve = self.emit_solve(&stored, &mut helpers);
+        let solve = self.emit_solve_fn(rt, quote!(solve_in_place), solve);
+        let solve_transpose = self.emit_solve_transpose(&stored, &mut helpers);
+        let solve_transpose =
+            self.emit_solve_fn(rt, quote!(solve_transpose_in_place), solve_transpose);
+        let inherent = emit_inherent(rt, ty, &memo.invalidate, &helpers);
+        // `!(x >= min_pivot)` is meant: a NaN pivot or multiplier must fail
+        // the acceptance test (`emit_pivots`, `emit_multipliers`).
         quote! {
             #definition
 
             #[allow(
                 clippy::approx_constant,
                 clippy::excessive_precision,
+                clippy::neg_cmp_op_on_partial_ord,
                 clippy::unreadable_literal,
                 unused_parens
             )]
@@ -559,17 +645,19 @@ impl Plan {
     }
 
     /// `LinearSolver::factor`: the static order's factorization, accepted by
-    /// the runtime's rule or handed to the fallback.
+    /// the runtime's rule or handed to the fallback (its elimination's
+    /// functions, when split, pushed onto `helpers`).
     fn emit_factor(
         &self,
         rt: &syn::Path,
         stored: &BTreeMap<u32, usize>,
         memo: &Memo,
+        helpers: &mut Vec<TokenStream>,
     ) -> TokenStream {
         let nnz_lit = Literal::usize_unsuffixed(self.nnz);
         let constant_scale = lit(self.constant_scale);
         let scale = self.emit_scale(rt);
-        let elimination = self.emit_elimination();
+        let elimination = self.emit_elimination(helpers);
         let pivots = self.emit_pivots();
         let multipliers = self.emit_multipliers();
         let store = self.emit_store(stored);
@@ -617,10 +705,19 @@ impl Plan {
     }
 
     /// Forward then backward substitution on `b` (a `[f64; n]`), reading
-    /// stored run-time values from `f`.
-    fn emit_solve(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
+    /// stored run-time values from `f`; past `chunk_ops` operations, in
+    /// functions `__kinema_solve_{i}(b, f, y)` pushed onto `helpers`.
+    fn emit_solve(
+        &self,
+        stored: &BTreeMap<u32, usize>,
+        helpers: &mut Vec<TokenStream>,
+    ) -> TokenStream {
         let n = self.n;
-        let large = n > MAX_LETS / 2;
+        // Each of the n rows is a statement forward, backward and in the
+        // copy out, plus a term per entry of L and U.
+        let chunked = 3 * n + self.lower.len() + self.upper.len() > self.chunk_ops;
+        // Values crossing from one function to the next are in `y`.
+        let large = n > MAX_LETS / 2 || chunked;
         let read = |v: Val| -> Result<TokenStream, f64> {
             match v {
                 Val::Const(c) => Err(c),
@@ -672,22 +769,24 @@ impl Plan {
         for &(k, j, u) in &self.upper {
             u_rows[k].push((u, j));
         }
+        let n_lit = Literal::usize_unsuffixed(n);
         let mut out = TokenStream::new();
         if large {
-            let n_lit = Literal::usize_unsuffixed(n);
             out.extend(quote!(let mut y = [0.0f64; #n_lit];));
         }
+        let mut stmts = Stmts::new();
         // Forward: y_i = b[p_i] − Σ_k l_ik y_k.
         for (i, (l_row, &r)) in l_rows.iter().zip(&self.row_order).enumerate() {
             let r = Literal::usize_unsuffixed(r);
             let terms: Vec<(Val, TokenStream)> = l_row.iter().map(|&(l, k)| (l, y(k))).collect();
             let rest = minus_terms(&terms);
             let place = y(i);
-            out.extend(if large {
+            let stmt = if large {
                 quote!(#place = b[#r] #rest;)
             } else {
                 quote!(let #place = b[#r] #rest;)
-            });
+            };
+            stmts.push((stmt, 1 + terms.len()));
         }
         // Backward: x_k = (y_k − Σ_j u_kj x_j) / u_kk, into y_k.
         for k in (0..n).rev() {
@@ -709,28 +808,48 @@ impl Plan {
                     quote!(#sum * #c)
                 }
             };
-            if large {
-                out.extend(quote!(#yk = #value;));
-            } else if terms.is_empty() && matches!(self.inv[k], Val::Const(c) if c == 1.0) {
+            let ops = 1 + terms.len();
+            if terms.is_empty() && matches!(self.inv[k], Val::Const(c) if c == 1.0) {
                 // y_k is already x_k.
+            } else if large {
+                stmts.push((quote!(#yk = #value;), ops));
             } else {
-                out.extend(quote!(let #yk = #value;));
+                stmts.push((quote!(let #yk = #value;), ops));
             }
         }
         for k in 0..n {
             let c = Literal::usize_unsuffixed(self.col_order[k]);
             let yk = y(k);
-            out.extend(quote!(b[#c] = #yk;));
+            stmts.push((quote!(b[#c] = #yk;), 1));
         }
+        let nf = Literal::usize_unsuffixed(stored.len().max(1));
+        out.extend(split(
+            "solve",
+            stmts,
+            chunked.then_some(self.chunk_ops),
+            (
+                &quote!(b: &mut [f64; #n_lit], f: &[f64; #nf], y: &mut [f64; #n_lit]),
+                &quote!(b, f, &mut y),
+            ),
+            helpers,
+        ));
         out
     }
 
     /// Aᵀ x = b on `b` with the same factors, P A Q = L U so Aᵀ = Q Uᵀ Lᵀ P:
     /// w = Qᵀ b, Uᵀ s = w (forward), Lᵀ u = s (backward), x = Pᵀ u. Used by
     /// inverse dynamics only, so it is plain array code without the
-    /// inlining of [`Plan::emit_solve`].
-    fn emit_solve_transpose(&self, stored: &BTreeMap<u32, usize>) -> TokenStream {
+    /// inlining of [`Plan::emit_solve`]. Past `chunk_ops` operations, in
+    /// functions `__kinema_solve_transpose_{i}(b, f, y)` pushed onto
+    /// `helpers`.
+    fn emit_solve_transpose(
+        &self,
+        stored: &BTreeMap<u32, usize>,
+        helpers: &mut Vec<TokenStream>,
+    ) -> TokenStream {
         let n = self.n;
+        // As for the solve: three statements per row and one per entry.
+        let chunked = 3 * n + self.lower.len() + self.upper.len() > self.chunk_ops;
         let val = |v: Val| -> Result<TokenStream, f64> {
             match v {
                 Val::Const(c) => Err(c),
@@ -770,17 +889,18 @@ impl Plan {
             l_cols[k].push((l, i));
         }
         let n_lit = Literal::usize_unsuffixed(n);
-        let mut out = quote!(let mut y = [0.0f64; #n_lit];);
+        let out = quote!(let mut y = [0.0f64; #n_lit];);
+        let mut stmts = Stmts::new();
         for (k, &c) in self.col_order.iter().enumerate() {
             let (k, c) = (Literal::usize_unsuffixed(k), Literal::usize_unsuffixed(c));
-            out.extend(quote!(y[#k] = b[#c];));
+            stmts.push((quote!(y[#k] = b[#c];), 1));
         }
         for (j, col) in u_cols.iter().enumerate() {
             let jl = Literal::usize_unsuffixed(j);
             for &(u, k) in col {
-                out.extend(update(&jl, u, &Literal::usize_unsuffixed(k)));
+                stmts.push((update(&jl, u, &Literal::usize_unsuffixed(k)), 1));
             }
-            out.extend(match val(self.inv[j]) {
+            let scale = match val(self.inv[j]) {
                 Ok(v) => quote!(y[#jl] *= #v;),
                 Err(1.0) => quote!(),
                 Err(-1.0) => quote!(y[#jl] = -y[#jl];),
@@ -788,28 +908,42 @@ impl Plan {
                     let c = lit(c);
                     quote!(y[#jl] *= #c;)
                 }
-            });
+            };
+            stmts.push((scale, 1));
         }
         for (k, col) in l_cols.iter().enumerate().rev() {
             let kl = Literal::usize_unsuffixed(k);
             for &(l, i) in col {
-                out.extend(update(&kl, l, &Literal::usize_unsuffixed(i)));
+                stmts.push((update(&kl, l, &Literal::usize_unsuffixed(i)), 1));
             }
         }
         for (k, &r) in self.row_order.iter().enumerate() {
             let (k, r) = (Literal::usize_unsuffixed(k), Literal::usize_unsuffixed(r));
-            out.extend(quote!(b[#r] = y[#k];));
+            stmts.push((quote!(b[#r] = y[#k];), 1));
         }
-        out
+        let nf = Literal::usize_unsuffixed(stored.len().max(1));
+        let body = split(
+            "solve_transpose",
+            stmts,
+            chunked.then_some(self.chunk_ops),
+            (
+                &quote!(b: &mut [f64; #n_lit], f: &[f64; #nf], y: &mut [f64; #n_lit]),
+                &quote!(b, f, &mut y),
+            ),
+            helpers,
+        );
+        quote!(#out #body)
     }
 }
 
 /// The generated type's own items: the active-factorization constants, the
-/// fallback count, and the fallback factorization (out of the hot path).
+/// fallback count, the fallback factorization (out of the hot path), and
+/// the functions a large factorization and solves are split into.
 fn emit_inherent(
     rt: &syn::Path,
     ty: &proc_macro2::Ident,
     memo_invalidate: &TokenStream,
+    helpers: &[TokenStream],
 ) -> TokenStream {
     quote! {
         impl #ty {
@@ -834,6 +968,8 @@ fn emit_inherent(
                 self.active = Self::FALLBACK;
                 Ok(())
             }
+
+            #(#helpers)*
         }
     }
 }

@@ -128,6 +128,10 @@ pub(crate) struct Plan {
     runtime_inputs: Vec<usize>,
     /// max |a_ij| over the constant entries.
     constant_scale: f64,
+    /// Operations past which the factorization and each solve are emitted
+    /// as private functions of about this many operations
+    /// ([`Plan::split_above`]; no limit until set).
+    chunk_ops: usize,
 }
 
 impl Plan {
@@ -206,6 +210,7 @@ impl Plan {
             upper: Vec::new(),
             runtime_inputs,
             constant_scale,
+            chunk_ops: usize::MAX,
         };
         Some((
             plan,
@@ -266,6 +271,18 @@ impl Plan {
             }
         }
         Some(())
+    }
+
+    /// The plan with its emitted factorization and solves split above
+    /// `ops` operations each into private `#[inline(never)]` functions of
+    /// about that many (the bound of `Config::chunk_nodes`): LLVM's time on
+    /// one function grows faster than its size, and the 1000-body chain's
+    /// solves were its largest functions.
+    pub(crate) fn split_above(self, ops: usize) -> Plan {
+        Plan {
+            chunk_ops: ops,
+            ..self
+        }
     }
 
     /// Renumbers L's rows and U's columns as elimination positions.
