@@ -1,47 +1,11 @@
 //! `kinema run` and `kinema check` at singular configurations (issue 12)
 //! and on badly scaled models (hostile-input items 1 and 2).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-/// The repository root (models/, tests/singular/); the binary runs there.
-const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+use std::path::Path;
 
-/// A scratch directory under the system's temp dir, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let dir =
-            std::env::temp_dir().join(format!("kinema-cli-singular-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        if let Err(e) = std::fs::create_dir_all(&dir) {
-            panic!("cannot create {}: {e}", dir.display());
-        }
-        TempDir(dir)
-    }
-
-    fn path(&self, file: &str) -> String {
-        self.0.join(file).display().to_string()
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn kinema(args: &[&str]) -> Output {
-    match Command::new(env!("CARGO_BIN_EXE_kinema"))
-        .args(args)
-        .current_dir(Path::new(ROOT))
-        .output()
-    {
-        Ok(output) => output,
-        Err(e) => panic!("cannot run kinema: {e}"),
-    }
-}
+use common::{ROOT, TempDir, kinema};
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
@@ -244,7 +208,7 @@ fn assembly_far_from_the_guess_is_a_warning() {
 /// a count of the rest: stderr stays bounded.
 #[test]
 fn many_singular_configurations_are_counted_not_listed() {
-    let dir = TempDir::new("lingering");
+    let dir = TempDir::new("many");
     let out = dir.path("out.csv");
     let o = kinema(&[
         "run",
