@@ -35,8 +35,9 @@ pub use lu::{
 };
 
 pub use tape::{
-    CHUNK_INSTRUCTIONS, JitTape, MAX_INSTRUCTIONS, cache_len_bound, cache_len_bound_chunked,
-    compile, compile_chunked, compile_split, compile_split_memo_at, host_supported,
+    CHUNK_INSTRUCTIONS, JitTape, MAX_INSTRUCTIONS, Reloads, cache_len_bound,
+    cache_len_bound_chunked, compile, compile_chunked, compile_split, compile_split_memo_at,
+    host_supported,
 };
 
 /// Why tapes could not be compiled, or a compiled tape not called.

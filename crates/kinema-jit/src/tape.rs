@@ -1,6 +1,6 @@
 //! Tapes to Cranelift IR: one straight-line function per tape.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use cranelift_codegen::ir::{
     AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64,
@@ -39,6 +39,30 @@ pub const MAX_INSTRUCTIONS: usize = 250_000;
 /// (single functions took, before chunking, 6 ms for 646 instructions,
 /// 114 ms for 6 586, over 1 s for 65 986 and growing faster).
 pub const CHUNK_INSTRUCTIONS: usize = 2_000;
+
+/// When an input or a coordinate's sine or cosine, once loaded, is loaded
+/// again rather than kept in a register: in functions of more than
+/// `from` instructions, at a use more than `window` instructions after
+/// its last load. Kept live any longer across a long tape, it would be
+/// spilled to the stack by Cranelift's register allocator (a store and a
+/// reload) or, for the sines and cosines computed at a chunk's start, all
+/// of them would be (the chain N = 100's Φ and Φ_q: 1 571 stack moves,
+/// 312 this way). A short function's values fit in the registers: there a
+/// reload is one instruction more (the slider-crank's step +0.7 %).
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug)]
+pub struct Reloads {
+    pub window: usize,
+    pub from: usize,
+}
+
+impl Reloads {
+    /// What [`compile_split_memo_at`] uses.
+    pub const DEFAULT: Reloads = Reloads {
+        window: 8,
+        from: 256,
+    };
+}
 
 /// A tape compiled to native code. Cloning shares the code.
 #[derive(Clone)]
@@ -181,13 +205,14 @@ pub fn compile_split_memo_at(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
 ) -> Result<Vec<JitTape>, JitError> {
-    compile_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
+    compile_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS, Reloads::DEFAULT)
 }
 
 /// [`compile_split_memo_at`] with tapes longer than `chunk` instructions
-/// compiled in chunks of at most `chunk` (at least 1): for tests, which
-/// force small chunks so that values cross their boundaries. Not a stable
-/// interface.
+/// compiled in chunks of at most `chunk` (at least 1), and values loaded
+/// from memory reloaded as `reloads` says: for tests, which force small
+/// chunks so that values cross their boundaries, and small windows so
+/// that values are reloaded. Not a stable interface.
 ///
 /// # Errors
 /// As [`compile_split_memo_at`].
@@ -196,6 +221,7 @@ pub fn compile_chunked(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
     chunk: usize,
+    reloads: Reloads,
 ) -> Result<Vec<JitTape>, JitError> {
     if memo_base < default_memo_base(tapes)? {
         return Err(JitError::Compile(
@@ -249,7 +275,7 @@ pub fn compile_chunked(
         let (id, needs) = if tape.len() <= chunk {
             define(&mut module, format!("tape{i}"), &mut |module, b| {
                 let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-                Emitter::new(tape, refs, memo_base).emit(b, split)
+                Emitter::new(tape, refs, memo_base, reloads).emit(b, split)
             })?
         } else {
             // Chunks, then a function calling them in order with its own
@@ -260,7 +286,8 @@ pub fn compile_chunked(
             for c in 0..plan.chunks.len() {
                 let part = define(&mut module, format!("tape{i}_{c}"), &mut |module, b| {
                     let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-                    let e = emitter.get_or_insert_with(|| Emitter::new(tape, refs, memo_base));
+                    let e =
+                        emitter.get_or_insert_with(|| Emitter::new(tape, refs, memo_base, reloads));
                     e.shims = refs;
                     e.emit_chunk(b, split, &plan, c)
                 })?;
@@ -534,9 +561,9 @@ enum Slot {
     Empty,
     /// An SSA value.
     Ready(Value),
-    /// An input not loaded yet: (slice pointer, byte offset). Loaded at the
-    /// first read, so that it does not live (spilled across the sin/cos
-    /// calls) from the function's start.
+    /// An input: (slice pointer, byte offset). Loaded at a read and reused
+    /// within the window (see [`Reloads`]), so that it does not live
+    /// (spilled across the sin/cos calls) from the function's start.
     Input(Value, i32),
     /// A value an earlier chunk left in the scratch at this byte offset,
     /// loaded at the first read.
@@ -566,10 +593,27 @@ struct Emitter<'t> {
     memo: HashMap<Value, (Value, Value)>,
     /// The memo's next free entry in the cache slice.
     memo_next: usize,
-    /// The sin/cos cache's pointer, and (sin, cos) of each coordinate
-    /// already read through it.
+    /// The sin/cos cache's pointer.
     trig: Option<Value>,
-    sincos: HashMap<u32, (Value, Value)>,
+    /// Coordinates whose cache entry this function has brought up to date.
+    filled: HashSet<u32>,
+    /// sin (false) or cos (true) of coordinate k as last loaded from the
+    /// cache, with the instruction it was loaded at: reused only within
+    /// the window (see [`Reloads`]) instructions, loaded again after (a value kept
+    /// live across a long tape is spilled to the stack and reloaded
+    /// anyway, at the price of a store).
+    loaded: HashMap<(u32, bool), (Value, usize)>,
+    /// The instruction being emitted (index in the function).
+    tick: usize,
+    /// When values loaded from memory are loaded again.
+    reloads: Reloads,
+    /// How many instructions a value loaded from memory is reused for in
+    /// this function.
+    window: usize,
+    /// Per register holding an input, its value as last loaded and the
+    /// instruction it was loaded at (reused only within the window (see [`Reloads`])
+    /// instructions, as `loaded`).
+    inputs: HashMap<u32, (Value, usize)>,
     /// Where the memo starts.
     memo_start: usize,
     /// Index of the last instruction writing each output (filled once).
@@ -579,7 +623,7 @@ struct Emitter<'t> {
 }
 
 impl<'t> Emitter<'t> {
-    fn new(tape: &'t Tape, shims: [FuncRef; 5], memo_next: usize) -> Emitter<'t> {
+    fn new(tape: &'t Tape, shims: [FuncRef; 5], memo_next: usize, reloads: Reloads) -> Emitter<'t> {
         Emitter {
             tape,
             shims,
@@ -588,7 +632,12 @@ impl<'t> Emitter<'t> {
             memo: HashMap::new(),
             memo_next,
             trig: None,
-            sincos: HashMap::new(),
+            filled: HashSet::new(),
+            loaded: HashMap::new(),
+            tick: 0,
+            reloads,
+            window: usize::MAX,
+            inputs: HashMap::new(),
             memo_start: memo_next,
             last_write: Vec::new(),
             written: Vec::new(),
@@ -648,7 +697,15 @@ impl<'t> Emitter<'t> {
         // A new function: no value of the last one is visible here.
         self.vals.fill(Slot::Empty);
         self.memo.clear();
-        self.sincos.clear();
+        self.filled.clear();
+        self.loaded.clear();
+        self.inputs.clear();
+        self.tick = 0;
+        self.window = if range.len() > self.reloads.from {
+            self.reloads.window
+        } else {
+            usize::MAX
+        };
         self.trig = Some(trig);
         let stored = match self.sink.take() {
             Some(sink) => sink.stored,
@@ -712,14 +769,15 @@ impl<'t> Emitter<'t> {
             .instructions()
             .get(range.clone())
             .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
-        // The coordinates' sines and cosines first, while almost nothing is
-        // live: each may call out, and a call spills every live value.
+        // The coordinates' cache entries brought up to date first, while
+        // nothing is live: each may call out, and a call spills every live
+        // value. Their uses load them from there.
         for ins in instrs {
             if let Instr::SinQ { k, .. } | Instr::CosQ { k, .. } = *ins
                 && (k as usize) < nq
             {
                 let a = register(layout.q_base + k as usize)?;
-                self.cached(b, a, k)?;
+                self.fill(b, a, k)?;
             }
         }
         // Each output is stored once, by the last instruction writing it;
@@ -743,6 +801,7 @@ impl<'t> Emitter<'t> {
         }
         for (i, ins) in instrs.iter().enumerate() {
             let dst = ins.dst() as usize;
+            self.tick = i;
             let v = self.instr(b, *ins)?;
             if self.last_write.get(dst) == Some(&(range.start + i)) {
                 self.store_output(b, dst, v)?;
@@ -788,9 +847,15 @@ impl<'t> Emitter<'t> {
         match self.vals.get(r as usize).copied() {
             Some(Slot::Ready(v)) => Ok(v),
             Some(Slot::Input(ptr, at)) => {
-                let flags = MemFlagsData::trusted().with_readonly();
-                let v = b.ins().load(F64, flags, ptr, at);
-                self.vals[r as usize] = Slot::Ready(v);
+                // Not read-only, so that Cranelift does not merge a reload
+                // with an earlier load (a value live from there).
+                if let Some(&(v, loaded)) = self.inputs.get(&r)
+                    && self.tick.saturating_sub(loaded) <= self.window
+                {
+                    return Ok(v);
+                }
+                let v = b.ins().load(F64, MemFlagsData::trusted(), ptr, at);
+                self.inputs.insert(r, (v, self.tick));
                 Ok(v)
             }
             Some(Slot::Spill(at)) => {
@@ -857,22 +922,62 @@ impl<'t> Emitter<'t> {
         Ok(sc)
     }
 
-    /// (sin, cos) of coordinate `k` (in register `a`) through the cache,
-    /// as the tape's `cached`: a hit when the cached angle has the same
-    /// bits, else both computed and stored. Once per call and coordinate.
+    /// Brings the cache entry of coordinate `k` (in register `a`) up to
+    /// date, as the tape's `cached`: kept when its angle has the bits of
+    /// the coordinate, else (sin, cos) computed and stored with it. Once
+    /// per function and coordinate.
+    fn fill(&mut self, b: &mut FunctionBuilder<'_>, a: u32, k: u32) -> Result<(), JitError> {
+        if !self.filled.insert(k) {
+            return Ok(());
+        }
+        let x = self.get(b, a)?;
+        let at = 3 * k as usize;
+        let trig = self
+            .trig
+            .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
+        let (o0, o1) = (offset(at)?, offset(at + 1)?);
+        let flags = MemFlagsData::trusted();
+        let seen = b.ins().load(F64, flags, trig, o0);
+        let xi = b.ins().bitcast(I64, MemFlagsData::new(), x);
+        let si = b.ins().bitcast(I64, MemFlagsData::new(), seen);
+        let hit = b.ins().icmp(IntCC::Equal, xi, si);
+        let (miss, join) = (b.create_block(), b.create_block());
+        b.ins().brif(hit, join, &[], miss, &[]);
+        b.switch_to_block(miss);
+        // x stored first: not live across the call.
+        b.ins().store(flags, x, trig, o0);
+        let at_sin = b.ins().iadd_imm_s(trig, i64::from(o1));
+        b.ins()
+            .call(self.shims[Which::SinCos as usize], &[x, at_sin]);
+        b.ins().jump(join, &[]);
+        b.switch_to_block(join);
+        Ok(())
+    }
+
+    /// sin (`cos` false) or cos of coordinate `k` (in register `a`), read
+    /// from its cache entry once [`fill`](Self::fill)ed.
     fn cached(
         &mut self,
         b: &mut FunctionBuilder<'_>,
         a: u32,
         k: u32,
-    ) -> Result<(Value, Value), JitError> {
-        if let Some(&sc) = self.sincos.get(&k) {
-            return Ok(sc);
+        cos: bool,
+    ) -> Result<Value, JitError> {
+        if let Some(&(v, at)) = self.loaded.get(&(k, cos))
+            && self.tick.saturating_sub(at) <= self.window
+        {
+            return Ok(v);
         }
-        let x = self.get(b, a)?;
-        let sc = self.memoized(b, x, 3 * k as usize)?;
-        self.sincos.insert(k, sc);
-        Ok(sc)
+        self.fill(b, a, k)?;
+        let trig = self
+            .trig
+            .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
+        let at = 3 * k as usize + 1 + usize::from(cos);
+        let v = b
+            .ins()
+            .load(F64, MemFlagsData::trusted(), trig, offset(at)?);
+        self.loaded.insert((k, cos), (v, self.tick));
+        Ok(v)
     }
 
     /// (sin x, cos x) through the cache entries `at..at + 3` = (x, sin x,
@@ -902,11 +1007,12 @@ impl<'t> Emitter<'t> {
         let c = b.ins().load(F64, flags, trig, o2);
         b.ins().jump(join, &[s.into(), c.into()]);
         b.switch_to_block(miss_block);
-        // Both written into the cache by one call, read back from there.
+        // Both written into the cache by one call, read back from there;
+        // x stored first, not live across the call.
+        b.ins().store(flags, x, trig, o0);
         let at_sin = b.ins().iadd_imm_s(trig, i64::from(o1));
         b.ins()
             .call(self.shims[Which::SinCos as usize], &[x, at_sin]);
-        b.ins().store(flags, x, trig, o0);
         let s = b.ins().load(F64, flags, trig, o1);
         let c = b.ins().load(F64, flags, trig, o2);
         b.ins().jump(join, &[s.into(), c.into()]);
@@ -987,8 +1093,8 @@ impl<'t> Emitter<'t> {
                 let x = self.get(b, a)?;
                 (dst, self.sin_cos(b, x)?.1)
             }
-            Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k)?.0),
-            Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k)?.1),
+            Instr::SinQ { dst, a, k } => (dst, self.cached(b, a, k, false)?),
+            Instr::CosQ { dst, a, k } => (dst, self.cached(b, a, k, true)?),
             Instr::Unary { dst, op, a } => {
                 let x = self.get(b, a)?;
                 let v = match op {

@@ -5,7 +5,7 @@
 
 use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
 use kinema_jit::{
-    JitError, cache_len_bound_chunked, compile, compile_chunked, compile_split,
+    JitError, Reloads, cache_len_bound_chunked, compile, compile_chunked, compile_split,
     compile_split_memo_at,
 };
 use proptest::prelude::*;
@@ -308,11 +308,19 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
 
     /// A tape compiled in chunks of at most `chunk` instructions (values
-    /// crossing the cuts through the scratch) computes exactly what the
-    /// tape computes, through a cache of the length the bound promises,
-    /// at a first call (misses) and a second (hits), split as Φ then Φ_q.
+    /// crossing the cuts through the scratch) and with inputs and sines
+    /// reloaded `window` instructions after their last load computes
+    /// exactly what the tape computes, through a cache of the length the
+    /// bound promises, at a first call (misses) and a second (hits), split
+    /// as Φ then Φ_q.
     #[test]
-    fn chunked_jit_equals_tape(t in expr(), x in point(), chunk in 1usize..6, memo in 9usize..20) {
+    fn chunked_jit_equals_tape(
+        t in expr(),
+        x in point(),
+        chunk in 1usize..6,
+        memo in 9usize..20,
+        window in 0usize..4,
+    ) {
         let mut a = Arena::new();
         let syms = symbols(&mut a);
         let e = build(&mut a, &t, false);
@@ -323,7 +331,7 @@ proptest! {
         let tape = Tape::compile(&a, &outputs);
         let second = Tape::compile(&a, &outputs[1..]);
         let tapes = [(&tape, 1), (&second, second.outputs())];
-        let jit = compile_chunked(&tapes, memo, chunk).expect("the host is supported");
+        let jit = compile_chunked(&tapes, memo, chunk, Reloads { window, from: 0 }).expect("the host is supported");
         let len = cache_len_bound_chunked(&tapes, memo, chunk).expect("a bound");
         let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
         let mut trig = vec![f64::NAN; len];
@@ -339,7 +347,7 @@ proptest! {
                 prop_assert!(jit.eval_split(&inputs, &mut trig, &mut first, &mut rest).is_ok());
                 for (k, (g, w)) in first.iter().chain(&rest).zip(&want).enumerate() {
                     prop_assert!(same(*g, *w),
-                        "chunk {chunk}, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
+                        "chunk {chunk}, window {window}, pass {pass}, output {k}: jit {g:e} vs tape {w:e}");
                 }
             }
         }
