@@ -298,8 +298,8 @@ struct LazyFactor {
 
 impl CompiledFactor for LazyFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
-        self.slot.get()?.as_ref()?.factor(values, v)
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan> {
+        self.slot.get()?.as_ref()?.factor(values, v, check)
     }
 }
 

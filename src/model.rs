@@ -548,6 +548,14 @@ impl System for TapeSystem {
         self.constants.get(k).copied().flatten()
     }
 
+    /// The constants are the Jacobian's numbers, which its tape (and the
+    /// JIT's code of it) writes as they are; a failed evaluation writes NaN
+    /// into every value, which the folded LU's finiteness check of the
+    /// run-time entries refuses (and Newton, Φ's NaN).
+    fn jacobian_constants_exact(&self) -> bool {
+        true
+    }
+
     /// With the JIT asked for, the folded LU's solves are compiled too, in
     /// the background (interpreted until then, or if that fails: same
     /// results).

@@ -12,7 +12,8 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::{FuncId, Linkage, Module};
 use kinema_runtime::linalg::{
-    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, Op, SolveOp,
+    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, MASK_ALL, Op, SolveOp,
+    scale_and_masked_max,
 };
 
 use crate::JitError;
@@ -573,8 +574,10 @@ struct Prologue {
     inputs: Box<[u32]>,
     /// Value array entries among the run-time entries that are pivots.
     pivots: Box<[u32]>,
-    /// Value array entries among the run-time entries that are multipliers.
-    multipliers: Box<[u32]>,
+    /// Per run-time entry, [`MASK_ALL`] if it is a multiplier, else 0: the
+    /// multipliers' fold is taken in the scale's pass (in a mechanism most
+    /// entries are multipliers: the pivots are the joints' ±1).
+    multiplier_mask: Box<[u64]>,
     /// The folds' starts: the constants' scale, smallest pivot and largest
     /// multiplier (magnitude bits).
     scale: u64,
@@ -623,45 +626,50 @@ impl Prologue {
                 .map(|&k| inside(k))
                 .collect::<Result<_, JitError>>()?,
             pivots: copied(plan.pivot_vars),
-            multipliers: copied(plan.multiplier_vars),
+            multiplier_mask: {
+                let mut mask = vec![0; ni];
+                for &l in plan.multiplier_vars {
+                    if let Some(m) = mask.get_mut(l as usize) {
+                        *m = MASK_ALL;
+                    }
+                }
+                mask.into_boxed_slice()
+            },
             scale: plan.const_scale.to_bits() & ABS,
             min_pivot: plan.const_min_pivot.to_bits() & ABS,
             max_multiplier: plan.const_max_multiplier.to_bits() & ABS,
         })
     }
 
-    /// Checks the constants, copies the run-time entries into `v` and
-    /// folds them; the scan the compiled part starts from (final scale,
-    /// finiteness and constants' check; the pivots' and multipliers' folds
-    /// as running state, raw bits). The caller has checked `values` and `v` against the
-    /// needs the indices were checked with. Out of line: the small
-    /// systems' factorization, which has no prologue, stays lean.
+    /// Checks the constants (if `check`), copies the run-time entries into
+    /// `v` and folds them; the scan the compiled part starts from (final
+    /// scale, finiteness and constants' check; the pivots' and
+    /// multipliers' folds as running state, raw bits). The caller has
+    /// checked `values` and `v` against the needs the indices were checked
+    /// with. Out of line: the small systems' factorization, which has no
+    /// prologue, stays lean.
     #[inline(never)]
-    fn run(&self, values: &[f64], v: &mut [f64]) -> [f64; SCAN] {
+    fn run(&self, values: &[f64], v: &mut [f64], check: bool) -> [f64; SCAN] {
         let bits = |x: f64| x.to_bits();
         let mut diff = 0;
-        for &(k, c) in &*self.constants {
+        for &(k, c) in if check { &self.constants[..] } else { &[] } {
             diff |= bits(values[k as usize]) ^ c;
         }
-        let scale = {
-            let (inputs, v) = (&*self.inputs, &mut v[..self.inputs.len()]);
-            let split = inputs.len() / 4 * 4;
-            let (mut m, mut rest) = ([self.scale, 0, 0, 0], self.scale);
-            for (x, k) in v[..split]
-                .chunks_exact_mut(4)
-                .zip(inputs[..split].chunks_exact(4))
-            {
-                for lane in 0..4 {
-                    let y = values[k[lane] as usize];
-                    x[lane] = y;
-                    m[lane] = m[lane].max(bits(y) & ABS);
-                }
-            }
-            for (x, &k) in v[split..].iter_mut().zip(&inputs[split..]) {
-                *x = values[k as usize];
-                rest = rest.max(bits(*x) & ABS);
-            }
-            rest.max(lanes(m, u64::max))
+        let ni = self.inputs.len();
+        for (x, &k) in v[..ni].iter_mut().zip(&*self.inputs) {
+            *x = values[k as usize];
+        }
+        // Scale, finiteness and the multipliers among the entries in one
+        // pass over the contiguous copy (it vectorizes; gathering does
+        // not). Not finite, the order is refused whatever the maxima.
+        let (most, multipliers, finite) = scale_and_masked_max(&v[..ni], &self.multiplier_mask);
+        let (scale, max_multiplier) = if finite {
+            (
+                self.scale.max(most.to_bits()),
+                self.max_multiplier.max(multipliers.to_bits()),
+            )
+        } else {
+            (INFINITY_BITS, INFINITY_BITS)
         };
         let v = &*v;
         let mut signs = 0;
@@ -674,13 +682,10 @@ impl Prologue {
             signs ^= bits(v[p as usize]);
             pivot(p)
         });
-        let max_multiplier = fold4(&self.multipliers, self.max_multiplier, 0, u64::max, |l| {
-            bits(v[l as usize]) & ABS
-        });
         let mut scan = [0.0; SCAN];
         scan[SCAN_SAME] = if diff == 0 { 1.0 } else { 0.0 };
         scan[SCAN_SCALE] = f64::from_bits(scale);
-        scan[SCAN_FINITE] = if scale < INFINITY_BITS { 1.0 } else { 0.0 };
+        scan[SCAN_FINITE] = if finite { 1.0 } else { 0.0 };
         scan[SCAN_NEGATIVE] = f64::from_bits(signs);
         scan[SCAN_MIN_PIVOT] = f64::from_bits(min_pivot);
         scan[SCAN_MAX_MULTIPLIER] = f64::from_bits(max_multiplier);
@@ -725,11 +730,13 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan> {
+    /// A small factorization (no prologue) checks the constants in its
+    /// compiled code, whatever `check` says.
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan> {
         let scan = match &self.prologue {
             None => self.f.call(values, v)?,
             Some(p) if self.f.fits(values, v) => {
-                let start = p.run(values, v);
+                let start = p.run(values, v, check);
                 self.f.call_from(values, v, start)?
             }
             Some(_) => return None,

@@ -163,5 +163,26 @@ proptest! {
                 prop_assert!(same(&x, &y), "fallback: {x:?} vs {y:?}");
             }
         }
+        // Constants trusted, factored as written (the constants' check
+        // skipped, by the prologue too): the same verdicts and solutions.
+        for lu in [&mut plain, &mut jit, &mut chunked] {
+            lu.trust_constants();
+        }
+        for vals in [&values, &moved, &boosted] {
+            let a = plain.factor_as_written(vals, 1e-12);
+            let (b, c) = (jit.factor_as_written(vals, 1e-12), chunked.factor_as_written(vals, 1e-12));
+            prop_assert_eq!(a.is_ok(), b.is_ok());
+            prop_assert_eq!(a.is_ok(), c.is_ok());
+            prop_assert_eq!(plain.pivot_report(), jit.pivot_report());
+            prop_assert_eq!(plain.pivot_report(), chunked.pivot_report());
+            if a.is_ok() {
+                let (mut x, mut y, mut z) = (rhs[..n].to_vec(), rhs[..n].to_vec(), rhs[..n].to_vec());
+                prop_assert!(plain.solve_in_place(&mut x).is_ok());
+                prop_assert!(jit.solve_in_place(&mut y).is_ok());
+                prop_assert!(chunked.solve_in_place(&mut z).is_ok());
+                prop_assert!(same(&x, &y), "trusted: {x:?} vs {y:?}");
+                prop_assert!(same(&x, &z), "trusted, chunked: {x:?} vs {z:?}");
+            }
+        }
     }
 }

@@ -274,7 +274,7 @@ pub(crate) fn factor<S: System, L: LinearSolver>(
         scaling.eq.apply(system.jacobian_pattern(), jac);
         lu.factor(&scaling.eq.values, singular_tolerance)
     } else {
-        lu.factor(jac, singular_tolerance)
+        lu.factor_as_written(jac, singular_tolerance)
     };
     match result {
         Ok(()) => Ok(()),

@@ -81,6 +81,17 @@ pub trait System {
         None
     }
 
+    /// Whether [`jacobian`](System::jacobian) and
+    /// [`phi_and_jacobian`](System::phi_and_jacobian) write every constant
+    /// entry's value bit for bit at every call, by construction (both come
+    /// from one derivation, as a model file's tapes do): then a
+    /// [`FoldedLu`](crate::linalg::FoldedLu) does not check them at each
+    /// factorization. A system answering `true` wrongly gets wrong
+    /// solutions. The default: `false`, they are checked.
+    fn jacobian_constants_exact(&self) -> bool {
+        false
+    }
+
     /// Compiled solves for the [`FoldedLu`](crate::linalg::FoldedLu)
     /// planned for this system (a system that compiles itself at load time
     /// compiles its LU's solves too: the model files' JIT). The default:
@@ -162,6 +173,9 @@ macro_rules! forward {
             }
             fn jacobian_constant(&self, k: usize) -> Option<f64> {
                 (**self).jacobian_constant(k)
+            }
+            fn jacobian_constants_exact(&self) -> bool {
+                (**self).jacobian_constants_exact()
             }
             fn compile_folded_solves(
                 &self,

@@ -93,6 +93,9 @@ impl LinearSolver for Auto {
         let mut values = vec![0.0; pattern.len()];
         system.jacobian(&mut system.scratch(), &q, 0.0, &mut values);
         let mut lu = FoldedLu::new(n, pattern, &constants, &values)?;
+        if system.jacobian_constants_exact() {
+            lu.trust_constants();
+        }
         if let Some(compiled) = lu
             .solves()
             .and_then(|plan| system.compile_folded_solves(&plan))
@@ -127,6 +130,19 @@ impl LinearSolver for Auto {
             Self::Dense(lu) => lu.factor(values, singular_tolerance),
             Self::Sparse(lu) => lu.factor(values, singular_tolerance),
             Self::Folded(lu) => lu.factor(values, singular_tolerance),
+        }
+    }
+
+    #[inline]
+    fn factor_as_written(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), LinalgError> {
+        match self {
+            Self::Dense(lu) => lu.factor(values, singular_tolerance),
+            Self::Sparse(lu) => lu.factor(values, singular_tolerance),
+            Self::Folded(lu) => lu.factor_as_written(values, singular_tolerance),
         }
     }
 

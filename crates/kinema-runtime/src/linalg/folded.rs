@@ -148,8 +148,10 @@ pub struct FactorScan {
 pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
     /// Factors `values` into `v`; `None` (nothing written) if it cannot,
     /// for instance on slices of unexpected lengths: the interpreter then
-    /// factors.
-    fn factor(&self, values: &[f64], v: &mut [f64]) -> Option<FactorScan>;
+    /// factors. With `check` false the constant entries may be taken as
+    /// planned, unchecked (`same` then `true`); checking them anyway is
+    /// never wrong.
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan>;
 }
 
 /// One operation of a triangular solve on y, reading the factors' values v
@@ -285,6 +287,9 @@ struct Folded {
     inputs: Vec<u32>,
     /// Pattern positions and values of the constant entries.
     constants: Vec<(u32, f64)>,
+    /// Whether the constants are trusted as written (see
+    /// [`FoldedLu::trust_constants`]).
+    trusted: bool,
     /// The factorization: op k writes value `inputs.len() + k`.
     ops: Vec<Op>,
     /// Inputs, then the ops' results.
@@ -411,6 +416,18 @@ impl FoldedLu {
         })
     }
 
+    /// Stops checking the constant entries in
+    /// [`factor_as_written`](LinearSolver::factor_as_written): the system
+    /// vouches that its Jacobian has them bit for bit (see
+    /// [`System::jacobian_constants_exact`](crate::System::jacobian_constants_exact)).
+    /// [`factor`](LinearSolver::factor) still checks them: its values may
+    /// be the equilibrated R Φ_q C.
+    pub fn trust_constants(&mut self) {
+        if let Some(f) = &mut self.folded {
+            f.trusted = true;
+        }
+    }
+
     /// Plugs in a compiled factorization (see [`CompiledFactor`]); without
     /// a plan it is dropped. The acceptance rule, the pivot report and the
     /// fallback are unchanged.
@@ -453,6 +470,7 @@ impl Folded {
         let mut lu = Folded {
             inputs,
             constants: constant_entries,
+            trusted: false,
             ops: Vec::new(),
             v: Vec::new(),
             pivot_vars: Vec::new(),
@@ -577,16 +595,17 @@ impl Folded {
         }
     }
 
-    /// Tries the fixed order on `values`: `true` if accepted.
+    /// Tries the fixed order on `values`, checking the constant entries if
+    /// `check`: `true` if accepted.
     #[inline]
-    fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> bool {
+    fn factor(&mut self, values: &[f64], singular_tolerance: f64, check: bool) -> bool {
         let compiled = self
             .compiled_factor
             .as_ref()
-            .and_then(|c| c.factor(values, &mut self.v));
+            .and_then(|c| c.factor(values, &mut self.v, check));
         let scan = match compiled {
             Some(scan) => scan,
-            None => self.interpret(values),
+            None => self.interpret(values, check),
         };
         self.scan = scan;
         order_accepted(
@@ -599,14 +618,14 @@ impl Folded {
     }
 
     /// The interpreted factorization: the value array and the scan.
-    fn interpret(&mut self, values: &[f64]) -> FactorScan {
+    fn interpret(&mut self, values: &[f64], check: bool) -> FactorScan {
         let mut max_bits = self.const_scale.to_bits();
         for &k in &self.inputs {
             max_bits = max_bits.max(values[k as usize].to_bits() & ABS);
         }
         let (scale, finite) = (f64::from_bits(max_bits), max_bits < INFINITY_BITS);
         let mut same = true;
-        for &(k, c) in &self.constants {
+        for &(k, c) in if check { &self.constants[..] } else { &[] } {
             same &= values[k as usize].to_bits() == c.to_bits();
         }
         let m = self.inputs.len();
@@ -927,6 +946,30 @@ impl Plan {
     }
 }
 
+impl FoldedLu {
+    /// [`factor`](LinearSolver::factor), checking the constant entries if
+    /// `check`.
+    #[inline(always)]
+    fn factor_checking(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+        check: bool,
+    ) -> Result<(), LinalgError> {
+        check_len("Jacobian values", self.nnz, values.len())?;
+        self.current = Current::None;
+        if let Some(folded) = &mut self.folded
+            && folded.factor(values, singular_tolerance, check)
+        {
+            self.current = Current::Folded;
+            return Ok(());
+        }
+        self.fallback.factor(values, singular_tolerance)?;
+        self.current = Current::Fallback;
+        Ok(())
+    }
+}
+
 impl LinearSolver for FoldedLu {
     /// Without the system's constants and values: every entry a run-time
     /// value, the order chosen on a matrix of ones. A factorization the
@@ -947,17 +990,19 @@ impl LinearSolver for FoldedLu {
 
     #[inline]
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError> {
-        check_len("Jacobian values", self.nnz, values.len())?;
-        self.current = Current::None;
-        if let Some(folded) = &mut self.folded
-            && folded.factor(values, singular_tolerance)
-        {
-            self.current = Current::Folded;
-            return Ok(());
-        }
-        self.fallback.factor(values, singular_tolerance)?;
-        self.current = Current::Fallback;
-        Ok(())
+        self.factor_checking(values, singular_tolerance, true)
+    }
+
+    /// Skips the constants' check if they are trusted
+    /// ([`trust_constants`](FoldedLu::trust_constants)).
+    #[inline]
+    fn factor_as_written(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), LinalgError> {
+        let check = !self.folded.as_ref().is_some_and(|f| f.trusted);
+        self.factor_checking(values, singular_tolerance, check)
     }
 
     #[inline]
@@ -1153,6 +1198,38 @@ mod tests {
             reference.factor(&a, 1e-10),
             Err(LinalgError::Singular { .. })
         ));
+    }
+
+    /// Trusted constants are not checked when factored as written (a
+    /// changed constant then goes unseen: the caller's promise), still are
+    /// by `factor` (equilibrated values); on values that keep them the
+    /// trusting LU factors and solves as the checking one, bit for bit.
+    #[test]
+    fn trusted_constants_are_checked_only_when_not_as_written() {
+        let (pattern, constants) = pattern();
+        let start = values(&constants, 0.3);
+        let mut checking = FoldedLu::new(5, &pattern, &constants, &start).expect("valid");
+        let mut trusting = FoldedLu::new(5, &pattern, &constants, &start).expect("valid");
+        trusting.trust_constants();
+        for theta in [0.1, 0.7, 2.0] {
+            let v = values(&constants, theta);
+            checking.factor_as_written(&v, 1e-10).expect("regular");
+            trusting.factor_as_written(&v, 1e-10).expect("regular");
+            assert_eq!(trusting.current, Current::Folded);
+            let b: Vec<f64> = (0..5).map(|i| 1.0 + f64::from(i) * 0.25).collect();
+            let (mut x, mut y) = (b.clone(), b);
+            checking.solve_in_place(&mut x).expect("factored");
+            trusting.solve_in_place(&mut y).expect("factored");
+            assert_eq!(x, y, "θ = {theta}");
+        }
+        let mut v = values(&constants, 0.3);
+        v[0] = 2.0;
+        trusting.factor_as_written(&v, 1e-10).expect("regular");
+        assert_eq!(trusting.current, Current::Folded);
+        trusting.factor(&v, 1e-10).expect("regular");
+        assert_eq!(trusting.current, Current::Fallback);
+        checking.factor_as_written(&v, 1e-10).expect("regular");
+        assert_eq!(checking.current, Current::Fallback);
     }
 
     #[test]

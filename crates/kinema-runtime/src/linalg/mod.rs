@@ -61,7 +61,9 @@ pub use folded::{
 pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
-pub use schedule::{scale_and_finite, scale_and_finite_array, scale_and_finite_at};
+pub use schedule::{
+    MASK_ALL, scale_and_finite, scale_and_finite_array, scale_and_finite_at, scale_and_masked_max,
+};
 
 /// θ of the threshold test |u_kk| ≥ θ |a_ik| on a factorization with a
 /// recorded pivot order (see "Refactorization" above): its multipliers must
@@ -246,6 +248,20 @@ pub trait LinearSolver: Sized {
     /// `singular_tolerance` times the largest |aᵢⱼ| (see the [module
     /// docs](self)). Does not allocate.
     fn factor(&mut self, values: &[f64], singular_tolerance: f64) -> Result<(), LinalgError>;
+
+    /// [`factor`](Self::factor) of the system's Φ_q values exactly as its
+    /// [`jacobian`](crate::System::jacobian) wrote them (not equilibrated,
+    /// not modified): a solver planned on a system whose constant entries
+    /// are exact ([`System::jacobian_constants_exact`](crate::System::jacobian_constants_exact))
+    /// need not check them. The default: [`factor`](Self::factor).
+    #[inline]
+    fn factor_as_written(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), LinalgError> {
+        self.factor(values, singular_tolerance)
+    }
 
     /// Overwrites `rhs` = b with x = A⁻¹ b, using the last successful
     /// factorization. Does not allocate.

@@ -644,6 +644,43 @@ fn scale_and_finite_lanes(values: &[f64]) -> (f64, bool) {
     lanes_verdict(max, nan)
 }
 
+/// [`scale_and_finite`] of `values` and, in the same pass, the largest
+/// |values\[i\]| among those selected by `mask[i]` ([`MASK_ALL`], or 0 to
+/// leave it out; missing masks are 0): a folded LU's run-time entries,
+/// their scale and their multipliers' largest magnitude at once, in f64
+/// lanes that vectorize. When every value is finite both maxima are those
+/// of the magnitudes' bits; otherwise the verdict is `false` and the
+/// maxima mean nothing.
+#[inline(never)]
+pub fn scale_and_masked_max(values: &[f64], mask: &[u64]) -> (f64, f64, bool) {
+    let (mut max, mut nan, mut masked) = ([0.0f64; 4], [0.0f64; 4], [0.0f64; 4]);
+    let n = values.len().min(mask.len());
+    let (values, rest_values) = values.split_at(n);
+    let chunks = values.chunks_exact(4).zip(mask.chunks_exact(4));
+    let split = n / 4 * 4;
+    for (c, m) in chunks {
+        for i in 0..4 {
+            lane(&mut max[i], &mut nan[i], c[i]);
+            let a = f64::from_bits(c[i].to_bits() & m[i] & ABS);
+            masked[i] = if a > masked[i] { a } else { masked[i] };
+        }
+    }
+    for (&v, &m) in values[split..].iter().zip(&mask[split..]) {
+        lane(&mut max[0], &mut nan[0], v);
+        let a = f64::from_bits(v.to_bits() & m & ABS);
+        masked[0] = if a > masked[0] { a } else { masked[0] };
+    }
+    for &v in rest_values {
+        lane(&mut max[0], &mut nan[0], v);
+    }
+    let (scale, finite) = lanes_verdict(max, nan);
+    let most = masked[0].max(masked[1]).max(masked[2].max(masked[3]));
+    (scale, most, finite)
+}
+
+/// The mask selecting a value in [`scale_and_masked_max`].
+pub const MASK_ALL: u64 = u64::MAX;
+
 /// [`scale_and_finite`] over the entries `values[k]` for the positions `at`
 /// (a generated LU's run-time inputs, its other entries being constants),
 /// without gathering them first. Positions outside `values` are skipped.
@@ -743,6 +780,50 @@ mod tests {
         check::<8>();
         check::<13>();
         check::<32>();
+    }
+
+    #[test]
+    fn the_masked_pass_agrees_with_the_bits() {
+        for n in [0, 1, 3, 4, 5, 9, 33, 100] {
+            let v: Vec<f64> = (0..n)
+                .map(|i| ((i * 7919) % 13) as f64 - 6.5 + (i as f64) * 1e-3)
+                .collect();
+            for pick in [0, 1, 2, 3, 7] {
+                // Every value, none, or every pick-th.
+                let mask: Vec<u64> = (0..n)
+                    .map(|i| {
+                        if pick != 0 && i % pick == 0 {
+                            MASK_ALL
+                        } else {
+                            0
+                        }
+                    })
+                    .collect();
+                let bits_max = v
+                    .iter()
+                    .zip(&mask)
+                    .map(|(x, m)| x.to_bits() & m & ABS)
+                    .max()
+                    .unwrap_or(0);
+                let (scale, most, finite) = scale_and_masked_max(&v, &mask);
+                assert_eq!((scale, finite), scale_and_finite_bits(&v), "{n} {pick}");
+                assert_eq!(most.to_bits(), bits_max, "{n} {pick}");
+                // A short mask leaves the rest out of the masked maximum
+                // but not out of the scale.
+                let short = &mask[..n / 2];
+                let (s2, m2, f2) = scale_and_masked_max(&v, short);
+                assert_eq!((s2, f2), (scale, finite));
+                assert!(m2 <= most);
+                for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                    for at in (0..n).step_by(2) {
+                        let mut w = v.clone();
+                        w[at] = bad;
+                        assert!(!scale_and_masked_max(&w, &mask).2, "{n} {pick} {at}");
+                        assert!(!scale_and_masked_max(&w, short).2, "{n} {pick} {at}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
