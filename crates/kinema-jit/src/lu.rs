@@ -151,10 +151,11 @@ pub fn compile_solves_chunked(
             work: plan.n,
             ..one
         };
-        let resident = Resident::new(needs, gather, [first, second], scatter)?;
+        let resident = Resident::new(needs, gather, [first, second], scatter, chunk)?;
+        let items = resident.items.len();
         if items <= chunk {
             let id = define(&mut module, &mut ctx, &mut fctx, &sig, &name, |b, _| {
-                resident.emit(b, 0..items, true)
+                resident.emit(b, 0..items)
             })?;
             fns.push((id, needs));
             continue;
@@ -167,7 +168,7 @@ pub fn compile_solves_chunked(
                 &mut fctx,
                 &sig,
                 &format!("{name}_{c}"),
-                |b, _| resident.emit(b, s..(s + chunk).min(items), c == 0),
+                |b, _| resident.emit(b, s..(s + chunk).min(items)),
             )?);
         }
         let id = define(
@@ -238,9 +239,46 @@ fn calls(
     Ok(())
 }
 
-/// What a resident solve does, item by item: the sweeps' operations, then
-/// the scatter (`Err(k)`: b[scatter[k]] = y[k]).
-type SolveItem = Result<SolveOp, usize>;
+/// What a resident solve does, item by item.
+#[derive(Clone, Copy, Debug)]
+enum Item {
+    /// One of the sweeps' operations.
+    Op(SolveOp),
+    /// y[k], never written by an operation, copied from b into the
+    /// scratch before the scatter may overwrite its place in b.
+    Park(usize),
+    /// b[scatter[k]] = y[k].
+    Scatter(usize),
+}
+
+impl Item {
+    /// The y entries the item reads: the first `len` of the array.
+    fn reads(self) -> ([usize; 2], usize) {
+        match self {
+            Item::Op(op) => {
+                let d = destination(op) as usize;
+                match op {
+                    SolveOp::MulSub { src, .. }
+                    | SolveOp::ConstMulSub { src, .. }
+                    | SolveOp::Sub { src, .. }
+                    | SolveOp::Add { src, .. } => ([d, src as usize], 2),
+                    SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => ([d, 0], 1),
+                }
+            }
+            Item::Park(_) => ([0, 0], 0),
+            Item::Scatter(k) => ([k, 0], 1),
+        }
+    }
+
+    /// The y entry the item writes.
+    fn writes(self) -> Option<usize> {
+        match self {
+            Item::Op(op) => Some(destination(op) as usize),
+            Item::Park(k) => Some(k),
+            Item::Scatter(_) => None,
+        }
+    }
+}
 
 /// The y entry an operation writes.
 fn destination(op: SolveOp) -> u32 {
@@ -254,24 +292,29 @@ fn destination(op: SolveOp) -> u32 {
     }
 }
 
-/// One direction of a solve with y resident in the scratch (`work`, n
-/// values), for systems above [`REGISTER_SOLVE`] or solves longer than a
-/// chunk: the first chunk gathers b into the scratch, every operation
-/// stores the y it writes there, the last items scatter it back into b.
+/// One direction of a solve with y resident in memory, for systems above
+/// [`REGISTER_SOLVE`] or solves longer than a chunk: y[k] is read from b
+/// (at `gather[k]`) until an operation writes it; an operation's result is
+/// stored in the scratch (`work`, n values) only if a read of it is too
+/// far for its register or in a later chunk; the last items scatter y back
+/// into b.
 ///
 /// Keeping every y in a register for the whole solve, as [`emit`] does,
-/// leaves Cranelift's allocator hundreds of live values on a large system:
-/// it spills them all (the chain N = 200's forward solve spent 5 500 of its
+/// makes Cranelift spill most of them (the chain N = 200's forward solve:
 /// 10 500 instructions moving spills). Here a value is reused from its
 /// register only within [`WINDOW`] items of where it was last loaded or
-/// computed, and read back from the scratch after that, so few values are
+/// computed, and read back from memory after that, so few values are
 /// ever live and nothing spills; a chain of dependent operations, the
 /// latency that matters, stays in registers.
 struct Resident<'p> {
-    needs: SolveNeeds,
     gather: &'p [u32],
     scatter: &'p [u32],
-    items: Vec<SolveItem>,
+    items: Vec<Item>,
+    /// Per item, whether the value it writes is stored in the scratch.
+    store: Vec<bool>,
+    /// Per y entry, the first item writing it: a read at or before it
+    /// reads b.
+    first_write: Vec<usize>,
 }
 
 /// How many items a resident solve reuses a value's register for.
@@ -279,12 +322,14 @@ const WINDOW: usize = 8;
 
 impl<'p> Resident<'p> {
     /// Checks every index against `needs` (n = `needs.rhs`, the factors'
-    /// values `needs.v`) before anything is emitted.
+    /// values `needs.v`) before anything is emitted; the items will be
+    /// emitted in chunks of `chunk`.
     fn new(
         needs: SolveNeeds,
         gather: &'p [u32],
         sweeps: [&[SolveOp]; 2],
         scatter: &'p [u32],
+        chunk: usize,
     ) -> Result<Resident<'p>, JitError> {
         let n = needs.rhs;
         if gather.len() != n || scatter.len() != n || needs.work < n {
@@ -324,24 +369,58 @@ impl<'p> Resident<'p> {
                 }
                 SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => {}
             }
-            items.push(Ok(op));
+            items.push(Item::Op(op));
         }
-        items.extend((0..n).map(Err));
+        let mut first_write = vec![usize::MAX; n];
+        for (i, item) in items.iter().enumerate() {
+            if let Some(d) = item.writes() {
+                first_write[d] = first_write[d].min(i);
+            }
+        }
+        for (k, first) in first_write.iter_mut().enumerate() {
+            if *first == usize::MAX {
+                *first = items.len();
+                items.push(Item::Park(k));
+            }
+        }
+        items.extend((0..n).map(Item::Scatter));
+        // A value is stored if a read of it (before its entry's next
+        // write) is beyond the window or in another chunk; a parked one
+        // always.
+        let chunk = chunk.max(1);
+        let mut store = vec![false; items.len()];
+        let mut written: Vec<Option<usize>> = vec![None; n];
+        for (r, &item) in items.iter().enumerate() {
+            let (reads, len) = item.reads();
+            for &k in &reads[..len] {
+                if let Some(w) = written[k]
+                    && (r - w > WINDOW || r / chunk != w / chunk)
+                {
+                    store[w] = true;
+                }
+            }
+            if let Some(k) = item.writes() {
+                written[k] = Some(r);
+            }
+            if let Item::Park(_) = item {
+                store[r] = true;
+            }
+        }
         Ok(Resident {
-            needs,
             gather,
             scatter,
             items,
+            store,
+            first_write,
         })
     }
 
-    /// Emits the items `range` as one function `(v, rhs, work)`; the first
-    /// chunk (`first`) also gathers b into the scratch.
+    /// Emits the items `range` (a chunk of the `chunk` given to
+    /// [`new`](Self::new)) as one function `(v, rhs, work)`.
     fn emit(
         &self,
         b: &mut FunctionBuilder<'_>,
         range: std::ops::Range<usize>,
-        first: bool,
     ) -> Result<(), JitError> {
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
@@ -350,30 +429,31 @@ impl<'p> Resident<'p> {
             return Err(JitError::Compile("signature".into()));
         };
         let flags = MemFlagsData::trusted();
-        if first {
-            for (k, &r) in self.gather.iter().enumerate() {
-                let x = b.ins().load(F64, flags, rhs, offset(r as usize)?);
-                b.ins().store(flags, x, work, offset(k)?);
-            }
-        }
+        let start = range.start;
         let items = self
             .items
             .get(range)
             .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
         // y[k]'s register and the item it was last loaded or computed at.
-        let mut recent: Vec<Option<(Value, usize)>> = vec![None; self.needs.rhs];
+        let mut recent: Vec<Option<(Value, usize)>> = vec![None; self.first_write.len()];
+        // y[k] at item `at`: from its register within the window, else
+        // from b until its first write, from the scratch after.
         let get = |b: &mut FunctionBuilder<'_>,
                    recent: &mut [Option<(Value, usize)>],
-                   k: u32,
+                   k: usize,
                    at: usize|
          -> Result<Value, JitError> {
-            let k = k as usize;
             if let Some((x, t)) = recent[k]
                 && at - t <= WINDOW
             {
                 return Ok(x);
             }
-            let x = b.ins().load(F64, flags, work, offset(k)?);
+            let x = if start + at <= self.first_write[k] {
+                b.ins()
+                    .load(F64, flags, rhs, offset(self.gather[k] as usize)?)
+            } else {
+                b.ins().load(F64, flags, work, offset(k)?)
+            };
             recent[k] = Some((x, at));
             Ok(x)
         };
@@ -381,53 +461,72 @@ impl<'p> Resident<'p> {
             Ok(b.ins()
                 .load(F64, flags.with_readonly(), v, offset(s as usize)?))
         };
-        for (at, item) in items.iter().enumerate() {
-            let op = match *item {
-                Ok(op) => op,
-                Err(k) => {
-                    let x = get(b, &mut recent, u32::try_from(k).unwrap_or(u32::MAX), at)?;
+        for (at, &item) in items.iter().enumerate() {
+            let op = match item {
+                Item::Op(op) => op,
+                Item::Park(k) => {
+                    let x = b
+                        .ins()
+                        .load(F64, flags, rhs, offset(self.gather[k] as usize)?);
+                    b.ins().store(flags, x, work, offset(k)?);
+                    recent[k] = Some((x, at));
+                    continue;
+                }
+                Item::Scatter(k) => {
+                    let x = get(b, &mut recent, k, at)?;
                     b.ins()
                         .store(flags, x, rhs, offset(self.scatter[k] as usize)?);
                     continue;
                 }
             };
+            let (dst, src) = (destination(op) as usize, |src: u32| src as usize);
             let x = match op {
-                SolveOp::MulSub { dst, src, s } => {
+                SolveOp::MulSub { src: r, s, .. } => {
                     let (d, r, x) = (
                         get(b, &mut recent, dst, at)?,
-                        get(b, &mut recent, src, at)?,
+                        get(b, &mut recent, src(r), at)?,
                         factor(b, s)?,
                     );
                     let p = b.ins().fmul(x, r);
                     b.ins().fsub(d, p)
                 }
-                SolveOp::ConstMulSub { dst, src, c } => {
-                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
+                SolveOp::ConstMulSub { src: r, c, .. } => {
+                    let (d, r) = (
+                        get(b, &mut recent, dst, at)?,
+                        get(b, &mut recent, src(r), at)?,
+                    );
                     let c = b.ins().f64const(c);
                     let p = b.ins().fmul(c, r);
                     b.ins().fsub(d, p)
                 }
-                SolveOp::Sub { dst, src } => {
-                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
+                SolveOp::Sub { src: r, .. } => {
+                    let (d, r) = (
+                        get(b, &mut recent, dst, at)?,
+                        get(b, &mut recent, src(r), at)?,
+                    );
                     b.ins().fsub(d, r)
                 }
-                SolveOp::Add { dst, src } => {
-                    let (d, r) = (get(b, &mut recent, dst, at)?, get(b, &mut recent, src, at)?);
+                SolveOp::Add { src: r, .. } => {
+                    let (d, r) = (
+                        get(b, &mut recent, dst, at)?,
+                        get(b, &mut recent, src(r), at)?,
+                    );
                     b.ins().fadd(d, r)
                 }
-                SolveOp::Scale { dst, s } => {
+                SolveOp::Scale { s, .. } => {
                     let (d, x) = (get(b, &mut recent, dst, at)?, factor(b, s)?);
                     b.ins().fmul(d, x)
                 }
-                SolveOp::ConstScale { dst, c } => {
+                SolveOp::ConstScale { c, .. } => {
                     let d = get(b, &mut recent, dst, at)?;
                     let c = b.ins().f64const(c);
                     b.ins().fmul(d, c)
                 }
             };
-            let d = destination(op) as usize;
-            b.ins().store(flags, x, work, offset(d)?);
-            recent[d] = Some((x, at));
+            if self.store[start + at] {
+                b.ins().store(flags, x, work, offset(dst)?);
+            }
+            recent[dst] = Some((x, at));
         }
         b.ins().return_(&[]);
         Ok(())
