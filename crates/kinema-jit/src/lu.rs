@@ -255,16 +255,10 @@ impl Item {
     /// The y entries the item reads: the first `len` of the array.
     fn reads(self) -> ([usize; 2], usize) {
         match self {
-            Item::Op(op) => {
-                let d = destination(op) as usize;
-                match op {
-                    SolveOp::MulSub { src, .. }
-                    | SolveOp::ConstMulSub { src, .. }
-                    | SolveOp::Sub { src, .. }
-                    | SolveOp::Add { src, .. } => ([d, src as usize], 2),
-                    SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => ([d, 0], 1),
-                }
-            }
+            Item::Op(op) => match op.src() {
+                Some(src) => ([op.dst() as usize, src as usize], 2),
+                None => ([op.dst() as usize, 0], 1),
+            },
             Item::Park(_) => ([0, 0], 0),
             Item::Scatter(k) => ([k, 0], 1),
         }
@@ -273,22 +267,10 @@ impl Item {
     /// The y entry the item writes.
     fn writes(self) -> Option<usize> {
         match self {
-            Item::Op(op) => Some(destination(op) as usize),
+            Item::Op(op) => Some(op.dst() as usize),
             Item::Park(k) => Some(k),
             Item::Scatter(_) => None,
         }
-    }
-}
-
-/// The y entry an operation writes.
-fn destination(op: SolveOp) -> u32 {
-    match op {
-        SolveOp::MulSub { dst, .. }
-        | SolveOp::ConstMulSub { dst, .. }
-        | SolveOp::Sub { dst, .. }
-        | SolveOp::Add { dst, .. }
-        | SolveOp::Scale { dst, .. }
-        | SolveOp::ConstScale { dst, .. } => dst,
     }
 }
 
@@ -347,27 +329,17 @@ impl<'p> Resident<'p> {
         }
         let mut items = Vec::new();
         for &op in sweeps.into_iter().flatten() {
-            entry(destination(op))?;
-            match op {
-                SolveOp::MulSub { src, s, .. } => {
-                    entry(src)?;
-                    if s as usize >= needs.v {
-                        return Err(JitError::Compile(format!(
-                            "factor value {s} beyond {}",
-                            needs.v
-                        )));
-                    }
-                }
-                SolveOp::ConstMulSub { src, .. }
-                | SolveOp::Sub { src, .. }
-                | SolveOp::Add { src, .. } => entry(src)?,
-                SolveOp::Scale { s, .. } if s as usize >= needs.v => {
-                    return Err(JitError::Compile(format!(
-                        "factor value {s} beyond {}",
-                        needs.v
-                    )));
-                }
-                SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => {}
+            entry(op.dst())?;
+            if let Some(src) = op.src() {
+                entry(src)?;
+            }
+            if let SolveOp::MulSub { s, .. } | SolveOp::Scale { s, .. } = op
+                && s as usize >= needs.v
+            {
+                return Err(JitError::Compile(format!(
+                    "factor value {s} beyond {}",
+                    needs.v
+                )));
             }
             items.push(Item::Op(op));
         }
@@ -479,7 +451,7 @@ impl<'p> Resident<'p> {
                     continue;
                 }
             };
-            let (dst, src) = (destination(op) as usize, |src: u32| src as usize);
+            let (dst, src) = (op.dst() as usize, |src: u32| src as usize);
             let x = match op {
                 SolveOp::MulSub { src: r, s, .. } => {
                     let (d, r, x) = (

@@ -52,7 +52,9 @@ pub const CHUNK_INSTRUCTIONS: usize = 2_000;
 #[doc(hidden)]
 #[derive(Clone, Copy, Debug)]
 pub struct Reloads {
+    /// Instructions a loaded value is reused for.
     pub window: usize,
+    /// Functions of at most this many instructions keep every value.
     pub from: usize,
 }
 

@@ -206,6 +206,33 @@ pub enum SolveOp {
     },
 }
 
+impl SolveOp {
+    /// The entry of y the operation writes (it reads it too).
+    #[must_use]
+    pub fn dst(self) -> u32 {
+        match self {
+            SolveOp::MulSub { dst, .. }
+            | SolveOp::ConstMulSub { dst, .. }
+            | SolveOp::Sub { dst, .. }
+            | SolveOp::Add { dst, .. }
+            | SolveOp::Scale { dst, .. }
+            | SolveOp::ConstScale { dst, .. } => dst,
+        }
+    }
+
+    /// The other entry of y the operation reads, if any.
+    #[must_use]
+    pub fn src(self) -> Option<u32> {
+        match self {
+            SolveOp::MulSub { src, .. }
+            | SolveOp::ConstMulSub { src, .. }
+            | SolveOp::Sub { src, .. }
+            | SolveOp::Add { src, .. } => Some(src),
+            SolveOp::Scale { .. } | SolveOp::ConstScale { .. } => None,
+        }
+    }
+}
+
 /// A read-only view of a [`FoldedLu`]'s solves, for a compiler of them
 /// (kinema-jit): a solve of A x = b gathers y[k] = b[gather[k]], runs the
 /// two sweeps on y in order (rounding each operation as written, no fused
