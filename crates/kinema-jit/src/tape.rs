@@ -564,8 +564,8 @@ enum Slot {
     /// An SSA value.
     Ready(Value),
     /// An input: (slice pointer, byte offset). Loaded at a read and reused
-    /// within the window (see [`Reloads`]), so that it does not live
-    /// (spilled across the sin/cos calls) from the function's start.
+    /// within `window` instructions (see [`Reloads`]), so that it does not
+    /// live (spilled across the sin/cos calls) from the function's start.
     Input(Value, i32),
     /// A value an earlier chunk left in the scratch at this byte offset,
     /// loaded at the first read.
@@ -600,10 +600,10 @@ struct Emitter<'t> {
     /// Coordinates whose cache entry this function has brought up to date.
     filled: HashSet<u32>,
     /// sin (false) or cos (true) of coordinate k as last loaded from the
-    /// cache, with the instruction it was loaded at: reused only within
-    /// the window (see [`Reloads`]) instructions, loaded again after (a value kept
-    /// live across a long tape is spilled to the stack and reloaded
-    /// anyway, at the price of a store).
+    /// cache, with the instruction it was loaded at: reused within
+    /// `window` instructions, loaded again after (a value kept live across
+    /// a long tape is spilled to the stack and reloaded anyway, at the
+    /// price of a store; see [`Reloads`]).
     loaded: HashMap<(u32, bool), (Value, usize)>,
     /// The instruction being emitted (index in the function).
     tick: usize,
@@ -613,8 +613,8 @@ struct Emitter<'t> {
     /// this function.
     window: usize,
     /// Per register holding an input, its value as last loaded and the
-    /// instruction it was loaded at (reused only within the window (see [`Reloads`])
-    /// instructions, as `loaded`).
+    /// instruction it was loaded at (reused within `window` instructions,
+    /// as `loaded`).
     inputs: HashMap<u32, (Value, usize)>,
     /// Where the memo starts.
     memo_start: usize,
