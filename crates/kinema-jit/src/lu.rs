@@ -451,50 +451,13 @@ impl<'p> Resident<'p> {
                     continue;
                 }
             };
-            let (dst, src) = (op.dst() as usize, |src: u32| src as usize);
-            let x = match op {
-                SolveOp::MulSub { src: r, s, .. } => {
-                    let (d, r, x) = (
-                        get(b, &mut recent, dst, at)?,
-                        get(b, &mut recent, src(r), at)?,
-                        factor(b, s)?,
-                    );
-                    let p = b.ins().fmul(x, r);
-                    b.ins().fsub(d, p)
-                }
-                SolveOp::ConstMulSub { src: r, c, .. } => {
-                    let (d, r) = (
-                        get(b, &mut recent, dst, at)?,
-                        get(b, &mut recent, src(r), at)?,
-                    );
-                    let c = b.ins().f64const(c);
-                    let p = b.ins().fmul(c, r);
-                    b.ins().fsub(d, p)
-                }
-                SolveOp::Sub { src: r, .. } => {
-                    let (d, r) = (
-                        get(b, &mut recent, dst, at)?,
-                        get(b, &mut recent, src(r), at)?,
-                    );
-                    b.ins().fsub(d, r)
-                }
-                SolveOp::Add { src: r, .. } => {
-                    let (d, r) = (
-                        get(b, &mut recent, dst, at)?,
-                        get(b, &mut recent, src(r), at)?,
-                    );
-                    b.ins().fadd(d, r)
-                }
-                SolveOp::Scale { s, .. } => {
-                    let (d, x) = (get(b, &mut recent, dst, at)?, factor(b, s)?);
-                    b.ins().fmul(d, x)
-                }
-                SolveOp::ConstScale { c, .. } => {
-                    let d = get(b, &mut recent, dst, at)?;
-                    let c = b.ins().f64const(c);
-                    b.ins().fmul(d, c)
-                }
+            let dst = op.dst() as usize;
+            let d = get(b, &mut recent, dst, at)?;
+            let r = match op.src() {
+                Some(k) => Some(get(b, &mut recent, k as usize, at)?),
+                None => None,
             };
+            let x = apply(b, op, d, r, factor)?;
             if self.store[start + at] {
                 b.ins().store(flags, x, work, offset(dst)?);
             }
@@ -556,39 +519,10 @@ fn emit(
         vals.insert(s, x);
         Ok(x)
     };
-    for op in sweeps.into_iter().flatten() {
-        match *op {
-            SolveOp::MulSub { dst, src, s } => {
-                let (d, r) = (y_index(dst)?, y_index(src)?);
-                let x = value(b, s)?;
-                let p = b.ins().fmul(x, y[r]);
-                y[d] = b.ins().fsub(y[d], p);
-            }
-            SolveOp::ConstMulSub { dst, src, c } => {
-                let (d, r) = (y_index(dst)?, y_index(src)?);
-                let c = b.ins().f64const(c);
-                let p = b.ins().fmul(c, y[r]);
-                y[d] = b.ins().fsub(y[d], p);
-            }
-            SolveOp::Sub { dst, src } => {
-                let (d, r) = (y_index(dst)?, y_index(src)?);
-                y[d] = b.ins().fsub(y[d], y[r]);
-            }
-            SolveOp::Add { dst, src } => {
-                let (d, r) = (y_index(dst)?, y_index(src)?);
-                y[d] = b.ins().fadd(y[d], y[r]);
-            }
-            SolveOp::Scale { dst, s } => {
-                let d = y_index(dst)?;
-                let x = value(b, s)?;
-                y[d] = b.ins().fmul(y[d], x);
-            }
-            SolveOp::ConstScale { dst, c } => {
-                let d = y_index(dst)?;
-                let c = b.ins().f64const(c);
-                y[d] = b.ins().fmul(y[d], c);
-            }
-        }
+    for &op in sweeps.into_iter().flatten() {
+        let d = y_index(op.dst())?;
+        let r = op.src().map(|k| y_index(k).map(|k| y[k])).transpose()?;
+        y[d] = apply(b, op, y[d], r, &mut value)?;
     }
     for (&yk, &c) in y.iter().zip(scatter) {
         let at = offset(y_index(c)?)?;
@@ -596,6 +530,41 @@ fn emit(
     }
     b.ins().return_(&[]);
     Ok(())
+}
+
+/// The value operation `op` writes, from y[dst] (`d`), y[src] (`r`, for
+/// the operations that read it) and the factors' values (`factor`),
+/// rounded as the interpreter's sweep rounds it: both solve emitters use it.
+fn apply(
+    b: &mut FunctionBuilder<'_>,
+    op: SolveOp,
+    d: Value,
+    r: Option<Value>,
+    mut factor: impl FnMut(&mut FunctionBuilder<'_>, u32) -> Result<Value, JitError>,
+) -> Result<Value, JitError> {
+    let src = || r.ok_or_else(|| JitError::Compile("an operation without its source".into()));
+    Ok(match op {
+        SolveOp::MulSub { s, .. } => {
+            let x = factor(b, s)?;
+            let p = b.ins().fmul(x, src()?);
+            b.ins().fsub(d, p)
+        }
+        SolveOp::ConstMulSub { c, .. } => {
+            let c = b.ins().f64const(c);
+            let p = b.ins().fmul(c, src()?);
+            b.ins().fsub(d, p)
+        }
+        SolveOp::Sub { .. } => b.ins().fsub(d, src()?),
+        SolveOp::Add { .. } => b.ins().fadd(d, src()?),
+        SolveOp::Scale { s, .. } => {
+            let x = factor(b, s)?;
+            b.ins().fmul(d, x)
+        }
+        SolveOp::ConstScale { c, .. } => {
+            let c = b.ins().f64const(c);
+            b.ins().fmul(d, c)
+        }
+    })
 }
 
 /// The scan's entries: where the compiled factorization writes each.

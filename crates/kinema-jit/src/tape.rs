@@ -933,26 +933,7 @@ impl<'t> Emitter<'t> {
             return Ok(());
         }
         let x = self.get(b, a)?;
-        let at = 3 * k as usize;
-        let trig = self
-            .trig
-            .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
-        let (o0, o1) = (offset(at)?, offset(at + 1)?);
-        let flags = MemFlagsData::trusted();
-        let seen = b.ins().load(F64, flags, trig, o0);
-        let xi = b.ins().bitcast(I64, MemFlagsData::new(), x);
-        let si = b.ins().bitcast(I64, MemFlagsData::new(), seen);
-        let hit = b.ins().icmp(IntCC::Equal, xi, si);
-        let (miss, join) = (b.create_block(), b.create_block());
-        b.ins().brif(hit, join, &[], miss, &[]);
-        b.switch_to_block(miss);
-        // x stored first: not live across the call.
-        b.ins().store(flags, x, trig, o0);
-        let at_sin = b.ins().iadd_imm_s(trig, i64::from(o1));
-        b.ins()
-            .call(self.shims[Which::SinCos as usize], &[x, at_sin]);
-        b.ins().jump(join, &[]);
-        b.switch_to_block(join);
+        self.refresh(b, x, 3 * k as usize)?;
         Ok(())
     }
 
@@ -983,44 +964,49 @@ impl<'t> Emitter<'t> {
     }
 
     /// (sin x, cos x) through the cache entries `at..at + 3` = (x, sin x,
-    /// cos x): a hit when the entry's x has the same bits, else both
-    /// computed (one call) and the entry rewritten.
+    /// cos x) (see [`refresh`](Self::refresh)).
     fn memoized(
         &mut self,
         b: &mut FunctionBuilder<'_>,
         x: Value,
         at: usize,
     ) -> Result<(Value, Value), JitError> {
+        let trig = self.refresh(b, x, at)?;
+        let flags = MemFlagsData::trusted();
+        let s = b.ins().load(F64, flags, trig, offset(at + 1)?);
+        let c = b.ins().load(F64, flags, trig, offset(at + 2)?);
+        Ok((s, c))
+    }
+
+    /// Brings the cache entries `at..at + 3` = (x, sin x, cos x) up to date
+    /// for `x`: kept when the entry's x has the same bits, else x stored
+    /// and both computed by one call into the entry (x stored first, so it
+    /// is not live across the call). Returns the cache's pointer.
+    fn refresh(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        x: Value,
+        at: usize,
+    ) -> Result<Value, JitError> {
         let trig = self
             .trig
             .ok_or_else(|| JitError::Compile("no cache pointer".into()))?;
-        let (o0, o1, o2) = (offset(at)?, offset(at + 1)?, offset(at + 2)?);
+        let (o0, o1) = (offset(at)?, offset(at + 1)?);
         let flags = MemFlagsData::trusted();
         let seen = b.ins().load(F64, flags, trig, o0);
         let xi = b.ins().bitcast(I64, MemFlagsData::new(), x);
         let si = b.ins().bitcast(I64, MemFlagsData::new(), seen);
         let hit = b.ins().icmp(IntCC::Equal, xi, si);
-        let (hit_block, miss_block, join) = (b.create_block(), b.create_block(), b.create_block());
-        b.append_block_param(join, F64);
-        b.append_block_param(join, F64);
-        b.ins().brif(hit, hit_block, &[], miss_block, &[]);
-        b.switch_to_block(hit_block);
-        let s = b.ins().load(F64, flags, trig, o1);
-        let c = b.ins().load(F64, flags, trig, o2);
-        b.ins().jump(join, &[s.into(), c.into()]);
-        b.switch_to_block(miss_block);
-        // Both written into the cache by one call, read back from there;
-        // x stored first, not live across the call.
+        let (miss, join) = (b.create_block(), b.create_block());
+        b.ins().brif(hit, join, &[], miss, &[]);
+        b.switch_to_block(miss);
         b.ins().store(flags, x, trig, o0);
         let at_sin = b.ins().iadd_imm_s(trig, i64::from(o1));
         b.ins()
             .call(self.shims[Which::SinCos as usize], &[x, at_sin]);
-        let s = b.ins().load(F64, flags, trig, o1);
-        let c = b.ins().load(F64, flags, trig, o2);
-        b.ins().jump(join, &[s.into(), c.into()]);
+        b.ins().jump(join, &[]);
         b.switch_to_block(join);
-        let params = b.block_params(join);
-        Ok((params[0], params[1]))
+        Ok(trig)
     }
 
     /// Emits one instruction; returns the value it writes.

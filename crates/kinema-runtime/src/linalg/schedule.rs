@@ -661,14 +661,12 @@ pub fn scale_and_masked_max(values: &[f64], mask: &[u64]) -> (f64, f64, bool) {
     for (c, m) in chunks {
         for i in 0..4 {
             lane(&mut max[i], &mut nan[i], c[i]);
-            let a = f64::from_bits(c[i].to_bits() & m[i] & ABS);
-            masked[i] = if a > masked[i] { a } else { masked[i] };
+            masked_lane(&mut masked[i], c[i], m[i]);
         }
     }
     for (&v, &m) in values[split..].iter().zip(&mask[split..]) {
         lane(&mut max[0], &mut nan[0], v);
-        let a = f64::from_bits(v.to_bits() & m & ABS);
-        masked[0] = if a > masked[0] { a } else { masked[0] };
+        masked_lane(&mut masked[0], v, m);
     }
     for &v in rest_values {
         lane(&mut max[0], &mut nan[0], v);
@@ -676,6 +674,14 @@ pub fn scale_and_masked_max(values: &[f64], mask: &[u64]) -> (f64, f64, bool) {
     let (scale, finite) = lanes_verdict(max, nan);
     let most = masked[0].max(masked[1]).max(masked[2].max(masked[3]));
     (scale, most, finite)
+}
+
+/// One lane's step of the masked maximum: |v| kept when selected and
+/// larger.
+#[inline(always)]
+fn masked_lane(max: &mut f64, v: f64, mask: u64) {
+    let a = f64::from_bits(v.to_bits() & mask & ABS);
+    *max = if a > *max { a } else { *max };
 }
 
 /// The mask selecting a value in [`scale_and_masked_max`].
