@@ -1,7 +1,7 @@
 //! Runs one benchmark mechanism's grid many times, for `perf` and
 //! `valgrind --tool=callgrind`:
 //! `cargo run --release -p kinema-bench --example profile -- slider_crank generated same 2000`
-//! (mechanism: slider_crank, four_bar, chain10, chain100, and with
+//! (mechanism: slider_crank, four_bar, chain2, chain10, chain100, and with
 //! `--features large` chain200 and chain1000; back end:
 //! generated, tape, jit (the model compiled at load time), handwritten, dynamics (generated with inertia and
 //! inverse dynamics at every step: slider_crank, chain10, and with
@@ -79,6 +79,12 @@ fn main() {
         ),
         ("four_bar", "generated") => run(
             generated::four_bar::FourBar::default()
+                .solver(options)
+                .unwrap_or_else(|e| ok(e)),
+            reps,
+        ),
+        ("chain2", "generated") => run(
+            generated::chain2::Chain2::default()
                 .solver(options)
                 .unwrap_or_else(|e| ok(e)),
             reps,

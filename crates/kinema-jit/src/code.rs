@@ -274,7 +274,7 @@ pub(crate) struct FactorNeeds {
 /// same, negative, smallest pivot, largest multiplier.
 pub(crate) const SCAN: usize = 6;
 
-type RawFactor = unsafe extern "C" fn(*const f64, *mut f64, *mut f64);
+type RawFactor = unsafe extern "C" fn(*const f64, *mut f64, *mut f64, u64);
 
 /// A compiled factorization: `values → (v, scan)`.
 #[derive(Clone)]
@@ -301,8 +301,9 @@ impl FactorFn {
             ));
         }
         // SAFETY: `p` is the finalized entry of a function declared with
-        // exactly this signature (three pointers; no result; the C
-        // convention), and the memory stays mapped while `_code` lives.
+        // exactly this signature (three pointers and a 64-bit integer; no
+        // result; the C convention), and the memory stays mapped while
+        // `_code` lives.
         let f = unsafe { std::mem::transmute::<*const u8, RawFactor>(p) };
         Ok(FactorFn {
             f,
@@ -317,10 +318,11 @@ impl FactorFn {
         values.len() >= self.needs.values && v.len() >= self.needs.v
     }
 
-    /// Runs the factorization; `None` (nothing done) on short slices.
+    /// Runs the factorization, checking the constants if `check`; `None`
+    /// (nothing done) on short slices.
     #[inline]
-    pub(crate) fn call(&self, values: &[f64], v: &mut [f64]) -> Option<[f64; SCAN]> {
-        self.call_from(values, v, [0.0; SCAN])
+    pub(crate) fn call(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<[f64; SCAN]> {
+        self.call_from(values, v, [0.0; SCAN], check)
     }
 
     /// Runs the factorization from the scan `scan` (the running folds a
@@ -331,6 +333,7 @@ impl FactorFn {
         values: &[f64],
         v: &mut [f64],
         mut scan: [f64; SCAN],
+        check: bool,
     ) -> Option<[f64; SCAN]> {
         if !self.fits(values, v) {
             return None;
@@ -339,7 +342,14 @@ impl FactorFn {
         // and reads only v[..needs.v] and writes only scan[..SCAN] (checked
         // when it was compiled); the lengths were just checked. The code is
         // alive (`_code`).
-        unsafe { (self.f)(values.as_ptr(), v.as_mut_ptr(), scan.as_mut_ptr()) };
+        unsafe {
+            (self.f)(
+                values.as_ptr(),
+                v.as_mut_ptr(),
+                scan.as_mut_ptr(),
+                u64::from(check),
+            );
+        };
         Some(scan)
     }
 }

@@ -6,7 +6,8 @@ use std::collections::HashMap;
 
 use cranelift_codegen::Context;
 use cranelift_codegen::ir::{
-    AbiParam, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64, types::I64,
+    AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, Value, condcodes::IntCC, types::F64,
+    types::I64,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
@@ -301,6 +302,13 @@ struct Resident<'p> {
 
 /// How many items a resident solve reuses a value's register for.
 const WINDOW: usize = 8;
+
+/// A straight-line factorization stores each running fold (scale, pivots,
+/// multipliers) every this many entries: the store pins the fold's
+/// computation there, so the values it reads die early (pure instructions
+/// are otherwise placed at their use, keeping every load alive to the
+/// end), and a small factorization stores only the final values.
+const PIN: usize = 8;
 
 impl<'p> Resident<'p> {
     /// Checks every index against `needs` (n = `needs.rhs`, the factors'
@@ -770,14 +778,12 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     #[inline]
-    /// A small factorization (no prologue) checks the constants in its
-    /// compiled code, whatever `check` says.
     fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan> {
         let scan = match &self.prologue {
-            None => self.f.call(values, v)?,
+            None => self.f.call(values, v, check)?,
             Some(p) if self.f.fits(values, v) => {
                 let start = p.run(values, v, check);
-                self.f.call_from(values, v, start)?
+                self.f.call_from(values, v, start, check)?
             }
             Some(_) => return None,
         };
@@ -836,6 +842,8 @@ pub fn compile_factor_chunked(
     for _ in 0..3 {
         sig.params.push(AbiParam::new(ptr));
     }
+    // Whether to check the constants (0: no).
+    sig.params.push(AbiParam::new(I64));
     let looped = plan.constants.len() + plan.inputs.len() > looped;
     let mut chunks = FactorChunks::new(plan, needs, looped)?;
     let id = if !looped && chunks.total <= chunk {
@@ -961,7 +969,7 @@ impl<'p> FactorChunks<'p> {
         let block = b.create_block();
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
-        let [values, v_ptr, scan] = b.block_params(block)[..] else {
+        let [values, v_ptr, scan, checking] = b.block_params(block)[..] else {
             return Err(JitError::Compile("signature".into()));
         };
         let flags = MemFlagsData::trusted();
@@ -1062,9 +1070,15 @@ impl<'p> FactorChunks<'p> {
             }
             Ok(())
         };
+        // This chunk's constants (the first items) checked as one block,
+        // if asked for.
+        let constants = start.min(nc)..range.end.min(nc);
+        if !self.looped {
+            diff = constants_check(b, checking, diff, &plan.constants[constants], values, needs)?;
+        }
         let last = range.end >= self.total;
         let end = if last { self.total + 1 } else { range.end };
-        for p in start..end {
+        for p in start.max(nc)..end {
             if p == same_at && !self.looped {
                 let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
                 let same = b.ins().select(same, one, zero);
@@ -1080,14 +1094,7 @@ impl<'p> FactorChunks<'p> {
             if p >= self.total {
                 break;
             }
-            if p < nc {
-                let (k, c) = plan.constants[p];
-                let k = check(k as usize, needs.values, "Jacobian value")?;
-                let x = b.ins().load(I64, read, values, offset(k)?);
-                let c = b.ins().iconst(I64, bits_of(c));
-                let d = b.ins().bxor(x, c);
-                diff = b.ins().bor(diff, d);
-            } else if p < scale_at {
+            if p < scale_at {
                 let k = check(plan.inputs[p - nc] as usize, needs.values, "Jacobian value")?;
                 let x = b.ins().load(F64, read, values, offset(k)?);
                 b.ins().store(flags, x, v_ptr, offset(written)?);
@@ -1220,6 +1227,46 @@ impl<'p> FactorChunks<'p> {
 }
 
 /// The factorization's body; every index checked against `needs`.
+/// `diff` ORed with the differences between the bits of `constants`'
+/// entries in `values` (read as integers, straight from memory) and their
+/// planned bits, if `checking` (an I64 argument) is not zero; else `diff`:
+/// the constants' check, done only when the caller asks for it.
+fn constants_check(
+    b: &mut FunctionBuilder<'_>,
+    checking: Value,
+    diff: Value,
+    constants: &[(u32, f64)],
+    values: Value,
+    needs: FactorNeeds,
+) -> Result<Value, JitError> {
+    if constants.is_empty() {
+        return Ok(diff);
+    }
+    let (checked, joined) = (b.create_block(), b.create_block());
+    b.append_block_param(joined, I64);
+    b.ins()
+        .brif(checking, checked, &[], joined, &[BlockArg::Value(diff)]);
+    b.switch_to_block(checked);
+    let read = MemFlagsData::trusted().with_readonly();
+    let mut diff = diff;
+    for &(k, c) in constants {
+        let k = k as usize;
+        if k >= needs.values {
+            return Err(JitError::Compile(format!(
+                "Jacobian value index {k} beyond {}",
+                needs.values
+            )));
+        }
+        let x = b.ins().load(I64, read, values, offset(k)?);
+        let c = b.ins().iconst(I64, bits_of(c));
+        let d = b.ins().bxor(x, c);
+        diff = b.ins().bor(diff, d);
+    }
+    b.ins().jump(joined, &[BlockArg::Value(diff)]);
+    b.switch_to_block(joined);
+    Ok(b.block_params(joined)[0])
+}
+
 fn emit_factor(
     b: &mut FunctionBuilder<'_>,
     plan: &FoldedFactor<'_>,
@@ -1228,7 +1275,7 @@ fn emit_factor(
     let block = b.create_block();
     b.append_block_params_for_function_params(block);
     b.switch_to_block(block);
-    let [values, v_ptr, scan] = b.block_params(block)[..] else {
+    let [values, v_ptr, scan, checking] = b.block_params(block)[..] else {
         return Err(JitError::Compile("signature".into()));
     };
     let flags = MemFlagsData::trusted();
@@ -1251,10 +1298,8 @@ fn emit_factor(
         loaded[k] = Some(x);
         Ok(x)
     };
-    // Each entry of the scan is stored as soon as it is known: the store
-    // pins its computation there, so the values it reads die early (pure
-    // instructions are otherwise placed at their use, keeping every load
-    // alive to the end).
+    // Each final entry of the scan is stored as soon as it is known, each
+    // running one every [`PIN`] entries.
     let put = |b: &mut FunctionBuilder<'_>, k: usize, x: Value| -> Result<(), JitError> {
         b.ins()
             .store(flags, x, scan, offset(check(k, SCAN, "scan")?)?);
@@ -1262,23 +1307,16 @@ fn emit_factor(
     };
     // A running integer value into entry k (overwritten by the final one).
     let (one, zero) = (b.ins().f64const(1.0), b.ins().f64const(0.0));
-    // Every constant still its constant, bit for bit: the differences'
-    // bits ORed together are zero. Read as integers, straight from memory.
-    let mut diff = b.ins().iconst(I64, 0);
-    for &(k, c) in plan.constants {
-        let k = check(k as usize, needs.values, "Jacobian value")?;
-        let x = b.ins().load(I64, read, values, offset(k)?);
-        let c = b.ins().iconst(I64, bits_of(c));
-        let d = b.ins().bxor(x, c);
-        diff = b.ins().bor(diff, d);
-    }
+    let none = b.ins().iconst(I64, 0);
+    let diff = constants_check(b, checking, none, plan.constants, values, needs)?;
     let same = b.ins().icmp_imm_s(IntCC::Equal, diff, 0);
     let same = b.ins().select(same, one, zero);
     put(b, SCAN_SAME, same)?;
     // Scale and finiteness: the largest magnitude's bits (integer order is
     // the order of |x|) over the run-time entries, from the constants'.
     // Each input is copied to the value array as it is loaded, and the
-    // running maximum stored (raw bits) to pin it there.
+    // running maximum stored (raw bits) every [`PIN`] entries to pin it
+    // there.
     let abs_mask = b.ins().iconst(I64, i64::MAX);
     let inf_bits = b.ins().iconst(I64, bits_of(f64::INFINITY));
     let mut max_bits = b.ins().iconst(I64, bits_of(plan.const_scale.abs()));
@@ -1290,7 +1328,9 @@ fn emit_factor(
         let bits = b.ins().bitcast(I64, MemFlagsData::new(), x);
         let bits = b.ins().band(bits, abs_mask);
         max_bits = b.ins().umax(max_bits, bits);
-        put(b, SCAN_SCALE, max_bits)?;
+        if v.len().is_multiple_of(PIN) {
+            put(b, SCAN_SCALE, max_bits)?;
+        }
     }
     let scale = b.ins().bitcast(F64, MemFlagsData::new(), max_bits);
     put(b, SCAN_SCALE, scale)?;
@@ -1321,6 +1361,7 @@ fn emit_factor(
     let mut mult_bits = b
         .ins()
         .iconst(I64, bits_of(plan.const_max_multiplier.abs()));
+    let (mut pivots, mut multipliers) = (0usize, 0usize);
     let mut fold = |b: &mut FunctionBuilder<'_>, k: usize, x: Value| -> Result<(), JitError> {
         let (pivot, multiplier) = role[k];
         if !(pivot || multiplier) {
@@ -1330,17 +1371,23 @@ fn emit_factor(
         let magnitude = b.ins().band(bits, abs_mask);
         if pivot {
             signs = b.ins().bxor(signs, bits);
-            put(b, SCAN_NEGATIVE, signs)?;
             let nan = b
                 .ins()
                 .icmp(IntCC::UnsignedGreaterThan, magnitude, inf_bits);
             let counted = b.ins().select(nan, zero_bits, magnitude);
             min_bits = b.ins().umin(min_bits, counted);
-            put(b, SCAN_MIN_PIVOT, min_bits)?;
+            pivots += 1;
+            if pivots.is_multiple_of(PIN) {
+                put(b, SCAN_NEGATIVE, signs)?;
+                put(b, SCAN_MIN_PIVOT, min_bits)?;
+            }
         }
         if multiplier {
             mult_bits = b.ins().umax(mult_bits, magnitude);
-            put(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
+            multipliers += 1;
+            if multipliers.is_multiple_of(PIN) {
+                put(b, SCAN_MAX_MULTIPLIER, mult_bits)?;
+            }
         }
         Ok(())
     };

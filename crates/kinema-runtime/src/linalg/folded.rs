@@ -644,7 +644,9 @@ impl Folded {
         )
     }
 
-    /// The interpreted factorization: the value array and the scan.
+    /// The interpreted factorization: the value array and the scan. Out of
+    /// line: the compiled factorization's call stays a light frame.
+    #[inline(never)]
     fn interpret(&mut self, values: &[f64], check: bool) -> FactorScan {
         let mut max_bits = self.const_scale.to_bits();
         for &k in &self.inputs {
@@ -719,6 +721,12 @@ impl Folded {
         {
             return;
         }
+        self.interpret_solve(rhs, transpose);
+    }
+
+    /// The interpreted solve. Out of line, as [`interpret`](Self::interpret).
+    #[inline(never)]
+    fn interpret_solve(&mut self, rhs: &mut [f64], transpose: bool) {
         let (gather, first, second, scatter) = if transpose {
             (
                 &self.col_order,
