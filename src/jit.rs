@@ -41,6 +41,11 @@ pub(crate) struct HotTapes<'t> {
     pub(crate) n_phi: usize,
 }
 
+/// Which of [`HotTapes::splits`] a step evaluates several times at one
+/// time (Φ, Φ_q, both: each Newton iteration) and so keep their part that
+/// reads neither q nor q̇ across calls; ν and γ are evaluated once.
+const ITERATED: [bool; 5] = [true, true, true, false, false];
+
 impl HotTapes<'_> {
     fn splits(&self) -> [(&Tape, usize); 5] {
         [
@@ -55,7 +60,7 @@ impl HotTapes<'_> {
 
 impl Compiled {
     fn new(splits: &[(&Tape, usize)], memo_base: usize) -> Result<Compiled, JitError> {
-        let mut all = kinema_jit::compile_split_memo_at(splits, memo_base)?.into_iter();
+        let mut all = kinema_jit::compile_iterated(splits, memo_base, &ITERATED)?.into_iter();
         let mut next = || {
             all.next()
                 .ok_or_else(|| JitError::Compile("a tape is missing".into()))
@@ -154,8 +159,8 @@ impl Jit {
             return Err(JitError::TooLarge { instructions }.to_string());
         }
         kinema_jit::host_supported().map_err(|e| e.to_string())?;
-        let cache_len =
-            kinema_jit::cache_len_bound(&splits, memo_base).map_err(|e| e.to_string())?;
+        let cache_len = kinema_jit::cache_len_bound_iterated(&splits, memo_base, &ITERATED)
+            .map_err(|e| e.to_string())?;
         let jit = Arc::new(Jit {
             tapes: Arc::new(OnceLock::new()),
             cache_len,
@@ -286,7 +291,7 @@ impl Jit {
 #[inline]
 pub(crate) fn run(f: &JitTape, inputs: &TapeInputs<'_>, trig: &mut [f64], out: &mut [f64]) {
     if out.len() != f.outputs() || f.eval_with_cache(inputs, trig, out).is_err() {
-        out.fill(f64::NAN);
+        crate::model::poison(&mut [out]);
     }
 }
 

@@ -372,7 +372,7 @@ impl TapeSystem {
     #[must_use]
     pub fn backend(&self) -> Backend {
         #[cfg(feature = "jit")]
-        if self.compiled().is_some() {
+        if self.jit.as_ref().and_then(|j| j.compiled()).is_some() {
             return Backend::Jit;
         }
         Backend::Tape
@@ -404,11 +404,17 @@ impl TapeSystem {
         self.jit_fallback.as_deref()
     }
 
-    /// The compiled tapes, once ready.
+    /// The compiled tapes, once ready, and the part of the scratch they use
+    /// (see [`trig`](Self::trig)).
     #[cfg(feature = "jit")]
     #[inline]
-    fn compiled(&self) -> Option<&crate::jit::Compiled> {
-        self.jit.as_ref()?.compiled()
+    fn compiled<'a>(
+        &self,
+        scratch: &'a mut Vec<f64>,
+    ) -> Option<(&crate::jit::Compiled, &'a mut [f64])> {
+        let jit = self.jit.as_ref()?;
+        let compiled = jit.compiled()?;
+        Some((compiled, cache(scratch, jit.cache_len())))
     }
 
     /// The parameters' names, in declaration order.
@@ -480,21 +486,38 @@ impl TapeSystem {
         scratch.split_at_mut(cache)
     }
 
-    /// The part of the scratch the compiled tapes use (the coordinates'
-    /// sin/cos cache at its start, the memo after the interpreter's
-    /// registers), grown if the scratch came from another system.
-    #[cfg(feature = "jit")]
-    fn trig<'a>(&self, scratch: &'a mut Vec<f64>) -> &'a mut [f64] {
-        let n = self.jit.as_ref().map_or(0, |j| j.cache_len());
-        if scratch.len() < n {
-            scratch.resize(n, f64::NAN);
-        }
-        &mut scratch[..n]
-    }
-
     /// Length of the sin/cos cache at the start of the scratch.
     fn trig_len(&self) -> usize {
         3 * self.coordinate_names.len()
+    }
+}
+
+/// The part of the scratch the compiled tapes use (the coordinates'
+/// sin/cos cache at its start, the memo after the interpreter's
+/// registers): its first `n` entries, grown if the scratch came from
+/// another system.
+#[cfg(feature = "jit")]
+#[inline]
+fn cache(scratch: &mut Vec<f64>, n: usize) -> &mut [f64] {
+    if scratch.len() < n {
+        grow(scratch, n);
+    }
+    &mut scratch[..n]
+}
+
+/// Grows a scratch to `n` entries, the new ones NaN (nothing cached).
+#[cold]
+#[inline(never)]
+fn grow(scratch: &mut Vec<f64>, n: usize) {
+    scratch.resize(n, f64::NAN);
+}
+
+/// Fills the outputs of an evaluation that could not run with NaN.
+#[cold]
+#[inline(never)]
+pub(crate) fn poison(outputs: &mut [&mut [f64]]) {
+    for out in outputs {
+        out.fill(f64::NAN);
     }
 }
 
@@ -588,8 +611,8 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = self.compiled() {
-            return crate::jit::run(&c.phi, &inputs, self.trig(registers), phi);
+        if let Some((c, trig)) = self.compiled(registers) {
+            return crate::jit::run(&c.phi, &inputs, trig, phi);
         }
         self.run(&self.phi, registers, &inputs, phi);
     }
@@ -602,13 +625,72 @@ impl System for TapeSystem {
             t,
         };
         #[cfg(feature = "jit")]
-        if let Some(c) = self.compiled() {
-            return crate::jit::run(&c.jacobian, &inputs, self.trig(registers), values);
+        if let Some((c, trig)) = self.compiled(registers) {
+            return crate::jit::run(&c.jacobian, &inputs, trig, values);
         }
         self.run(&self.jacobian, registers, &inputs, values);
     }
 
     fn phi_and_jacobian(
+        &self,
+        registers: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        phi: &mut [f64],
+        values: &mut [f64],
+    ) {
+        #[cfg(feature = "jit")]
+        if let Some((c, trig)) = self.compiled(registers) {
+            let inputs = TapeInputs {
+                q,
+                qd: &self.zeros,
+                params: &self.params,
+                t,
+            };
+            if phi.len() + values.len() != c.both.outputs()
+                || c.both.eval_split(&inputs, trig, phi, values).is_err()
+            {
+                poison(&mut [phi, values]);
+            }
+            return;
+        }
+        self.interpret_both(registers, q, t, phi, values);
+    }
+
+    fn nu(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, nu: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd: &self.zeros,
+            params: &self.params,
+            t,
+        };
+        #[cfg(feature = "jit")]
+        if let Some((c, trig)) = self.compiled(registers) {
+            return crate::jit::run(&c.nu, &inputs, trig, nu);
+        }
+        self.run(&self.nu, registers, &inputs, nu);
+    }
+
+    fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
+        let inputs = TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        };
+        #[cfg(feature = "jit")]
+        if let Some((c, trig)) = self.compiled(registers) {
+            return crate::jit::run(&c.gamma, &inputs, trig, gamma);
+        }
+        self.run(&self.gamma, registers, &inputs, gamma);
+    }
+}
+
+impl TapeSystem {
+    /// [`System::phi_and_jacobian`] on the tape. Out of line: the compiled
+    /// path's frame stays light.
+    #[inline(never)]
+    fn interpret_both(
         &self,
         registers: &mut Vec<f64>,
         q: &[f64],
@@ -622,18 +704,6 @@ impl System for TapeSystem {
             params: &self.params,
             t,
         };
-        #[cfg(feature = "jit")]
-        if let Some(c) = self.compiled() {
-            if phi.len() + values.len() != c.both.outputs()
-                || c.both
-                    .eval_split(&inputs, self.trig(registers), phi, values)
-                    .is_err()
-            {
-                phi.fill(f64::NAN);
-                values.fill(f64::NAN);
-            }
-            return;
-        }
         // The outputs are Φ then Φ_q's values, read where the tape left them.
         let (trig, registers) = self.split(registers, &self.both);
         let outputs = self
@@ -645,38 +715,7 @@ impl System for TapeSystem {
                 phi.copy_from_slice(p);
                 values.copy_from_slice(j);
             }
-            _ => {
-                phi.fill(f64::NAN);
-                values.fill(f64::NAN);
-            }
+            _ => poison(&mut [phi, values]),
         }
-    }
-
-    fn nu(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, nu: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd: &self.zeros,
-            params: &self.params,
-            t,
-        };
-        #[cfg(feature = "jit")]
-        if let Some(c) = self.compiled() {
-            return crate::jit::run(&c.nu, &inputs, self.trig(registers), nu);
-        }
-        self.run(&self.nu, registers, &inputs, nu);
-    }
-
-    fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd,
-            params: &self.params,
-            t,
-        };
-        #[cfg(feature = "jit")]
-        if let Some(c) = self.compiled() {
-            return crate::jit::run(&c.gamma, &inputs, self.trig(registers), gamma);
-        }
-        self.run(&self.gamma, registers, &inputs, gamma);
     }
 }

@@ -577,3 +577,73 @@ fn jit_equals_tape_at_hostile_points() {
         assert!(short.iter().all(|x| x.is_nan()), "{path}: short Φ");
     }
 }
+
+/// The compiled Φ and Φ_q keep their part that reads neither q nor q̇ (a
+/// driver's `amp · sin(omega · t)`) across calls at one (t, parameters).
+/// A parameter changed under the same scratch (the `System` contract), or
+/// a new time, is seen: each evaluation is the tape's, bit for bit.
+#[test]
+fn kept_time_terms_follow_time_and_changed_parameters() {
+    let text = std::fs::read_to_string("models/slider_crank.kin")
+        .unwrap_or_else(|e| panic!("{e}"))
+        .replace(
+            "driver crank_angle: crank.phi == pi / 4 + omega * t;",
+            "param amp = 0.3;\n    driver crank_angle: crank.phi == pi / 4 + amp * sin(omega * t);",
+        );
+    assert!(text.contains("amp * sin(omega * t)"));
+    let system = |backend| {
+        let model = kinema::Model::from_source(&text, "swing.kin")
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_backend(backend);
+        let system = model.system();
+        assert_eq!(
+            system.wait_for_jit(),
+            backend,
+            "{:?}",
+            system.jit_fallback()
+        );
+        system
+    };
+    let (mut jit, mut tape) = (system(Backend::Jit), system(Backend::Tape));
+    let (mut jit_scratch, mut tape_scratch) = (jit.scratch(), tape.scratch());
+    let n = jit.len();
+    let nnz = jit.jacobian_pattern().len();
+    let mut q = vec![0.0; n];
+    jit.initial_guess(&mut q);
+    let qd: Vec<f64> = (0..n).map(|k| 0.1 * k as f64 - 0.3).collect();
+    let steps = [
+        (0.25, None),
+        (0.25, None),
+        (0.5, None),
+        (0.5, Some(("omega", 3.0))),
+        (0.5, Some(("amp", -0.7))),
+        (0.5, None),
+        (0.75, Some(("omega", 2.0 * std::f64::consts::PI))),
+    ];
+    for (k, &(t, change)) in steps.iter().enumerate() {
+        if let Some((name, value)) = change {
+            assert!(jit.set_param(name, value) && tape.set_param(name, value));
+        }
+        // The coordinates move a little at every call (Newton's iterates).
+        q[2] += 1e-3;
+        let eval = |s: &kinema::TapeSystem, scratch: &mut Vec<f64>| {
+            let (mut phi, mut values) = (vec![0.0; n], vec![0.0; nnz]);
+            s.phi_and_jacobian(scratch, &q, t, &mut phi, &mut values);
+            let (mut phi_alone, mut jac) = (vec![0.0; n], vec![0.0; nnz]);
+            s.phi(scratch, &q, t, &mut phi_alone);
+            s.jacobian(scratch, &q, t, &mut jac);
+            let (mut nu, mut gamma) = (vec![0.0; n], vec![0.0; n]);
+            s.nu(scratch, &q, t, &mut nu);
+            s.gamma(scratch, &q, &qd, t, &mut gamma);
+            [phi, values, phi_alone, jac, nu, gamma]
+        };
+        let (a, b) = (eval(&jit, &mut jit_scratch), eval(&tape, &mut tape_scratch));
+        for (what, (x, y)) in ["Φ", "Φ_q", "Φ alone", "Φ_q alone", "ν", "γ"]
+            .iter()
+            .zip(a.iter().zip(&b))
+        {
+            let same = x.iter().zip(y).all(|(u, v)| u.to_bits() == v.to_bits());
+            assert!(same, "step {k} (t = {t}): {what}: jit {x:?} vs tape {y:?}");
+        }
+    }
+}

@@ -25,6 +25,7 @@
 //! wrapper that checks every slice's length.
 
 mod code;
+mod hoist;
 mod lu;
 mod shims;
 mod tape;
@@ -36,8 +37,8 @@ pub use lu::{
 
 pub use tape::{
     CHUNK_INSTRUCTIONS, JitTape, MAX_INSTRUCTIONS, Reloads, cache_len_bound,
-    cache_len_bound_chunked, compile, compile_chunked, compile_split, compile_split_memo_at,
-    host_supported,
+    cache_len_bound_chunked, cache_len_bound_iterated, compile, compile_chunked, compile_iterated,
+    compile_split, compile_split_memo_at, host_supported, memo_end,
 };
 
 /// Why tapes could not be compiled, or a compiled tape not called.

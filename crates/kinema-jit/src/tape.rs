@@ -14,6 +14,7 @@ use kinema_expr::{Instr, Tape, TapeInputs};
 
 use crate::JitError;
 use crate::code::{Code, Needs, TapeFn};
+use crate::hoist::{self, Hoisted};
 use crate::shims::{self, Shape, Which};
 
 /// The most instructions (all tapes of one [`compile`] together) the JIT
@@ -194,11 +195,16 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
 /// the same equations taking the same values in the same order, as Φ, ν
 /// and γ of one model do) reads them back instead of calling. An entry
 /// whose x differs is recomputed and rewritten (a miss, never a wrong
-/// value). A caller whose cache slice holds other things
-/// up to some index puts the memo after them; the slice must be
-/// [`JitTape::trig_len`] long, filled with NaN when new. Entries hold
-/// values of pure functions of their key, so a slice may be shared by any
-/// tapes and systems.
+/// value). After the memo, a tape compiled as one function keeps the part
+/// of it that reads neither q nor q̇ (a driver's functions of t, the
+/// parameters' expressions) with its key, t and the parameters it reads:
+/// computed once per (t, parameters), read back at the next call with the
+/// same ones (see `hoist.rs`). A caller whose cache slice holds other
+/// things up to some index puts the memo after them; the slice must be
+/// [`JitTape::trig_len`] long, filled with NaN when new, and is the cache
+/// of the tapes of one compilation: another compilation's functions (or
+/// an interpreter's registers) may leave values there that these would
+/// misread (a new slice for each, or one filled with NaN again).
 ///
 /// # Errors
 /// As [`compile`]; [`JitError::Compile`] if `memo_base` lies inside the
@@ -207,7 +213,29 @@ pub fn compile_split_memo_at(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
 ) -> Result<Vec<JitTape>, JitError> {
-    compile_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS, Reloads::DEFAULT)
+    compile_with(tapes, memo_base, CHUNK_INSTRUCTIONS, Reloads::DEFAULT, &[])
+}
+
+/// [`compile_split_memo_at`] with the part that reads neither q nor q̇
+/// kept across calls only in the tapes marked `iterated` (a tape past the
+/// slice's end counts as marked): those evaluated several times at one
+/// (t, parameters) — Newton's Φ and Φ_q. A tape evaluated once per time
+/// (ν, γ) would check its key, miss, and compute the part anyway.
+///
+/// # Errors
+/// As [`compile_split_memo_at`].
+pub fn compile_iterated(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    iterated: &[bool],
+) -> Result<Vec<JitTape>, JitError> {
+    compile_with(
+        tapes,
+        memo_base,
+        CHUNK_INSTRUCTIONS,
+        Reloads::DEFAULT,
+        iterated,
+    )
 }
 
 /// [`compile_split_memo_at`] with tapes longer than `chunk` instructions
@@ -225,6 +253,18 @@ pub fn compile_chunked(
     chunk: usize,
     reloads: Reloads,
 ) -> Result<Vec<JitTape>, JitError> {
+    compile_with(tapes, memo_base, chunk, reloads, &[])
+}
+
+/// [`compile_chunked`], the tapes' parts that read neither q nor q̇ kept
+/// where `iterated` says (see [`compile_iterated`]).
+fn compile_with(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    chunk: usize,
+    reloads: Reloads,
+    iterated: &[bool],
+) -> Result<Vec<JitTape>, JitError> {
     if memo_base < default_memo_base(tapes)? {
         return Err(JitError::Compile(
             "the sin/cos memo overlaps the coordinates' cache".into(),
@@ -239,6 +279,7 @@ pub fn compile_chunked(
     // memo's last possible entry (and after `memo_base`: the caller's own
     // values lie below it): register r at `spill_base + r`.
     let spill_base = memo_bound(tapes, memo_base)?.max(memo_base);
+    let (hoists, _) = hoisting(tapes, memo_base, chunk, iterated)?;
     let mut module = new_module()?;
     let shims = declare_shims(&mut module)?;
     let mut ctx = module.make_context();
@@ -277,7 +318,9 @@ pub fn compile_chunked(
         let (id, needs) = if tape.len() <= chunk {
             define(&mut module, format!("tape{i}"), &mut |module, b| {
                 let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
-                Emitter::new(tape, refs, memo_base, reloads).emit(b, split)
+                let mut emitter = Emitter::new(tape, refs, memo_base, reloads);
+                emitter.hoist = hoists.get(i).and_then(Option::as_ref);
+                emitter.emit(b, split)
             })?
         } else {
             // Chunks, then a function calling them in order with its own
@@ -405,7 +448,7 @@ fn widest(a: Needs, b: Needs) -> Needs {
 }
 
 /// The registers an instruction reads (the first `n` of the array).
-fn sources(ins: &Instr) -> ([u32; 2], usize) {
+pub(crate) fn sources(ins: &Instr) -> ([u32; 2], usize) {
     match *ins {
         Instr::Const { .. } => ([0, 0], 0),
         Instr::Copy { a, .. }
@@ -443,6 +486,18 @@ pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usi
     cache_len_bound_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
 }
 
+/// [`cache_len_bound`] for [`compile_iterated`].
+///
+/// # Errors
+/// As [`cache_len_bound`].
+pub fn cache_len_bound_iterated(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    iterated: &[bool],
+) -> Result<usize, JitError> {
+    Ok(hoisting(tapes, memo_base, CHUNK_INSTRUCTIONS, iterated)?.1)
+}
+
 /// [`cache_len_bound`] for [`compile_chunked`] with this `chunk`: past the
 /// memo's entries, a tape compiled in chunks keeps the values crossing
 /// their boundaries at `spill + r` for its register r. Not a stable
@@ -456,6 +511,47 @@ pub fn cache_len_bound_chunked(
     memo_base: usize,
     chunk: usize,
 ) -> Result<usize, JitError> {
+    Ok(hoisting(tapes, memo_base, chunk, &[])?.1)
+}
+
+/// Each tape's hoisted part (see [`crate::hoist`]) and where its entries
+/// start in the cache slice: after the memo and the values crossing chunks,
+/// one region per tape compiled as one function (a long tape's time terms
+/// are a negligible share of it), in the tapes' order; and the end of the
+/// last.
+type Hoists = (Vec<Option<(Hoisted, usize)>>, usize);
+
+fn hoisting(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    chunk: usize,
+    iterated: &[bool],
+) -> Result<Hoists, JitError> {
+    // Never below `memo_base`: the caller's own values lie there.
+    let mut at = spill_end(tapes, memo_base, chunk)?.max(memo_base);
+    let mut hoists = Vec::with_capacity(tapes.len());
+    for (k, (tape, _)) in tapes.iter().enumerate() {
+        let hoisted = if tape.len() <= chunk.max(1) && iterated.get(k).copied().unwrap_or(true) {
+            Hoisted::new(tape)
+        } else {
+            None
+        };
+        hoists.push(match hoisted {
+            Some(h) => {
+                let base = at;
+                at = at
+                    .checked_add(h.len())
+                    .ok_or_else(|| JitError::Compile("cache too large".into()))?;
+                Some((h, base))
+            }
+            None => None,
+        });
+    }
+    Ok((hoists, at))
+}
+
+/// The end of the memo's entries and of the values crossing chunks.
+fn spill_end(tapes: &[(&Tape, usize)], memo_base: usize, chunk: usize) -> Result<usize, JitError> {
     let memo = memo_bound(tapes, memo_base)?;
     let spill = memo.max(memo_base);
     let chunk = chunk.max(1);
@@ -468,6 +564,17 @@ pub fn cache_len_bound_chunked(
             .map(|n| m.max(n))
             .ok_or_else(|| JitError::Compile("cache too large".into()))
     })
+}
+
+/// Where the memo of tapes compiled with this `memo_base` ends at most in
+/// the cache slice (the entries after it hold other values): for tests,
+/// which check every memo entry. Not a stable interface.
+///
+/// # Errors
+/// As [`cache_len_bound`].
+#[doc(hidden)]
+pub fn memo_end(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usize, JitError> {
+    Ok(memo_bound(tapes, memo_base)?.max(memo_base))
 }
 
 /// The end of the coordinates' cache and the memo's last possible entry.
@@ -622,6 +729,9 @@ struct Emitter<'t> {
     last_write: Vec<usize>,
     /// Registers written by the chunks emitted so far (chunked tapes).
     written: Vec<bool>,
+    /// The tape's hoisted part and where its entries start in the cache
+    /// slice (a tape compiled as one function).
+    hoist: Option<&'t (Hoisted, usize)>,
 }
 
 impl<'t> Emitter<'t> {
@@ -643,6 +753,7 @@ impl<'t> Emitter<'t> {
             memo_start: memo_next,
             last_write: Vec::new(),
             written: Vec::new(),
+            hoist: None,
         }
     }
 
@@ -771,6 +882,17 @@ impl<'t> Emitter<'t> {
             .instructions()
             .get(range.clone())
             .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
+        let hoist = match (self.hoist, chunk) {
+            (Some(h), None) => Some(h),
+            _ => None,
+        };
+        if let Some(&(ref h, base)) = hoist {
+            needs.trig = needs.trig.max(
+                base.checked_add(h.len())
+                    .ok_or_else(|| JitError::Compile("cache too large".into()))?,
+            );
+            self.emit_hoisted(b, h, base, [p, t, trig])?;
+        }
         // The coordinates' cache entries brought up to date first, while
         // nothing is live: each may call out, and a call spills every live
         // value. Their uses load them from there.
@@ -804,6 +926,22 @@ impl<'t> Emitter<'t> {
         for (i, ins) in instrs.iter().enumerate() {
             let dst = ins.dst() as usize;
             self.tick = i;
+            if let Some(&(ref h, base)) = hoist
+                && h.is_hoisted(i)
+            {
+                // Computed before: its kept value read from the cache
+                // where the rest reads it (never read otherwise).
+                let slot = match h.kept(i) {
+                    Some(e) => Slot::Spill(offset(base + 2 + h.params().len() + e)?),
+                    None => Slot::Empty,
+                };
+                self.set_slot(dst, slot)?;
+                if self.last_write.get(dst) == Some(&(range.start + i)) {
+                    let v = self.get(b, ins.dst())?;
+                    self.store_output(b, dst, v)?;
+                }
+                continue;
+            }
             let v = self.instr(b, *ins)?;
             if self.last_write.get(dst) == Some(&(range.start + i)) {
                 self.store_output(b, dst, v)?;
@@ -821,6 +959,9 @@ impl<'t> Emitter<'t> {
         // result is stored as it is made: its value dies there).
         if range.end >= self.tape.len() {
             for k in 0..layout.outputs {
+                if self.sink.as_ref().is_some_and(|s| s.stored[k]) {
+                    continue;
+                }
                 let v = self.get(b, register(k)?)?;
                 self.store_output(b, k, v)?;
             }
@@ -833,13 +974,86 @@ impl<'t> Emitter<'t> {
     }
 
     fn set(&mut self, r: usize, v: Value) -> Result<(), JitError> {
-        let slot = self
+        self.set_slot(r, Slot::Ready(v))
+    }
+
+    /// Register `r` now holds `slot` (a new value: its output, if it is
+    /// one, not stored).
+    fn set_slot(&mut self, r: usize, slot: Slot) -> Result<(), JitError> {
+        let at = self
             .vals
             .get_mut(r)
             .ok_or_else(|| JitError::Compile(format!("register {r} out of range")))?;
-        *slot = Slot::Ready(v);
+        *at = slot;
         if let Some(stored) = self.sink.as_mut().and_then(|s| s.stored.get_mut(r)) {
             *stored = false;
+        }
+        Ok(())
+    }
+
+    /// The hoisted part `h` (its entries at `base` in the cache slice
+    /// `trig`) at the function's start: the key compared with t (`t`) and
+    /// the parameters (at `params`); on a difference, the part computed,
+    /// the values the rest reads kept, and the key stored. The emitter's
+    /// state is then the function's start again (no value of the
+    /// computing block is visible after it), in a block after both.
+    fn emit_hoisted(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        h: &Hoisted,
+        base: usize,
+        [params, t, trig]: [Value; 3],
+    ) -> Result<(), JitError> {
+        let flags = MemFlagsData::trusted();
+        let salt = hoist::salt();
+        // The key as it should be: t's bits (0 if the part does not read
+        // t), the same XORed with the salt, the parameters' bits.
+        let t_bits = if h.reads_t() {
+            b.ins().bitcast(I64, MemFlagsData::new(), t)
+        } else {
+            b.ins().iconst(I64, 0)
+        };
+        let salt = b.ins().iconst(I64, salt.cast_signed());
+        let salted = b.ins().bxor(t_bits, salt);
+        let mut key = vec![t_bits, salted];
+        for &k in h.params() {
+            key.push(b.ins().load(I64, flags, params, offset(k as usize)?));
+        }
+        let mut same = None;
+        for (j, &want) in key.iter().enumerate() {
+            let seen = b.ins().load(I64, flags, trig, offset(base + j)?);
+            let eq = b.ins().icmp(IntCC::Equal, seen, want);
+            same = Some(match same {
+                Some(s) => b.ins().band(s, eq),
+                None => eq,
+            });
+        }
+        let same = same.ok_or_else(|| JitError::Compile("no key".into()))?;
+        let (compute, rest) = (b.create_block(), b.create_block());
+        b.ins().brif(same, rest, &[], compute, &[]);
+        b.switch_to_block(compute);
+        let start = self.vals.clone();
+        let kept_at = base + key.len();
+        for (i, ins) in self.tape.instructions().iter().enumerate() {
+            if !h.in_hoisted(i) {
+                continue;
+            }
+            let v = self.instr(b, *ins)?;
+            if let Some(e) = h.kept(i) {
+                b.ins().store(flags, v, trig, offset(kept_at + e)?);
+            }
+        }
+        for (j, &k) in key.iter().enumerate() {
+            b.ins().store(flags, k, trig, offset(base + j)?);
+        }
+        b.ins().jump(rest, &[]);
+        b.switch_to_block(rest);
+        self.vals = start;
+        self.memo.clear();
+        self.inputs.clear();
+        self.loaded.clear();
+        if let Some(sink) = self.sink.as_mut() {
+            sink.stored.fill(false);
         }
         Ok(())
     }

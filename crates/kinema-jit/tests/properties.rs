@@ -6,7 +6,7 @@
 use kinema_expr::{Arena, ExprId, SymId, Tape, TapeInputs};
 use kinema_jit::{
     JitError, Reloads, cache_len_bound_chunked, compile, compile_chunked, compile_split,
-    compile_split_memo_at,
+    compile_split_memo_at, memo_end,
 };
 use proptest::prelude::*;
 
@@ -287,7 +287,10 @@ proptest! {
         for k in 0..9 {
             prop_assert!(same(trig[k], tape_trig[k]), "cache entry {k}");
         }
-        for (k, entry) in trig[9..].chunks(3).enumerate() {
+        // (After the memo: the key and values of the tape's part that
+        // depends on t and the parameters alone.)
+        let memo_end = memo_end(&[(&tape, 1)], 9).expect("a bound").min(trig.len());
+        for (k, entry) in trig[9..memo_end].chunks(3).enumerate() {
             let x = entry[0];
             prop_assert!(
                 entry.len() == 3 && same(entry[1], x.sin()) && same(entry[2], x.cos()),
@@ -351,6 +354,93 @@ proptest! {
                 }
             }
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// A tape's part that depends on t and the parameter alone is computed
+    /// once per (t, parameter) and read back after. Through one cache, at
+    /// points changing t, the parameter and the coordinates in turn (and
+    /// back), tapes of three expressions compiled together — the second
+    /// the first scaled, the third another — take turns. Each call
+    /// computes exactly what its tape computes: a key the cache just
+    /// filled with NaN holds is never taken for a valid one, and each
+    /// function reads its own values back.
+    #[test]
+    fn hoisted_parts_follow_time_and_parameters(
+        t1 in expr(),
+        t2 in expr(),
+        x in point(),
+        dt in -1.0f64..1.0,
+        dp in -1.0f64..1.0,
+    ) {
+        let mut a = Arena::new();
+        let _ = symbols(&mut a);
+        let e1 = build(&mut a, &t1, false);
+        let e3 = build(&mut a, &t2, false);
+        let e2 = a.scale(3.0, e1);
+        let tapes: Vec<Tape> = [e1, e2, e3].iter().map(|&e| Tape::compile(&a, &[e])).collect();
+        let split: Vec<(&Tape, usize)> = tapes.iter().map(|t| (t, 1)).collect();
+        let jits = compile_split_memo_at(&split, 9).expect("the host is supported");
+        let len = jits.iter().map(|j| j.trig_len()).max().unwrap_or(0).max(9);
+        let mut trig = vec![f64::NAN; len];
+        let mut points = vec![x];
+        for (k, d) in [(4, dt), (3, dp), (0, dt), (4, -dt), (3, -dp)] {
+            let mut p = *points.last().unwrap_or(&x);
+            p[k] += d;
+            points.push(p);
+        }
+        points.push(x);
+        for (step, p) in points.iter().enumerate() {
+            let inputs = TapeInputs { q: &p[..3], qd: &[], params: &p[3..4], t: p[4] };
+            for (which, (tape, jit)) in tapes.iter().zip(&jits).enumerate() {
+                let mut regs = vec![0.0; tape.registers()];
+                let mut want = vec![0.0];
+                prop_assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+                let mut got = vec![7.0];
+                prop_assert!(jit.eval_with_cache(&inputs, &mut trig, &mut got).is_ok());
+                prop_assert!(same(got[0], want[0]),
+                    "point {step}, tape {which}: jit {:e} vs tape {:e}", got[0], want[0]);
+            }
+        }
+    }
+}
+
+/// A new cache, filled with NaN, holds no valid key of the part that
+/// depends on t and the parameters alone, even at t = NaN (whose bits the
+/// filling NaN has): the part is computed, and an output of it that does
+/// not read t is the tape's number, not the filling.
+#[test]
+fn a_new_cache_holds_no_valid_key() {
+    let mut a = Arena::new();
+    let x0 = a.coordinate("x0", 0);
+    let x1 = a.coordinate("x1", 1);
+    let p = a.parameter("p", 0);
+    let t = a.time();
+    let cos_p = a.cos(p);
+    let first = a.mul(x0, cos_p);
+    let sin_t = a.sin(t);
+    let second = a.add(x1, sin_t);
+    let tape = Tape::compile(&a, &[first, second]);
+    let jit = compile(&[&tape]).expect("the host is supported");
+    let inputs = TapeInputs {
+        q: &[0.5, 0.25],
+        qd: &[],
+        params: &[0.3],
+        t: f64::NAN,
+    };
+    let mut regs = vec![0.0; tape.registers()];
+    let mut want = [0.0; 2];
+    assert!(tape.eval(&inputs, &mut regs, &mut want).is_ok());
+    assert_eq!(want[0], 0.5 * 0.3f64.cos());
+    for _ in 0..2 {
+        let mut trig = vec![f64::NAN; jit[0].trig_len()];
+        let mut got = [7.0; 2];
+        assert!(jit[0].eval_with_cache(&inputs, &mut trig, &mut got).is_ok());
+        assert_eq!(got[0].to_bits(), want[0].to_bits());
+        assert!(got[1].is_nan());
     }
 }
 

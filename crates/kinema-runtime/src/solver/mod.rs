@@ -153,6 +153,10 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     /// may have changed): the previous state's Taylor prediction says
     /// nothing about the next one, so the next step is not held to it.
     changed: bool,
+    /// The system was lent out mutably since the scratch was made: it may
+    /// be another system now, whose evaluations would misread this one's
+    /// caches, so the next step or assembly makes a new scratch.
+    stale_scratch: bool,
     factorization: Factorization,
     /// Sign of det Φ_q on the branch so far (0 before the first known).
     branch_sign: f64,
@@ -214,6 +218,7 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             travel: Travel::default(),
             assembled: false,
             changed: false,
+            stale_scratch: false,
             factorization: Factorization::None,
             branch_sign: 0.0,
             events: Vec::new(),
@@ -240,7 +245,16 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     pub fn system_mut(&mut self) -> &mut S {
         self.factored = 0;
         self.changed = true;
+        self.stale_scratch = true;
         &mut self.system
+    }
+
+    /// A new scratch from the system if it was lent out mutably (see
+    /// `stale_scratch`): once per change, not per step.
+    fn renew_scratch(&mut self) {
+        if std::mem::take(&mut self.stale_scratch) {
+            self.scratch = self.system.scratch();
+        }
     }
 
     /// Gives the system back.
@@ -312,6 +326,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Assembly: position, velocity and acceleration at `t0`, Newton starting
     /// from the system's initial guess.
     pub fn assemble(&mut self, t0: f64) -> Result<&State, Error> {
+        self.renew_scratch();
         if !t0.is_finite() {
             return Err(Error::NonFiniteTime { t: t0 });
         }
@@ -349,6 +364,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if !self.assembled {
             return self.assemble(t);
         }
+        self.renew_scratch();
         if !t.is_finite() {
             return Err(Error::NonFiniteTime { t });
         }
@@ -840,6 +856,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// The system, its scratch and the current state (if any), borrowed
     /// together.
     pub(crate) fn parts(&mut self) -> (&S, &mut S::Scratch, Option<&State>) {
+        self.renew_scratch();
         let state = self.assembled.then_some(&self.state);
         (&self.system, &mut self.scratch, state)
     }
@@ -860,6 +877,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             && self.factored == self.state.tag
             && self.factored_scaled == self.ws.scaling.active;
         if !current {
+            self.renew_scratch();
             let t = self.state.t;
             self.system
                 .jacobian(&mut self.scratch, &self.state.q, t, &mut self.ws.jac);
