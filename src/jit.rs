@@ -303,8 +303,11 @@ struct LazyFactor {
 
 impl CompiledFactor for LazyFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan> {
-        self.slot.get()?.as_ref()?.factor(values, v, check)
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut FactorScan) -> bool {
+        match self.slot.get() {
+            Some(Some(f)) => f.factor(values, v, check, scan),
+            _ => false,
+        }
     }
 }
 

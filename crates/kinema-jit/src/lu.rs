@@ -778,23 +778,27 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan> {
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, out: &mut FactorScan) -> bool {
         let scan = match &self.prologue {
-            None => self.f.call(values, v, check)?,
+            None => self.f.call(values, v, check),
             Some(p) if self.f.fits(values, v) => {
                 let start = p.run(values, v, check);
-                self.f.call_from(values, v, start, check)?
+                self.f.call_from(values, v, start, check)
             }
-            Some(_) => return None,
+            Some(_) => None,
         };
-        Some(FactorScan {
+        let Some(scan) = scan else {
+            return false;
+        };
+        *out = FactorScan {
             scale: scan[SCAN_SCALE],
             finite: scan[SCAN_FINITE] != 0.0,
             same: scan[SCAN_SAME] != 0.0,
             negative: scan[SCAN_NEGATIVE] != 0.0,
             min_pivot: scan[SCAN_MIN_PIVOT],
             max_multiplier: scan[SCAN_MAX_MULTIPLIER],
-        })
+        };
+        true
     }
 }
 

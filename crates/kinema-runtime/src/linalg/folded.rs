@@ -146,12 +146,15 @@ pub struct FactorScan {
 /// in with [`FoldedLu::set_compiled_factor`]: it must write the value array
 /// and find the scan exactly as the interpreter does.
 pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
-    /// Factors `values` into `v`; `None` (nothing written) if it cannot,
-    /// for instance on slices of unexpected lengths: the interpreter then
-    /// factors. With `check` false the constant entries may be taken as
-    /// planned, unchecked (`same` then `true`); checking them anyway is
-    /// never wrong.
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<FactorScan>;
+    /// Factors `values` into `v` and writes the scan into `scan`; `false`
+    /// (nothing written) if it cannot, for instance on slices of unexpected
+    /// lengths: the interpreter then factors. With `check` false the
+    /// constant entries may be taken as planned, unchecked (`same` then
+    /// `true`); checking them anyway is never wrong. (The scan is written
+    /// in place, not returned: a returned one is stored and read back in
+    /// pieces of other sizes, which stalls the processor's forwarding of
+    /// stores to loads.)
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut FactorScan) -> bool;
 }
 
 /// One operation of a triangular solve on y, reading the factors' values v
@@ -629,12 +632,11 @@ impl Folded {
         let compiled = self
             .compiled_factor
             .as_ref()
-            .and_then(|c| c.factor(values, &mut self.v, check));
-        let scan = match compiled {
-            Some(scan) => scan,
-            None => self.interpret(values, check),
-        };
-        self.scan = scan;
+            .is_some_and(|c| c.factor(values, &mut self.v, check, &mut self.scan));
+        if !compiled {
+            self.scan = self.interpret(values, check);
+        }
+        let scan = &self.scan;
         order_accepted(
             scan.finite && scan.same,
             scan.max_multiplier,
