@@ -140,7 +140,9 @@ impl TapeFn {
             trig: trig.len(),
         };
         if !self.needs.fits(&given) {
-            return Err(self.needs.short_slice(&given));
+            // By value: the lengths are put in memory on this cold path
+            // only.
+            return Err(self.needs.short_slice(given));
         }
         // SAFETY: the function reads only q[..n.q], qd[..n.qd],
         // params[..n.params], writes only out[..n.out] and out2[..n.out2],
@@ -164,21 +166,22 @@ impl TapeFn {
 }
 
 impl Needs {
-    /// Every length of `given` at least the one needed.
+    /// Every length of `given` at least the one needed (no branch per
+    /// length: they almost always all fit).
     #[inline]
     fn fits(&self, given: &Needs) -> bool {
-        given.q >= self.q
-            && given.qd >= self.qd
-            && given.params >= self.params
-            && given.out >= self.out
-            && given.out2 >= self.out2
-            && given.trig >= self.trig
+        (given.q >= self.q)
+            & (given.qd >= self.qd)
+            & (given.params >= self.params)
+            & (given.out >= self.out)
+            & (given.out2 >= self.out2)
+            & (given.trig >= self.trig)
     }
 
     /// The error for the first slice of `given` shorter than needed.
     #[cold]
     #[inline(never)]
-    fn short_slice(&self, given: &Needs) -> JitError {
+    fn short_slice(&self, given: Needs) -> JitError {
         [
             ("q", self.q, given.q),
             ("qd", self.qd, given.qd),
