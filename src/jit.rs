@@ -42,8 +42,9 @@ pub(crate) struct HotTapes<'t> {
 }
 
 /// Which of [`HotTapes::splits`] a step evaluates several times at one
-/// time (Φ, Φ_q, both: each Newton iteration) and so keep their part that
-/// reads neither q nor q̇ across calls; ν and γ are evaluated once.
+/// time (Φ, Φ_q, both: each Newton iteration), and so keep their part that
+/// reads neither q nor q̇ across calls; ν and γ are evaluated once per
+/// time.
 const ITERATED: [bool; 5] = [true, true, true, false, false];
 
 impl HotTapes<'_> {

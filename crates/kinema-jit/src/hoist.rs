@@ -1,19 +1,24 @@
 //! The part of a tape that reads neither q nor q̇ — a driver's function of
 //! time, an expression of the parameters — computed at most once per
 //! (t, parameters) and kept in the cache slice, as generated code keeps
-//! its time terms: a Newton iteration, the velocity and the acceleration
+//! its time terms: Newton's iterations, the velocity and the acceleration
 //! analyses at one time read it back instead of computing it again.
 //!
-//! A compiled function with a hoisted part starts by comparing its key in
-//! the cache slice — t's bits, the same bits XORed with the function's
-//! salt, and the bits of each parameter the part reads — with its
-//! arguments. Equal, it loads the kept values; else it computes the part,
-//! stores the values the rest of the function reads and then the key. The
-//! salt (never zero, distinct per compiled function in the process) makes
-//! a key another function or a new NaN-filled slice left there never
-//! match: both words would have to equal t's bits and t's bits XOR the
-//! salt. The arithmetic is the tape's, in its order, so the values are
-//! the interpreter's bit for bit whether computed or read back.
+//! A compiled tape with a hoisted part keeps a key in the cache slice —
+//! t's bits, the same bits XORed with the compilation's salt, and the bits
+//! of each parameter the part reads — and starts by comparing it with its
+//! arguments: equal, it loads the kept values; else it first calls its
+//! part's own function, which computes the part, stores the values the
+//! rest of the tape reads and then the key. Only tapes evaluated several
+//! times at one (t, parameters) gain (Newton's Φ and Φ_q; see
+//! `compile_iterated`): one evaluated once per time would miss every
+//! time. (Sharing one part between tapes gains nothing either: their sines
+//! and cosines are shared through the memo already.) The salt (never zero,
+//! distinct per compilation in the process) makes a key that a new
+//! NaN-filled slice holds never match: both words would have to equal t's
+//! bits and t's bits XOR the salt. The arithmetic is the tape's, in its
+//! order, so the values are the interpreter's bit for bit whether computed
+//! or read back.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -163,12 +168,6 @@ impl Hoisted {
         })
     }
 
-    /// Entries of the cache slice it uses: the key (t, t salted, the
-    /// parameters read), then the kept values.
-    pub(crate) fn len(&self) -> usize {
-        2 + self.params.len() + self.kept_len
-    }
-
     /// Whether instruction `i` is emitted in the hoisted part only.
     pub(crate) fn is_hoisted(&self, i: usize) -> bool {
         self.place.get(i) == Some(&Place::Hoisted)
@@ -180,20 +179,10 @@ impl Hoisted {
         self.place.get(i).is_some_and(|p| *p != Place::Rest)
     }
 
-    /// Where instruction `i`'s value is kept, after the key: its index
-    /// among the kept values.
+    /// Where instruction `i`'s value is kept: its index among the kept
+    /// values.
     pub(crate) fn kept(&self, i: usize) -> Option<usize> {
         self.kept.get(i).copied().flatten()
-    }
-
-    /// The parameters the key holds, in its order.
-    pub(crate) fn params(&self) -> &[u32] {
-        &self.params
-    }
-
-    /// Whether the key holds t.
-    pub(crate) fn reads_t(&self) -> bool {
-        self.reads_t
     }
 }
 
@@ -215,8 +204,8 @@ fn weight(ins: &Instr) -> usize {
     }
 }
 
-/// A salt for one compiled function: never zero, distinct for each call in
-/// the process (a counter through SplitMix64's finalizer, a bijection).
+/// A salt for one compilation: never zero, distinct for each call in the
+/// process (a counter through SplitMix64's finalizer, a bijection).
 pub(crate) fn salt() -> u64 {
     static NEXT: AtomicU64 = AtomicU64::new(0);
     let mut z = NEXT
@@ -226,4 +215,67 @@ pub(crate) fn salt() -> u64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;
     if z == 0 { 1 } else { z }
+}
+
+/// A tape's hoisted part and where it lives in the cache slice: its key at
+/// `key_at` (t's bits, t's bits XOR the salt, then the bits of each
+/// parameter in `params`), its kept values from `kept_at`.
+#[derive(Debug)]
+pub(crate) struct Part {
+    pub(crate) hoisted: Hoisted,
+    pub(crate) key_at: usize,
+    pub(crate) kept_at: usize,
+}
+
+impl Part {
+    /// The parameters its key holds, in order.
+    pub(crate) fn params(&self) -> &[u32] {
+        &self.hoisted.params
+    }
+
+    /// Whether its key holds t.
+    pub(crate) fn reads_t(&self) -> bool {
+        self.hoisted.reads_t
+    }
+
+    /// The end of its entries.
+    pub(crate) fn end(&self) -> usize {
+        self.kept_at + self.hoisted.kept_len
+    }
+}
+
+/// The hoisted parts of tapes compiled together, one after the other in
+/// the cache slice, and the end of the last.
+#[derive(Debug)]
+pub(crate) struct Layout {
+    /// Per tape, its part, if it has one.
+    pub(crate) parts: Vec<Option<Part>>,
+    /// The end of the last part's entries.
+    pub(crate) end: usize,
+}
+
+impl Layout {
+    /// The parts of `tapes` (none for a tape where `hoist(k)` is false),
+    /// their entries from `at` on; `None` if the end overflows.
+    pub(crate) fn new(tapes: &[&Tape], at: usize, hoist: impl Fn(usize) -> bool) -> Option<Layout> {
+        let mut end = at;
+        let mut parts = Vec::with_capacity(tapes.len());
+        for (k, tape) in tapes.iter().enumerate() {
+            let hoisted = if hoist(k) { Hoisted::new(tape) } else { None };
+            parts.push(match hoisted {
+                Some(hoisted) => {
+                    let key_at = end;
+                    let kept_at = key_at.checked_add(2 + hoisted.params.len())?;
+                    end = kept_at.checked_add(hoisted.kept_len)?;
+                    Some(Part {
+                        hoisted,
+                        key_at,
+                        kept_at,
+                    })
+                }
+                None => None,
+            });
+        }
+        Some(Layout { parts, end })
+    }
 }

@@ -14,7 +14,7 @@ use kinema_expr::{Instr, Tape, TapeInputs};
 
 use crate::JitError;
 use crate::code::{Code, Needs, TapeFn};
-use crate::hoist::{self, Hoisted};
+use crate::hoist::{self, Layout, Part};
 use crate::shims::{self, Shape, Which};
 
 /// The most instructions (all tapes of one [`compile`] together) the JIT
@@ -213,7 +213,7 @@ pub fn compile_split_memo_at(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
 ) -> Result<Vec<JitTape>, JitError> {
-    compile_with(tapes, memo_base, CHUNK_INSTRUCTIONS, Reloads::DEFAULT, &[])
+    compile_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS, Reloads::DEFAULT)
 }
 
 /// [`compile_split_memo_at`] with the part that reads neither q nor q̇
@@ -256,8 +256,8 @@ pub fn compile_chunked(
     compile_with(tapes, memo_base, chunk, reloads, &[])
 }
 
-/// [`compile_chunked`], the tapes' parts that read neither q nor q̇ kept
-/// where `iterated` says (see [`compile_iterated`]).
+/// [`compile_chunked`], the parts that read neither q nor q̇ kept where
+/// `iterated` says (see [`compile_iterated`]).
 fn compile_with(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
@@ -279,7 +279,8 @@ fn compile_with(
     // memo's last possible entry (and after `memo_base`: the caller's own
     // values lie below it): register r at `spill_base + r`.
     let spill_base = memo_bound(tapes, memo_base)?.max(memo_base);
-    let (hoists, _) = hoisting(tapes, memo_base, chunk, iterated)?;
+    let layout = hoisting(tapes, memo_base, chunk, iterated)?;
+    let salt = hoist::salt();
     let mut module = new_module()?;
     let shims = declare_shims(&mut module)?;
     let mut ctx = module.make_context();
@@ -315,11 +316,51 @@ fn compile_with(
         Ok((id, needs))
     };
     for (i, &(tape, split)) in tapes.iter().enumerate() {
+        let part = layout.parts.get(i).and_then(Option::as_ref);
+        let key = part.map(|part| Key {
+            at: part.key_at,
+            params: part.params(),
+            reads_t: part.reads_t(),
+            salt,
+        });
+        // The function computing the tape's hoisted part, then the key.
+        let time = match (part, &key) {
+            (Some(part), Some(key)) => Some(define(
+                &mut module,
+                format!("tape{i}_time"),
+                &mut |module, b| {
+                    let block = b.create_block();
+                    b.append_block_params_for_function_params(block);
+                    b.switch_to_block(block);
+                    let args = b.block_params(block).to_vec();
+                    let [_, _, p, t, _, _, trig] = args[..] else {
+                        return Err(JitError::Compile("signature".into()));
+                    };
+                    let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
+                    let mut emitter = Emitter::new(tape, refs, memo_base, reloads);
+                    let needs = emitter.emit_time_part(b, part, [p, t, trig])?;
+                    for (j, &w) in key_words(b, key, p, t)?.iter().enumerate() {
+                        b.ins()
+                            .store(MemFlagsData::trusted(), w, trig, offset(key.at + j)?);
+                    }
+                    b.ins().return_(&[]);
+                    Ok(needs)
+                },
+            )?),
+            _ => None,
+        };
+        let hoisted = match (part, &key, time) {
+            (Some(part), Some(key), Some((time, _))) => Some((part, key, time)),
+            _ => None,
+        };
         let (id, needs) = if tape.len() <= chunk {
             define(&mut module, format!("tape{i}"), &mut |module, b| {
                 let refs = shims.map(|(id, _)| module.declare_func_in_func(id, b.func));
                 let mut emitter = Emitter::new(tape, refs, memo_base, reloads);
-                emitter.hoist = hoists.get(i).and_then(Option::as_ref);
+                if let Some((part, key, time)) = hoisted {
+                    let time = module.declare_func_in_func(time, b.func);
+                    emitter.hoist = Some((part, key, time));
+                }
                 emitter.emit(b, split)
             })?
         } else {
@@ -334,6 +375,10 @@ fn compile_with(
                     let e =
                         emitter.get_or_insert_with(|| Emitter::new(tape, refs, memo_base, reloads));
                     e.shims = refs;
+                    if let Some((part, key, time)) = hoisted {
+                        let time = module.declare_func_in_func(time, b.func);
+                        e.hoist = Some((part, key, time));
+                    }
                     e.emit_chunk(b, split, &plan, c)
                 })?;
                 parts.push(part);
@@ -348,6 +393,10 @@ fn compile_with(
                 b.append_block_params_for_function_params(block);
                 b.switch_to_block(block);
                 let args = b.block_params(block).to_vec();
+                if let Some((_, key, time)) = hoisted {
+                    let time = module.declare_func_in_func(time, b.func);
+                    emit_key_check(b, key, time, &args)?;
+                }
                 for &(part, _) in &parts {
                     let f = module.declare_func_in_func(part, b.func);
                     b.ins().call(f, &args);
@@ -355,6 +404,12 @@ fn compile_with(
                 b.ins().return_(&[]);
                 Ok(needs)
             })?
+        };
+        // A tape that calls its part's function needs that one's slices
+        // too.
+        let needs = match time {
+            Some((_, t)) => widest(needs, t),
+            None => needs,
         };
         compiled.push((id, needs, tape));
     }
@@ -486,18 +541,6 @@ pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usi
     cache_len_bound_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
 }
 
-/// [`cache_len_bound`] for [`compile_iterated`].
-///
-/// # Errors
-/// As [`cache_len_bound`].
-pub fn cache_len_bound_iterated(
-    tapes: &[(&Tape, usize)],
-    memo_base: usize,
-    iterated: &[bool],
-) -> Result<usize, JitError> {
-    Ok(hoisting(tapes, memo_base, CHUNK_INSTRUCTIONS, iterated)?.1)
-}
-
 /// [`cache_len_bound`] for [`compile_chunked`] with this `chunk`: past the
 /// memo's entries, a tape compiled in chunks keeps the values crossing
 /// their boundaries at `spill + r` for its register r. Not a stable
@@ -511,43 +554,35 @@ pub fn cache_len_bound_chunked(
     memo_base: usize,
     chunk: usize,
 ) -> Result<usize, JitError> {
-    Ok(hoisting(tapes, memo_base, chunk, &[])?.1)
+    Ok(hoisting(tapes, memo_base, chunk, &[])?.end)
 }
 
-/// Each tape's hoisted part (see [`crate::hoist`]) and where its entries
-/// start in the cache slice: after the memo and the values crossing chunks,
-/// one region per tape compiled as one function (a long tape's time terms
-/// are a negligible share of it), in the tapes' order; and the end of the
-/// last.
-type Hoists = (Vec<Option<(Hoisted, usize)>>, usize);
+/// [`cache_len_bound`] for [`compile_iterated`].
+///
+/// # Errors
+/// As [`cache_len_bound`].
+pub fn cache_len_bound_iterated(
+    tapes: &[(&Tape, usize)],
+    memo_base: usize,
+    iterated: &[bool],
+) -> Result<usize, JitError> {
+    Ok(hoisting(tapes, memo_base, CHUNK_INSTRUCTIONS, iterated)?.end)
+}
 
+/// The tapes' hoisted parts (see [`crate::hoist`]), where `iterated` says
+/// (a tape past its end counts as marked), after the memo and the values
+/// crossing chunks.
 fn hoisting(
     tapes: &[(&Tape, usize)],
     memo_base: usize,
     chunk: usize,
     iterated: &[bool],
-) -> Result<Hoists, JitError> {
+) -> Result<Layout, JitError> {
     // Never below `memo_base`: the caller's own values lie there.
-    let mut at = spill_end(tapes, memo_base, chunk)?.max(memo_base);
-    let mut hoists = Vec::with_capacity(tapes.len());
-    for (k, (tape, _)) in tapes.iter().enumerate() {
-        let hoisted = if tape.len() <= chunk.max(1) && iterated.get(k).copied().unwrap_or(true) {
-            Hoisted::new(tape)
-        } else {
-            None
-        };
-        hoists.push(match hoisted {
-            Some(h) => {
-                let base = at;
-                at = at
-                    .checked_add(h.len())
-                    .ok_or_else(|| JitError::Compile("cache too large".into()))?;
-                Some((h, base))
-            }
-            None => None,
-        });
-    }
-    Ok((hoists, at))
+    let at = spill_end(tapes, memo_base, chunk)?.max(memo_base);
+    let tapes: Vec<&Tape> = tapes.iter().map(|(t, _)| *t).collect();
+    Layout::new(&tapes, at, |k| iterated.get(k).copied().unwrap_or(true))
+        .ok_or_else(|| JitError::Compile("cache too large".into()))
 }
 
 /// The end of the memo's entries and of the values crossing chunks.
@@ -742,9 +777,84 @@ struct Emitter<'t> {
     last_write: Vec<usize>,
     /// Registers written by the chunks emitted so far (chunked tapes).
     written: Vec<bool>,
-    /// The tape's hoisted part and where its entries start in the cache
-    /// slice (a tape compiled as one function).
-    hoist: Option<&'t (Hoisted, usize)>,
+    /// The tape's hoisted part, its key, and the function computing it.
+    hoist: Option<(&'t Part, &'t Key<'t>, FuncRef)>,
+    /// Per register, where its value is kept if a hoisted instruction
+    /// wrote it last (a later chunk reads it there).
+    kept_def: Vec<Option<usize>>,
+}
+
+/// The key of a tape's hoisted part in the cache slice (see
+/// [`crate::hoist`]).
+struct Key<'a> {
+    /// Where it starts.
+    at: usize,
+    /// The parameters it holds after t's two words.
+    params: &'a [u32],
+    /// Whether it holds t (else 0 in its place).
+    reads_t: bool,
+    /// The compilation's salt.
+    salt: u64,
+}
+
+/// The key's words as they should be for the arguments `p` (parameters)
+/// and `t`: t's bits, the same XORed with the salt, each parameter's bits.
+fn key_words(
+    b: &mut FunctionBuilder<'_>,
+    key: &Key<'_>,
+    p: Value,
+    t: Value,
+) -> Result<Vec<Value>, JitError> {
+    let t_bits = if key.reads_t {
+        b.ins().bitcast(I64, MemFlagsData::new(), t)
+    } else {
+        b.ins().iconst(I64, 0)
+    };
+    let salt = b.ins().iconst(I64, key.salt.cast_signed());
+    let salted = b.ins().bxor(t_bits, salt);
+    let mut words = vec![t_bits, salted];
+    for &k in key.params {
+        words.push(
+            b.ins()
+                .load(I64, MemFlagsData::trusted(), p, offset(k as usize)?),
+        );
+    }
+    Ok(words)
+}
+
+/// At a function's start (`args` its arguments): the key compared with
+/// the arguments and, on a difference, `time` (the hoisted part's
+/// function) called with them; the function goes on in a block after
+/// both.
+fn emit_key_check(
+    b: &mut FunctionBuilder<'_>,
+    key: &Key<'_>,
+    time: FuncRef,
+    args: &[Value],
+) -> Result<(), JitError> {
+    let [_, _, p, t, _, _, trig] = args[..] else {
+        return Err(JitError::Compile("signature".into()));
+    };
+    let want = key_words(b, key, p, t)?;
+    let mut same = None;
+    for (j, &w) in want.iter().enumerate() {
+        let seen = b
+            .ins()
+            .load(I64, MemFlagsData::trusted(), trig, offset(key.at + j)?);
+        let eq = b.ins().icmp(IntCC::Equal, seen, w);
+        same = Some(match same {
+            Some(s) => b.ins().band(s, eq),
+            None => eq,
+        });
+    }
+    let same = same.ok_or_else(|| JitError::Compile("no key".into()))?;
+    let (compute, rest) = (b.create_block(), b.create_block());
+    b.ins().brif(same, rest, &[], compute, &[]);
+    b.switch_to_block(compute);
+    b.ins().call(time, args);
+    b.ins().jump(rest, &[]);
+    b.switch_to_block(rest);
+    Ok(())
 }
 
 impl<'t> Emitter<'t> {
@@ -767,6 +877,7 @@ impl<'t> Emitter<'t> {
             last_write: Vec::new(),
             written: Vec::new(),
             hoist: None,
+            kept_def: vec![None; tape.registers()],
         }
     }
 
@@ -877,7 +988,10 @@ impl<'t> Emitter<'t> {
             );
             for (r, slot) in self.vals.iter_mut().enumerate() {
                 if self.written.get(r) == Some(&true) {
-                    *slot = Slot::Spill(offset(plan.base + r)?);
+                    // A hoisted value where it is kept; others where the
+                    // chunk that wrote them stored them.
+                    let at = self.kept_def.get(r).copied().flatten();
+                    *slot = Slot::Spill(offset(at.unwrap_or(plan.base + r))?);
                 }
             }
             spill_here = vec![false; plan.registers];
@@ -895,16 +1009,12 @@ impl<'t> Emitter<'t> {
             .instructions()
             .get(range.clone())
             .ok_or_else(|| JitError::Compile("chunk out of range".into()))?;
-        let hoist = match (self.hoist, chunk) {
-            (Some(h), None) => Some(h),
-            _ => None,
-        };
-        if let Some(&(ref h, base)) = hoist {
-            needs.trig = needs.trig.max(
-                base.checked_add(h.len())
-                    .ok_or_else(|| JitError::Compile("cache too large".into()))?,
-            );
-            self.emit_hoisted(b, h, base, [p, t, trig])?;
+        if let Some((part, key, time)) = self.hoist {
+            needs.trig = needs.trig.max(part.end());
+            // A chunk's caller checks the key.
+            if chunk.is_none() {
+                emit_key_check(b, key, time, &params)?;
+            }
         }
         // The coordinates' cache entries brought up to date first, while
         // nothing is live: each may call out, and a call spills every live
@@ -939,21 +1049,34 @@ impl<'t> Emitter<'t> {
         for (i, ins) in instrs.iter().enumerate() {
             let dst = ins.dst() as usize;
             self.tick = i;
-            if let Some(&(ref h, base)) = hoist
-                && h.is_hoisted(i)
+            let at = range.start + i;
+            if let Some((part, _, _)) = self.hoist
+                && part.hoisted.is_hoisted(at)
             {
-                // Computed before: its kept value read from the cache
-                // where the rest reads it (never read otherwise).
-                let slot = match h.kept(i) {
-                    Some(e) => Slot::Spill(offset(base + 2 + h.params().len() + e)?),
+                let (h, kept_at) = (&part.hoisted, part.kept_at);
+                // Computed by the hoisted parts' function: its kept value
+                // read from the cache where the rest reads it (never read
+                // otherwise).
+                let kept = h.kept(at).map(|e| kept_at + e);
+                let slot = match kept {
+                    Some(k) => Slot::Spill(offset(k)?),
                     None => Slot::Empty,
                 };
                 self.set_slot(dst, slot)?;
-                if self.last_write.get(dst) == Some(&(range.start + i)) {
+                if let Some(w) = self.written.get_mut(dst) {
+                    *w = true;
+                }
+                if let Some(k) = self.kept_def.get_mut(dst) {
+                    *k = kept;
+                }
+                if self.last_write.get(dst) == Some(&at) {
                     let v = self.get(b, ins.dst())?;
                     self.store_output(b, dst, v)?;
                 }
                 continue;
+            }
+            if let Some(k) = self.kept_def.get_mut(dst) {
+                *k = None;
             }
             let v = self.instr(b, *ins)?;
             if self.last_write.get(dst) == Some(&(range.start + i)) {
@@ -1004,49 +1127,44 @@ impl<'t> Emitter<'t> {
         Ok(())
     }
 
-    /// The hoisted part `h` (its entries at `base` in the cache slice
-    /// `trig`) at the function's start: the key compared with t (`t`) and
-    /// the parameters (at `params`); on a difference, the part computed,
-    /// the values the rest reads kept, and the key stored. The emitter's
-    /// state is then the function's start again (no value of the
-    /// computing block is visible after it), in a block after both.
-    fn emit_hoisted(
+    /// The hoisted part `h` of this emitter's tape, as a part of the
+    /// hoisted parts' function (arguments `params`, `t`, `trig`): computed
+    /// on the tape's registers from the function's inputs, each value the
+    /// rest of the tape reads stored at `kept_at` on. Returns the slice
+    /// lengths its loads and stores were checked against.
+    fn emit_time_part(
         &mut self,
         b: &mut FunctionBuilder<'_>,
-        h: &Hoisted,
-        base: usize,
+        part: &Part,
         [params, t, trig]: [Value; 3],
-    ) -> Result<(), JitError> {
+    ) -> Result<Needs, JitError> {
+        let (h, kept_at) = (&part.hoisted, part.kept_at);
+        let layout = self.tape.layout();
+        let (_, _, np) = self.tape.input_sizes();
+        self.vals.fill(Slot::Empty);
+        self.memo.clear();
+        self.inputs.clear();
+        self.loaded.clear();
+        self.filled.clear();
+        self.tick = 0;
+        self.window = usize::MAX;
+        self.trig = Some(trig);
+        self.sink = None;
+        for k in 0..np {
+            let slot = self
+                .vals
+                .get_mut(layout.params_base + k)
+                .ok_or_else(|| JitError::Compile("input register out of range".into()))?;
+            *slot = Slot::Input(params, offset(k)?);
+        }
+        if let Some(r) = layout.t_register {
+            self.set(r, t)?;
+        }
+        for (k, &c) in layout.consts.iter().enumerate() {
+            let v = b.ins().f64const(c);
+            self.set(layout.consts_base + k, v)?;
+        }
         let flags = MemFlagsData::trusted();
-        let salt = hoist::salt();
-        // The key as it should be: t's bits (0 if the part does not read
-        // t), the same XORed with the salt, the parameters' bits.
-        let t_bits = if h.reads_t() {
-            b.ins().bitcast(I64, MemFlagsData::new(), t)
-        } else {
-            b.ins().iconst(I64, 0)
-        };
-        let salt = b.ins().iconst(I64, salt.cast_signed());
-        let salted = b.ins().bxor(t_bits, salt);
-        let mut key = vec![t_bits, salted];
-        for &k in h.params() {
-            key.push(b.ins().load(I64, flags, params, offset(k as usize)?));
-        }
-        let mut same = None;
-        for (j, &want) in key.iter().enumerate() {
-            let seen = b.ins().load(I64, flags, trig, offset(base + j)?);
-            let eq = b.ins().icmp(IntCC::Equal, seen, want);
-            same = Some(match same {
-                Some(s) => b.ins().band(s, eq),
-                None => eq,
-            });
-        }
-        let same = same.ok_or_else(|| JitError::Compile("no key".into()))?;
-        let (compute, rest) = (b.create_block(), b.create_block());
-        b.ins().brif(same, rest, &[], compute, &[]);
-        b.switch_to_block(compute);
-        let start = self.vals.clone();
-        let kept_at = base + key.len();
         for (i, ins) in self.tape.instructions().iter().enumerate() {
             if !h.in_hoisted(i) {
                 continue;
@@ -1056,19 +1174,14 @@ impl<'t> Emitter<'t> {
                 b.ins().store(flags, v, trig, offset(kept_at + e)?);
             }
         }
-        for (j, &k) in key.iter().enumerate() {
-            b.ins().store(flags, k, trig, offset(base + j)?);
-        }
-        b.ins().jump(rest, &[]);
-        b.switch_to_block(rest);
-        self.vals = start;
-        self.memo.clear();
-        self.inputs.clear();
-        self.loaded.clear();
-        if let Some(sink) = self.sink.as_mut() {
-            sink.stored.fill(false);
-        }
-        Ok(())
+        Ok(Needs {
+            q: 0,
+            qd: 0,
+            params: np,
+            out: 0,
+            out2: 0,
+            trig: self.memo_next.max(part.end()),
+        })
     }
 
     /// The value of register `r`, loading an input at its first read.
