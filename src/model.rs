@@ -604,12 +604,7 @@ impl System for TapeSystem {
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd: &self.zeros,
-            params: &self.params,
-            t,
-        };
+        let inputs = self.inputs(q, &self.zeros, t);
         #[cfg(feature = "jit")]
         if let Some((c, trig)) = self.compiled(registers) {
             return crate::jit::run(&c.phi, &inputs, trig, phi);
@@ -618,12 +613,7 @@ impl System for TapeSystem {
     }
 
     fn jacobian(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, values: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd: &self.zeros,
-            params: &self.params,
-            t,
-        };
+        let inputs = self.inputs(q, &self.zeros, t);
         #[cfg(feature = "jit")]
         if let Some((c, trig)) = self.compiled(registers) {
             return crate::jit::run(&c.jacobian, &inputs, trig, values);
@@ -641,12 +631,7 @@ impl System for TapeSystem {
     ) {
         #[cfg(feature = "jit")]
         if let Some((c, trig)) = self.compiled(registers) {
-            let inputs = TapeInputs {
-                q,
-                qd: &self.zeros,
-                params: &self.params,
-                t,
-            };
+            let inputs = self.inputs(q, &self.zeros, t);
             if phi.len() + values.len() != c.both.outputs()
                 || c.both.eval_split(&inputs, trig, phi, values).is_err()
             {
@@ -658,12 +643,7 @@ impl System for TapeSystem {
     }
 
     fn nu(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, nu: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd: &self.zeros,
-            params: &self.params,
-            t,
-        };
+        let inputs = self.inputs(q, &self.zeros, t);
         #[cfg(feature = "jit")]
         if let Some((c, trig)) = self.compiled(registers) {
             return crate::jit::run(&c.nu, &inputs, trig, nu);
@@ -672,12 +652,7 @@ impl System for TapeSystem {
     }
 
     fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
-        let inputs = TapeInputs {
-            q,
-            qd,
-            params: &self.params,
-            t,
-        };
+        let inputs = self.inputs(q, qd, t);
         #[cfg(feature = "jit")]
         if let Some((c, trig)) = self.compiled(registers) {
             return crate::jit::run(&c.gamma, &inputs, trig, gamma);
@@ -687,6 +662,16 @@ impl System for TapeSystem {
 }
 
 impl TapeSystem {
+    /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.
+    fn inputs<'a>(&'a self, q: &'a [f64], qd: &'a [f64], t: f64) -> TapeInputs<'a> {
+        TapeInputs {
+            q,
+            qd,
+            params: &self.params,
+            t,
+        }
+    }
+
     /// [`System::phi_and_jacobian`] on the tape. Out of line: the compiled
     /// path's frame stays light.
     #[inline(never)]
@@ -698,12 +683,7 @@ impl TapeSystem {
         phi: &mut [f64],
         values: &mut [f64],
     ) {
-        let inputs = TapeInputs {
-            q,
-            qd: &self.zeros,
-            params: &self.params,
-            t,
-        };
+        let inputs = self.inputs(q, &self.zeros, t);
         // The outputs are Φ then Φ_q's values, read where the tape left them.
         let (trig, registers) = self.split(registers, &self.both);
         let outputs = self

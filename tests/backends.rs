@@ -56,15 +56,21 @@ fn run<S: System>(system: S) -> Trajectory {
 /// The model at `path` on `backend`; with [`Backend::Jit`], checks that
 /// the compiled code is what runs (no silent fallback to the tape).
 fn model_system(path: &str, backend: Backend) -> kinema::TapeSystem {
-    let model = kinema::Model::from_file(path)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .with_backend(backend);
-    let system = model.system();
+    on_backend(
+        kinema::Model::from_file(path).unwrap_or_else(|e| panic!("{e}")),
+        backend,
+        path,
+    )
+}
+
+/// `model`'s system on `backend` (checked as [`model_system`] does).
+fn on_backend(model: kinema::Model, backend: Backend, what: &str) -> kinema::TapeSystem {
+    let system = model.with_backend(backend).system();
     // The compiled code, not the tape it starts on while compiling.
     assert_eq!(
         system.wait_for_jit(),
         backend,
-        "{path}: fell back: {:?}",
+        "{what}: fell back: {:?}",
         system.jit_fallback()
     );
     system
@@ -592,17 +598,9 @@ fn kept_time_terms_follow_time_and_changed_parameters() {
         );
     assert!(text.contains("amp * sin(omega * t)"));
     let system = |backend| {
-        let model = kinema::Model::from_source(&text, "swing.kin")
-            .unwrap_or_else(|e| panic!("{e}"))
-            .with_backend(backend);
-        let system = model.system();
-        assert_eq!(
-            system.wait_for_jit(),
-            backend,
-            "{:?}",
-            system.jit_fallback()
-        );
-        system
+        let model =
+            kinema::Model::from_source(&text, "swing.kin").unwrap_or_else(|e| panic!("{e}"));
+        on_backend(model, backend, "swing.kin")
     };
     let (mut jit, mut tape) = (system(Backend::Jit), system(Backend::Tape));
     let (mut jit_scratch, mut tape_scratch) = (jit.scratch(), tape.scratch());

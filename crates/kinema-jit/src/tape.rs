@@ -957,26 +957,15 @@ impl<'t> Emitter<'t> {
         });
         // Inputs where the tape's layout has them (loaded at their first
         // read; every offset below its slice's checked length), constants.
-        for (base, n, ptr) in [
-            (layout.q_base, nq, q),
-            (layout.qd_base, nqd, qd),
-            (layout.params_base, np, p),
-        ] {
-            for k in 0..n {
-                let slot = self
-                    .vals
-                    .get_mut(base + k)
-                    .ok_or_else(|| JitError::Compile("input register out of range".into()))?;
-                *slot = Slot::Input(ptr, offset(k)?);
-            }
-        }
-        if let Some(r) = layout.t_register {
-            self.set(r, t)?;
-        }
-        for (k, &c) in layout.consts.iter().enumerate() {
-            let v = b.ins().f64const(c);
-            self.set(layout.consts_base + k, v)?;
-        }
+        self.start_registers(
+            b,
+            &[
+                (layout.q_base, nq, q),
+                (layout.qd_base, nqd, qd),
+                (layout.params_base, np, p),
+            ],
+            t,
+        )?;
         // Registers earlier chunks wrote: in the scratch if this chunk or
         // a later one reads them (else never read again).
         let mut spill_here = Vec::new();
@@ -1109,6 +1098,35 @@ impl<'t> Emitter<'t> {
         Ok(needs)
     }
 
+    /// The register file at a function's start: each input `(base, n,
+    /// pointer)` in its registers (loaded at its first read), t and the
+    /// constants.
+    fn start_registers(
+        &mut self,
+        b: &mut FunctionBuilder<'_>,
+        inputs: &[(usize, usize, Value)],
+        t: Value,
+    ) -> Result<(), JitError> {
+        let layout = self.tape.layout();
+        for &(base, n, ptr) in inputs {
+            for k in 0..n {
+                let slot = self
+                    .vals
+                    .get_mut(base + k)
+                    .ok_or_else(|| JitError::Compile("input register out of range".into()))?;
+                *slot = Slot::Input(ptr, offset(k)?);
+            }
+        }
+        if let Some(r) = layout.t_register {
+            self.set(r, t)?;
+        }
+        for (k, &c) in layout.consts.iter().enumerate() {
+            let v = b.ins().f64const(c);
+            self.set(layout.consts_base + k, v)?;
+        }
+        Ok(())
+    }
+
     fn set(&mut self, r: usize, v: Value) -> Result<(), JitError> {
         self.set_slot(r, Slot::Ready(v))
     }
@@ -1150,20 +1168,7 @@ impl<'t> Emitter<'t> {
         self.window = usize::MAX;
         self.trig = Some(trig);
         self.sink = None;
-        for k in 0..np {
-            let slot = self
-                .vals
-                .get_mut(layout.params_base + k)
-                .ok_or_else(|| JitError::Compile("input register out of range".into()))?;
-            *slot = Slot::Input(params, offset(k)?);
-        }
-        if let Some(r) = layout.t_register {
-            self.set(r, t)?;
-        }
-        for (k, &c) in layout.consts.iter().enumerate() {
-            let v = b.ins().f64const(c);
-            self.set(layout.consts_base + k, v)?;
-        }
+        self.start_registers(b, &[(layout.params_base, np, params)], t)?;
         let flags = MemFlagsData::trusted();
         for (i, ins) in self.tape.instructions().iter().enumerate() {
             if !h.in_hoisted(i) {
