@@ -76,8 +76,9 @@ enum Def {
 
 impl Hoisted {
     /// The hoisted part of `tape`, or `None` if it has none worth the key's
-    /// check.
-    pub(crate) fn new(tape: &Tape) -> Option<Hoisted> {
+    /// check, or one of more than `most` instructions (it is compiled as one
+    /// function, whose compile time grows faster than its size).
+    pub(crate) fn new(tape: &Tape, most: usize) -> Option<Hoisted> {
         let layout = tape.layout();
         let (_, _, np) = tape.input_sizes();
         let instrs = tape.instructions();
@@ -142,7 +143,8 @@ impl Hoisted {
                 keep[h] = true;
             }
         }
-        if cost < WORTH || !keep.contains(&true) {
+        let size = place.iter().filter(|p| **p != Place::Rest).count();
+        if cost < WORTH || size > most || !keep.contains(&true) {
             return None;
         }
         let mut kept_len = 0;
@@ -256,12 +258,22 @@ pub(crate) struct Layout {
 
 impl Layout {
     /// The parts of `tapes` (none for a tape where `hoist(k)` is false),
-    /// their entries from `at` on; `None` if the end overflows.
-    pub(crate) fn new(tapes: &[&Tape], at: usize, hoist: impl Fn(usize) -> bool) -> Option<Layout> {
+    /// each of at most `most` instructions, their entries from `at` on;
+    /// `None` if the end overflows.
+    pub(crate) fn new(
+        tapes: &[&Tape],
+        at: usize,
+        most: usize,
+        hoist: impl Fn(usize) -> bool,
+    ) -> Option<Layout> {
         let mut end = at;
         let mut parts = Vec::with_capacity(tapes.len());
         for (k, tape) in tapes.iter().enumerate() {
-            let hoisted = if hoist(k) { Hoisted::new(tape) } else { None };
+            let hoisted = if hoist(k) {
+                Hoisted::new(tape, most)
+            } else {
+                None
+            };
             parts.push(match hoisted {
                 Some(hoisted) => {
                     let key_at = end;
