@@ -195,11 +195,11 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
 /// the same equations taking the same values in the same order, as Φ, ν
 /// and γ of one model do) reads them back instead of calling. An entry
 /// whose x differs is recomputed and rewritten (a miss, never a wrong
-/// value). After the memo, a tape compiled as one function keeps the part
-/// of it that reads neither q nor q̇ (a driver's functions of t, the
+/// value). After the memo and the values crossing chunks, a tape keeps the
+/// part of it that reads neither q nor q̇ (a driver's functions of t, the
 /// parameters' expressions) with its key, t and the parameters it reads:
-/// computed once per (t, parameters), read back at the next call with the
-/// same ones (see `hoist.rs`). A caller whose cache slice holds other
+/// computed once per (t, parameters) by a function of its own, read back
+/// at the next call with the same ones (see `hoist.rs`). A caller whose cache slice holds other
 /// things up to some index puts the memo after them; the slice must be
 /// [`JitTape::trig_len`] long, filled with NaN when new, and is the cache
 /// of the tapes of one compilation: another compilation's functions (or
