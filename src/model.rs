@@ -405,7 +405,7 @@ impl TapeSystem {
     }
 
     /// The compiled tapes, once ready, and the part of the scratch they use
-    /// (see [`trig`](Self::trig)).
+    /// (see [`cache`]).
     #[cfg(feature = "jit")]
     #[inline]
     fn compiled<'a>(
@@ -475,13 +475,14 @@ impl TapeSystem {
 
     /// The scratch as the sin/cos cache of the coordinates (3 values per
     /// coordinate, see [`Tape::eval_with_cache`]) and the register file after
-    /// it, grown if it came from another system (a scratch kept while the
-    /// solver's system was replaced; the cache depends on the angles alone,
-    /// so another system's stays valid); no allocation otherwise.
+    /// it, grown if it is too short (a scratch of another system: its
+    /// contents are not this system's, so such a scratch is for growing
+    /// only — a `Solver` makes a new one whenever its system is lent out
+    /// mutably); no allocation otherwise.
     fn split<'a>(&self, scratch: &'a mut Vec<f64>, tape: &Tape) -> (&'a mut [f64], &'a mut [f64]) {
         let cache = self.trig_len();
         if scratch.len() < cache + tape.registers() {
-            scratch.resize(cache + tape.registers(), f64::NAN);
+            grow(scratch, cache + tape.registers());
         }
         scratch.split_at_mut(cache)
     }

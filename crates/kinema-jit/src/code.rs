@@ -357,8 +357,8 @@ impl FactorFn {
         // a wider load spanning two of them (what the optimizer makes of
         // copying the array) cannot take its value from the stores in
         // flight and waits for them to reach the cache (measured: the
-        // chain N = 2's factorization wrapper was 9 % of a step's time on
-        // that one load).
+        // chain N = 2's factorization wrapper was 9 % of a step's time,
+        // half of it on that one load).
         Some(std::array::from_fn(|k| {
             // SAFETY: `k < SCAN`, an element of the local array `scan`.
             unsafe { std::ptr::read_volatile(scan.as_ptr().add(k)) }
