@@ -17,7 +17,8 @@
 //!
 //! Oracles here: no NaN or ±∞ in any state reported as a success, emitted
 //! `.kin` text that reads back, error output of bounded size, agreement of
-//! the two `fun` evaluators. Panics, hangs, aborts and memory are judged by
+//! the two `fun` evaluators, agreement of the tape and the JIT bit for bit
+//! (one `.kin` run in [`JIT_SAMPLE`] is run on both). Panics, hangs, aborts and memory are judged by
 //! the driver (`kinema-fuzz` binary), which runs inputs in a child process.
 
 pub mod cli;
@@ -28,7 +29,7 @@ pub mod verdict;
 
 use std::fmt;
 
-use kinema::{Auto, Solver, State, System, TapeSystem};
+use kinema::{Auto, Backend, Solver, State, System, TapeSystem};
 use kinema_adm::fun::{Expr, Fun};
 
 /// An entry point under test.
@@ -135,6 +136,27 @@ pub(crate) fn finding(kind: &'static str, detail: impl Into<String>) -> Finding 
 /// Times at which the `.kin` target steps a model: a regular grid to 1,
 /// then long strides (drivers that overflow later, Newton from far away).
 const KIN_TIMES: [f64; 8] = [0.0, 0.1, 0.25, 0.5, 0.75, 1.0, 10.0, 1000.0];
+
+/// One model text in this many is run again on the JIT: the compilation
+/// it waits for (a debug build of Cranelift in CI) would otherwise take
+/// most of the budget (measured: the `fun` target ran 58 inputs a second
+/// with every one compared, 900 without).
+const JIT_SAMPLE: u64 = 8;
+
+/// Whether `source` is one of the texts run again on the JIT: a hash of
+/// the text, so that a replay does what the run did.
+fn compared_on_jit(source: &str) -> bool {
+    let fnv = source.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    fnv % JIT_SAMPLE == 0
+}
+
+/// Largest derivation (expression nodes) run again on the JIT: its
+/// compilation is waited for, and a debug build of Cranelift (CI's) takes
+/// seconds on the largest models the generators make, which would count
+/// against the input's time budget.
+const JIT_COMPARED_NODES: usize = 4_000;
 
 /// Most ADM solve times the `adm` target steps through.
 const ADM_STEPS: usize = 25;
@@ -285,41 +307,137 @@ fn kin_text(
     };
     // `kinema derive`: the text must render (its size is the model's).
     let _ = derivation.render();
-    let model = kinema::Model::from_derivation(derivation);
+    let model = kinema::Model::from_derivation(derivation).with_backend(Backend::Tape);
     if codegen {
         // `kinema codegen`: generated Rust for the same derivation.
         let _ = model.rust_source();
     }
+    let mut outcomes = Vec::with_capacity(times.len());
+    let reach = run_tape(&model, times, derivatives, &mut outcomes)?;
+    if (reach != Reach::Analysis || !outcomes.is_empty()) && compared_on_jit(source) {
+        same_on_jit(&model, times, derivatives, &outcomes)?;
+    }
+    let first = outcomes
+        .iter()
+        .zip(times)
+        .filter_map(|(o, &t)| match o {
+            Outcome::Step(q, _, _) => q.first().map(|&x| (t, x)),
+            Outcome::Error(_) => None,
+        })
+        .collect();
+    Ok((reach, first))
+}
+
+/// What one step gave: the state's q, q̇, q̈, or the error's message.
+#[derive(Clone, Debug, PartialEq)]
+enum Outcome {
+    Step(Vec<f64>, Vec<f64>, Vec<f64>),
+    Error(String),
+}
+
+impl Outcome {
+    fn of<E: fmt::Display>(result: &Result<&State, E>) -> Outcome {
+        match result {
+            Ok(s) => Outcome::Step(s.q().to_vec(), s.qd().to_vec(), s.qdd().to_vec()),
+            Err(e) => Outcome::Error(e.to_string()),
+        }
+    }
+}
+
+/// The model on the tape interpreter at `times`, each step's outcome
+/// pushed to `outcomes` (up to and with the first error), with the
+/// state oracles; how far it got.
+fn run_tape(
+    model: &kinema::Model,
+    times: &[f64],
+    derivatives: bool,
+    outcomes: &mut Vec<Outcome>,
+) -> Result<Reach, Finding> {
     let mut solver = match Solver::<TapeSystem, Auto>::new(model.system()) {
         Ok(s) => s,
         Err(e) => {
             let _ = e.to_string();
-            return Ok((Reach::Analysis, Vec::new()));
+            return Ok(Reach::Analysis);
         }
     };
-    let mut first = Vec::new();
     for (k, &t) in times.iter().enumerate() {
-        match solver.step(t) {
+        let step = solver.step(t);
+        outcomes.push(Outcome::of(&step));
+        match step {
             Ok(state) => {
                 let state = state.clone();
                 check_state(&state, t, solver.system())?;
                 if k == 0 && derivatives {
                     check_derivatives(solver.system_mut(), &state)?;
                 }
-                if let Some(&x) = state.q().first() {
-                    first.push((t, x));
-                }
             }
             Err(e) => {
-                let message = e.to_string();
-                if message.trim().is_empty() {
+                if e.to_string().trim().is_empty() {
                     return Err(finding("empty-error", "a run-time error without a message"));
                 }
-                return Ok((Reach::Analysis, first));
+                return Ok(Reach::Analysis);
             }
         }
     }
-    Ok((Reach::Ran, first))
+    Ok(Reach::Ran)
+}
+
+/// The differential oracle of the two back ends: the model compiled to
+/// native code (waited for, so every step runs on it) must give the tape's
+/// `outcomes` bit for bit, errors word for word. A model the JIT does not
+/// take (too large, no native code for the host) is not compared.
+/// `derivatives`: the tape's run lent its system out mutably after the
+/// first step (the derivatives' check), which makes the solver take the
+/// system as changed; this run does the same.
+fn same_on_jit(
+    model: &kinema::Model,
+    times: &[f64],
+    derivatives: bool,
+    outcomes: &[Outcome],
+) -> Result<(), Finding> {
+    if model.derivation().arena.len() > JIT_COMPARED_NODES {
+        return Ok(());
+    }
+    let model = model.clone().with_backend(Backend::Jit);
+    let system = model.system();
+    if system.wait_for_jit() != Backend::Jit {
+        return Ok(());
+    }
+    let Ok(mut solver) = Solver::<TapeSystem, Auto>::new(system) else {
+        return Err(finding(
+            "jit-differs",
+            "the solver's analysis failed on the JIT, not on the tape",
+        ));
+    };
+    // The folded LU's compilation, queued when the solver was built.
+    solver.system().wait_for_jit();
+    for (k, (&t, tape)) in times.iter().zip(outcomes).enumerate() {
+        let jit = Outcome::of(&solver.step(t));
+        if !same_bits(tape, &jit) {
+            return Err(finding(
+                "jit-differs",
+                format!("at t = {t} the tape gave {tape:?}, the JIT {jit:?}"),
+            ));
+        }
+        if k == 0 && derivatives {
+            let _ = solver.system_mut();
+        }
+    }
+    Ok(())
+}
+
+/// Equal outcomes, numbers compared bit for bit.
+fn same_bits(a: &Outcome, b: &Outcome) -> bool {
+    let bits = |x: &[f64], y: &[f64]| {
+        x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+    };
+    match (a, b) {
+        (Outcome::Step(q, qd, qdd), Outcome::Step(r, rd, rdd)) => {
+            bits(q, r) && bits(qd, rd) && bits(qdd, rdd)
+        }
+        (Outcome::Error(x), Outcome::Error(y)) => x == y,
+        _ => false,
+    }
 }
 
 /// The simEngine2D target: ADM text, optionally `\0` and ACF text.
@@ -761,6 +879,54 @@ fn moderate_literals(source: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn outcomes_compare_bit_for_bit() {
+        let step = |x: f64| Outcome::Step(vec![1.0, x], vec![0.0], vec![2.0]);
+        assert!(same_bits(&step(0.5), &step(0.5)));
+        assert!(!same_bits(&step(0.5), &step(0.5f64.next_up())));
+        assert!(!same_bits(&step(0.0), &step(-0.0)));
+        assert!(!same_bits(
+            &step(0.5),
+            &Outcome::Step(vec![1.0], vec![0.0], vec![2.0])
+        ));
+        let error = |m: &str| Outcome::Error(m.to_owned());
+        assert!(same_bits(&error("singular"), &error("singular")));
+        assert!(!same_bits(&error("singular"), &error("branch")));
+        assert!(!same_bits(&error("singular"), &step(0.5)));
+    }
+
+    /// A model run on the tape and on the JIT: the oracle finds them equal
+    /// (and compares: the JIT's compilation is waited for).
+    #[test]
+    fn a_model_runs_the_same_on_both_back_ends() {
+        let src = "mechanism P { body b { guess: (0.5, 0.8, 1.0) } \
+                   joint pin: revolute(ground(0, 0), b(-1, 0)); \
+                   driver d: b.phi == 4 * t * t; }";
+        let model = match kinema::Model::from_source(src, "p.kin") {
+            Ok(m) => m.with_backend(Backend::Tape),
+            Err(e) => panic!("{e}"),
+        };
+        let mut outcomes = Vec::new();
+        assert_eq!(
+            run_tape(&model, &KIN_TIMES, true, &mut outcomes),
+            Ok(Reach::Ran)
+        );
+        assert_eq!(outcomes.len(), KIN_TIMES.len());
+        assert_eq!(same_on_jit(&model, &KIN_TIMES, true, &outcomes), Ok(()));
+        // Outcomes the tape did not give: found different.
+        let mut wrong = outcomes.clone();
+        if let Some(Outcome::Step(q, _, _)) = wrong.last_mut() {
+            q[0] = q[0].next_up();
+        }
+        assert!(matches!(
+            same_on_jit(&model, &KIN_TIMES, true, &wrong),
+            Err(Finding {
+                kind: "jit-differs",
+                ..
+            })
+        ));
+    }
 
     fn pendulum() -> TapeSystem {
         let src = "mechanism P { body b { guess: (0.5, 0.8, 1.0) } \
