@@ -9,7 +9,7 @@ use crate::newton::{
     solve_position,
 };
 use crate::options::Options;
-use crate::state::State;
+use crate::state::{State, StepStats};
 use crate::system::System;
 use crate::trajectory::Trajectory;
 
@@ -499,6 +499,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             t,
             &options,
             &mut self.ws,
+            &mut StepStats::default(),
+            &mut Travel::default(),
         );
         self.system
             .phi(&mut self.scratch, &self.next.q, t, &mut self.ws.phi);
@@ -681,7 +683,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     fn solve_inner(&mut self, t: f64) -> Result<(), Error> {
         self.factored = 0;
         let q = &mut self.next.q;
-        let converged = solve_position(
+        let jacobian_current = solve_position(
             &self.system,
             &mut self.scratch,
             &mut self.lu,
@@ -690,15 +692,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             t,
             &self.options,
             &mut self.ws,
+            &mut self.next.stats,
+            &mut self.travel,
         )?;
         self.next.t = t;
-        self.next.stats = converged.stats;
-        self.travel = converged.travel;
         if self.options.positions_only {
             self.difference_rates(t);
             return Ok(());
         }
-        if !converged.jacobian_current {
+        if !jacobian_current {
             self.system
                 .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
         }

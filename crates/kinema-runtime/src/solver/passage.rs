@@ -9,8 +9,9 @@ use crate::diagnose::MAX_DENSE_DIAGNOSIS;
 use crate::error::Error;
 use crate::event::{SingularEvent, SingularKind};
 use crate::linalg::LinearSolver;
-use crate::newton::{Factorization, check_jacobian, inf_norm, solve_position};
+use crate::newton::{Factorization, Travel, check_jacobian, inf_norm, solve_position};
 use crate::options::Options;
+use crate::state::StepStats;
 use crate::system::System;
 
 /// Bisections of a failed step when looking for a limit point (2⁻⁶⁰ of the
@@ -579,6 +580,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 mid,
                 &options,
                 &mut self.ws,
+                &mut StepStats::default(),
+                &mut Travel::default(),
             );
             match solved {
                 Ok(_) => {
