@@ -312,20 +312,63 @@ fn kin_text(
         // `kinema codegen`: generated Rust for the same derivation.
         let _ = model.rust_source();
     }
-    let mut outcomes = Vec::with_capacity(times.len());
-    let reach = run_tape(&model, times, derivatives, &mut outcomes)?;
+    let plan = Plan::new(times, !model.derivation().params.is_empty());
+    let mut outcomes = Vec::with_capacity(plan.steps.len());
+    let reach = run_tape(&model, &plan, derivatives, &mut outcomes)?;
     if (reach != Reach::Analysis || !outcomes.is_empty()) && compared_on_jit(source) {
-        same_on_jit(&model, times, derivatives, &outcomes)?;
+        same_on_jit(&model, &plan, derivatives, &outcomes)?;
     }
     let first = outcomes
         .iter()
-        .zip(times)
-        .filter_map(|(o, &t)| match o {
-            Outcome::Step(q, _, _) => q.first().map(|&x| (t, x)),
+        .zip(&plan.steps)
+        .filter(|(_, step)| !step.changed)
+        .filter_map(|(o, step)| match o {
+            Outcome::Step(q, _, _) => q.first().map(|&x| (step.t, x)),
             Outcome::Error(_) => None,
         })
         .collect();
     Ok((reach, first))
+}
+
+/// The steps both back ends run, in order.
+struct Plan {
+    steps: Vec<PlannedStep>,
+}
+
+/// A step of a [`Plan`].
+#[derive(Clone, Copy, Debug)]
+struct PlannedStep {
+    t: f64,
+    /// The model's first parameter is changed and the model assembled
+    /// again at `t` (else: a step to `t`).
+    changed: bool,
+}
+
+impl Plan {
+    /// A step at each of `times`; with `parameters`, halfway, the model
+    /// assembled again at the same time after the first parameter is
+    /// changed, as a design tool re-solves when a dimension moves. The
+    /// compiled code keeps values that read t and the parameters: at the
+    /// same t, the solver's new scratch (the system was lent out mutably)
+    /// and the parameters' bits in the kept values' key must each leave
+    /// none stale (the test below fails with both removed).
+    fn new(times: &[f64], parameters: bool) -> Plan {
+        let mut steps: Vec<PlannedStep> = times
+            .iter()
+            .map(|&t| PlannedStep { t, changed: false })
+            .collect();
+        let half = times.len().div_ceil(2);
+        if parameters && half > 0 {
+            steps.insert(
+                half,
+                PlannedStep {
+                    t: times[half - 1],
+                    changed: true,
+                },
+            );
+        }
+        Plan { steps }
+    }
 }
 
 /// What one step gave: the state's q, q̇, q̈, or the error's message.
@@ -344,12 +387,12 @@ impl Outcome {
     }
 }
 
-/// The model on the tape interpreter at `times`, each step's outcome
+/// The model on the tape interpreter through `plan`, each step's outcome
 /// pushed to `outcomes` (up to and with the first error), with the
 /// state oracles; how far it got.
 fn run_tape(
     model: &kinema::Model,
-    times: &[f64],
+    plan: &Plan,
     derivatives: bool,
     outcomes: &mut Vec<Outcome>,
 ) -> Result<Reach, Finding> {
@@ -360,10 +403,11 @@ fn run_tape(
             return Ok(Reach::Analysis);
         }
     };
-    for (k, &t) in times.iter().enumerate() {
-        let step = solver.step(t);
-        outcomes.push(Outcome::of(&step));
-        match step {
+    for (k, step) in plan.steps.iter().enumerate() {
+        let t = step.t;
+        let result = step.run(&mut solver);
+        outcomes.push(Outcome::of(&result));
+        match result {
             Ok(state) => {
                 let state = state.clone();
                 check_state(&state, t, solver.system())?;
@@ -384,14 +428,14 @@ fn run_tape(
 
 /// The differential oracle of the two back ends: the model compiled to
 /// native code (waited for, so every step runs on it) must give the tape's
-/// `outcomes` bit for bit, errors word for word. A model the JIT does not
-/// take (too large, no native code for the host) is not compared.
-/// `derivatives`: the tape's run lent its system out mutably after the
-/// first step (the derivatives' check), which makes the solver take the
-/// system as changed; this run does the same.
+/// `outcomes` through `plan` bit for bit, errors word for word. A model
+/// the JIT does not take (too large, no native code for the host) is not
+/// compared. `derivatives`: the tape's run lent its system out mutably
+/// after the first step (the derivatives' check), which makes the solver
+/// take the system as changed; this run does the same.
 fn same_on_jit(
     model: &kinema::Model,
-    times: &[f64],
+    plan: &Plan,
     derivatives: bool,
     outcomes: &[Outcome],
 ) -> Result<(), Finding> {
@@ -411,12 +455,18 @@ fn same_on_jit(
     };
     // The folded LU's compilation, queued when the solver was built.
     solver.system().wait_for_jit();
-    for (k, (&t, tape)) in times.iter().zip(outcomes).enumerate() {
-        let jit = Outcome::of(&solver.step(t));
+    for (k, (step, tape)) in plan.steps.iter().zip(outcomes).enumerate() {
+        let t = step.t;
+        let jit = Outcome::of(&step.run(&mut solver));
         if !same_bits(tape, &jit) {
+            let after = if step.changed {
+                " (after the first parameter changed)"
+            } else {
+                ""
+            };
             return Err(finding(
                 "jit-differs",
-                format!("at t = {t} the tape gave {tape:?}, the JIT {jit:?}"),
+                format!("at t = {t}{after} the tape gave {tape:?}, the JIT {jit:?}"),
             ));
         }
         if k == 0 && derivatives {
@@ -424,6 +474,26 @@ fn same_on_jit(
         }
     }
     Ok(())
+}
+
+impl PlannedStep {
+    /// Runs the step: the next time, or the first parameter changed a
+    /// little and the model assembled again at the same time.
+    fn run<'s>(
+        &self,
+        solver: &'s mut Solver<TapeSystem, Auto>,
+    ) -> Result<&'s State, kinema::Error> {
+        if !self.changed {
+            return solver.step(self.t);
+        }
+        if let Some(&p) = solver.system().params().first() {
+            let changed = p * 1.001 + 1e-3;
+            if changed.is_finite() {
+                solver.system_mut().set_param_at(0, changed);
+            }
+        }
+        solver.assemble(self.t)
+    }
 }
 
 /// Equal outcomes, numbers compared bit for bit.
@@ -900,27 +970,31 @@ mod tests {
     /// (and compares: the JIT's compilation is waited for).
     #[test]
     fn a_model_runs_the_same_on_both_back_ends() {
-        let src = "mechanism P { body b { guess: (0.5, 0.8, 1.0) } \
+        // A parameter in a time term (kept by the compiled code, keyed by
+        // t and the parameter), changed halfway through the run.
+        let src = "mechanism P { param w = 4; body b { guess: (0.5, 0.8, 1.0) } \
                    joint pin: revolute(ground(0, 0), b(-1, 0)); \
-                   driver d: b.phi == 4 * t * t; }";
+                   driver d: b.phi == sin(w * t) + t * t; }";
         let model = match kinema::Model::from_source(src, "p.kin") {
             Ok(m) => m.with_backend(Backend::Tape),
             Err(e) => panic!("{e}"),
         };
+        let plan = Plan::new(&[0.0, 0.1, 0.2, 0.3, 0.4, 0.5], true);
+        let steps: Vec<(f64, bool)> = plan.steps.iter().map(|s| (s.t, s.changed)).collect();
+        assert_eq!(steps[2..5], [(0.2, false), (0.2, true), (0.3, false)]);
         let mut outcomes = Vec::new();
-        assert_eq!(
-            run_tape(&model, &KIN_TIMES, true, &mut outcomes),
-            Ok(Reach::Ran)
-        );
-        assert_eq!(outcomes.len(), KIN_TIMES.len());
-        assert_eq!(same_on_jit(&model, &KIN_TIMES, true, &outcomes), Ok(()));
+        assert_eq!(run_tape(&model, &plan, true, &mut outcomes), Ok(Reach::Ran));
+        assert_eq!(outcomes.len(), 7);
+        // The change took: the same time gives another state.
+        assert_ne!(outcomes[2], outcomes[3]);
+        assert_eq!(same_on_jit(&model, &plan, true, &outcomes), Ok(()));
         // Outcomes the tape did not give: found different.
         let mut wrong = outcomes.clone();
         if let Some(Outcome::Step(q, _, _)) = wrong.last_mut() {
             q[0] = q[0].next_up();
         }
         assert!(matches!(
-            same_on_jit(&model, &KIN_TIMES, true, &wrong),
+            same_on_jit(&model, &plan, true, &wrong),
             Err(Finding {
                 kind: "jit-differs",
                 ..
