@@ -13,8 +13,8 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::{FuncId, Linkage, Module};
 use kinema_runtime::linalg::{
-    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, MASK_ALL, Op, SolveOp,
-    scale_and_masked_max,
+    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, INFINITY_BITS,
+    MAGNITUDE_MASK, MASK_ALL, Op, SolveOp, scale_and_masked_max,
 };
 
 use crate::JitError;
@@ -302,13 +302,6 @@ struct Resident<'p> {
 
 /// How many items a resident solve reuses a value's register for.
 const WINDOW: usize = 8;
-
-/// A straight-line factorization stores each running fold (scale, pivots,
-/// multipliers) every this many entries: the store pins the fold's
-/// computation there, so the values it reads die early (pure instructions
-/// are otherwise placed at their use, keeping every load alive to the
-/// end), and a small factorization stores only the final values.
-const PIN: usize = 8;
 
 impl<'p> Resident<'p> {
     /// Checks every index against `needs` (n = `needs.rhs`, the factors'
@@ -633,12 +626,6 @@ struct Prologue {
     max_multiplier: u64,
 }
 
-/// The sign bit cleared: the integer order of the bits is the order of |x|.
-const ABS: u64 = u64::MAX >> 1;
-/// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
-/// cleared.
-const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
-
 impl Prologue {
     /// The prologue of `plan`, its indices checked against `needs`.
     fn new(plan: &FoldedFactor<'_>, needs: FactorNeeds) -> Result<Prologue, JitError> {
@@ -683,9 +670,9 @@ impl Prologue {
                 }
                 mask.into_boxed_slice()
             },
-            scale: plan.const_scale.to_bits() & ABS,
-            min_pivot: plan.const_min_pivot.to_bits() & ABS,
-            max_multiplier: plan.const_max_multiplier.to_bits() & ABS,
+            scale: plan.const_scale.to_bits() & MAGNITUDE_MASK,
+            min_pivot: plan.const_min_pivot.to_bits() & MAGNITUDE_MASK,
+            max_multiplier: plan.const_max_multiplier.to_bits() & MAGNITUDE_MASK,
         })
     }
 
@@ -723,7 +710,7 @@ impl Prologue {
         let mut signs = 0;
         // A NaN pivot counts as zero.
         let pivot = |p: u32| {
-            let m = bits(v[p as usize]) & ABS;
+            let m = bits(v[p as usize]) & MAGNITUDE_MASK;
             if m > INFINITY_BITS { 0 } else { m }
         };
         let min_pivot = fold4(&self.pivots, self.min_pivot, u64::MAX, u64::min, |p| {
@@ -1270,6 +1257,13 @@ fn constants_check(
     b.switch_to_block(joined);
     Ok(b.block_params(joined)[0])
 }
+
+/// A straight-line factorization stores each running fold (scale, pivots,
+/// multipliers) every this many entries: the store pins the fold's
+/// computation there, so the values it reads die early (pure instructions
+/// are otherwise placed at their use, keeping every load alive to the
+/// end), and a small factorization stores only the final values.
+const PIN: usize = 8;
 
 fn emit_factor(
     b: &mut FunctionBuilder<'_>,

@@ -28,11 +28,7 @@ use super::{
     permutation_sign,
 };
 
-/// The sign bit cleared: the integer order of the bits is the order of |x|.
-const ABS: u64 = !(1 << 63);
-/// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
-/// cleared.
-const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
+use super::schedule::{INFINITY_BITS, MAGNITUDE_MASK};
 
 /// θ_g used to choose pivots on the values at the initial guess: stricter
 /// than the replay's θ to leave room for the motion (the generated LU's).
@@ -582,7 +578,7 @@ impl Folded {
         lu.const_scale = f64::from_bits(
             lu.constants
                 .iter()
-                .map(|&(_, c)| c.to_bits() & ABS)
+                .map(|&(_, c)| c.to_bits() & MAGNITUDE_MASK)
                 .max()
                 .unwrap_or(0),
         );
@@ -652,7 +648,7 @@ impl Folded {
     fn interpret(&mut self, values: &[f64], check: bool) -> FactorScan {
         let mut max_bits = self.const_scale.to_bits();
         for &k in &self.inputs {
-            max_bits = max_bits.max(values[k as usize].to_bits() & ABS);
+            max_bits = max_bits.max(values[k as usize].to_bits() & MAGNITUDE_MASK);
         }
         let (scale, finite) = (f64::from_bits(max_bits), max_bits < INFINITY_BITS);
         let mut same = true;

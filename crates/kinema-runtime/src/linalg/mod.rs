@@ -62,7 +62,8 @@ pub use sparse::SparseLu;
 
 pub(crate) use equilibrate::{Equilibration, permutation_sign};
 pub use schedule::{
-    MASK_ALL, scale_and_finite, scale_and_finite_array, scale_and_finite_at, scale_and_masked_max,
+    INFINITY_BITS, MAGNITUDE_MASK, MASK_ALL, scale_and_finite, scale_and_finite_array,
+    scale_and_finite_at, scale_and_masked_max,
 };
 
 /// θ of the threshold test |u_kk| ≥ θ |a_ik| on a factorization with a

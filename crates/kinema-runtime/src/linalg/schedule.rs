@@ -576,22 +576,24 @@ pub fn scale_and_finite(values: &[f64]) -> (f64, bool) {
 pub fn scale_and_finite_array<const N: usize>(values: [f64; N]) -> (f64, bool) {
     let mut lanes = [0u64; 4];
     for (k, v) in values.into_iter().enumerate() {
-        lanes[k % 4] = lanes[k % 4].max(v.to_bits() & ABS);
+        lanes[k % 4] = lanes[k % 4].max(v.to_bits() & MAGNITUDE_MASK);
     }
     let max_bits = lanes[0].max(lanes[1]).max(lanes[2].max(lanes[3]));
     (f64::from_bits(max_bits), max_bits < INFINITY_BITS)
 }
 
-/// The sign bit cleared: for IEEE doubles, the integer order of the result
-/// is the order of |v|.
-const ABS: u64 = !(1 << 63);
+/// The sign bit cleared: for IEEE doubles the integer order of
+/// `v.to_bits() & MAGNITUDE_MASK` is the order of |v|, which the scans'
+/// maxima and minima of magnitudes use (the JIT's compiled scans too, so
+/// that both compute the same bits).
+pub const MAGNITUDE_MASK: u64 = !(1 << 63);
 /// The bits of +∞: every ±∞ or NaN lies at or above them once the sign is
-/// cleared.
-const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
+/// cleared with [`MAGNITUDE_MASK`].
+pub const INFINITY_BITS: u64 = 0x7FF0_0000_0000_0000;
 
 #[inline(always)]
 fn scale_and_finite_bits(values: &[f64]) -> (f64, bool) {
-    let bits = |v: f64| v.to_bits() & ABS;
+    let bits = |v: f64| v.to_bits() & MAGNITUDE_MASK;
     let (mut m0, mut m1, mut m2, mut m3) = (0u64, 0u64, 0u64, 0u64);
     let chunks = values.chunks_exact(4);
     let rest = chunks.remainder();
@@ -680,7 +682,7 @@ pub fn scale_and_masked_max(values: &[f64], mask: &[u64]) -> (f64, f64, bool) {
 /// larger.
 #[inline(always)]
 fn masked_lane(max: &mut f64, v: f64, mask: u64) {
-    let a = f64::from_bits(v.to_bits() & mask & ABS);
+    let a = f64::from_bits(v.to_bits() & mask & MAGNITUDE_MASK);
     *max = if a > *max { a } else { *max };
 }
 
@@ -694,7 +696,7 @@ pub const MASK_ALL: u64 = u64::MAX;
 /// the short path (equal to the f64 lanes, see the tests).
 #[inline]
 pub fn scale_and_finite_at(values: &[f64], at: &[usize]) -> (f64, bool) {
-    let bits = |k: usize| values.get(k).map_or(0, |v| v.to_bits() & ABS);
+    let bits = |k: usize| values.get(k).map_or(0, |v| v.to_bits() & MAGNITUDE_MASK);
     let mut m = [0u64; 4];
     let chunks = at.chunks_exact(4);
     for &k in chunks.remainder() {
@@ -808,7 +810,7 @@ mod tests {
                 let bits_max = v
                     .iter()
                     .zip(&mask)
-                    .map(|(x, m)| x.to_bits() & m & ABS)
+                    .map(|(x, m)| x.to_bits() & m & MAGNITUDE_MASK)
                     .max()
                     .unwrap_or(0);
                 let (scale, most, finite) = scale_and_masked_max(&v, &mask);
