@@ -18,8 +18,9 @@
 //! Oracles here: no NaN or ±∞ in any state reported as a success, emitted
 //! `.kin` text that reads back, error output of bounded size, agreement of
 //! the two `fun` evaluators, agreement of the tape and the JIT bit for bit
-//! (one `.kin` run in eight is run on both). Panics, hangs, aborts and memory are judged by
-//! the driver (`kinema-fuzz` binary), which runs inputs in a child process.
+//! (one `.kin` run in eight is run on both). Panics, hangs, aborts and
+//! memory are judged by the driver (`kinema-fuzz` binary), which runs
+//! inputs in a child process.
 
 pub mod cli;
 mod fun_oracle;
