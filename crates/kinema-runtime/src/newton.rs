@@ -138,7 +138,7 @@ pub(crate) struct Travel {
 /// (They are written in place rather than returned: a returned struct is
 /// stored field by field and then copied in wider pieces, and such a load
 /// waits for the stores to reach the cache instead of taking their values
-/// in flight — measured, 1.6 % of a small model's step.)
+/// in flight — measured: 2 % of the chain N = 2's generated step.)
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_position<S: System, L: LinearSolver>(
     system: &S,
