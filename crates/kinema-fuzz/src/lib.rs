@@ -317,7 +317,7 @@ fn kin_text(
     let mut outcomes = Vec::with_capacity(plan.steps.len());
     let reach = run_tape(&model, &plan, derivatives, &mut outcomes)?;
     if (reach != Reach::Analysis || !outcomes.is_empty()) && compared_on_jit(source) {
-        same_on_jit(&model, &plan, derivatives, &outcomes)?;
+        same_on_jit(&model, &plan, &outcomes)?;
     }
     let first = outcomes
         .iter()
@@ -413,7 +413,7 @@ fn run_tape(
                 let state = state.clone();
                 check_state(&state, t, solver.system())?;
                 if k == 0 && derivatives {
-                    check_derivatives(solver.system_mut(), &state)?;
+                    check_derivatives(solver.system(), &state)?;
                 }
             }
             Err(e) => {
@@ -431,15 +431,8 @@ fn run_tape(
 /// native code (waited for, so every step runs on it) must give the tape's
 /// `outcomes` through `plan` bit for bit, errors word for word. A model
 /// the JIT does not take (too large, no native code for the host) is not
-/// compared. `derivatives`: the tape's run lent its system out mutably
-/// after the first step (the derivatives' check), which makes the solver
-/// take the system as changed; this run does the same.
-fn same_on_jit(
-    model: &kinema::Model,
-    plan: &Plan,
-    derivatives: bool,
-    outcomes: &[Outcome],
-) -> Result<(), Finding> {
+/// compared.
+fn same_on_jit(model: &kinema::Model, plan: &Plan, outcomes: &[Outcome]) -> Result<(), Finding> {
     if model.derivation().arena.len() > JIT_COMPARED_NODES {
         return Ok(());
     }
@@ -456,7 +449,7 @@ fn same_on_jit(
     };
     // The folded LU's compilation, queued when the solver was built.
     solver.system().wait_for_jit();
-    for (k, (step, tape)) in plan.steps.iter().zip(outcomes).enumerate() {
+    for (step, tape) in plan.steps.iter().zip(outcomes) {
         let t = step.t;
         let jit = Outcome::of(&step.run(&mut solver));
         if !same_bits(tape, &jit) {
@@ -469,9 +462,6 @@ fn same_on_jit(
                 "jit-differs",
                 format!("at t = {t}{after} the tape gave {tape:?}, the JIT {jit:?}"),
             ));
-        }
-        if k == 0 && derivatives {
-            let _ = solver.system_mut();
         }
     }
     Ok(())
@@ -720,7 +710,7 @@ pub fn fun(data: &[u8]) -> Result<Reach, Finding> {
 /// order): the central difference, and the gap between the forward and
 /// backward one-sided ones (how much a corner could explain).
 fn differences(
-    system: &mut TapeSystem,
+    system: &TapeSystem,
     state: &State,
     h: f64,
     second: bool,
@@ -826,7 +816,7 @@ impl Check<'_> {
 /// The derivation against finite differences at a converged state: each
 /// column of Φ_q, ν = −Φ_t, and γ = −d²Φ/ds² along (q + s q̇, t + s).
 /// Only where every number is moderate, so that differences are accurate.
-fn check_derivatives(system: &mut TapeSystem, state: &State) -> Result<(), Finding> {
+fn check_derivatives(system: &TapeSystem, state: &State) -> Result<(), Finding> {
     let n = system.len();
     let moderate = |v: &[f64]| v.iter().all(|x| x.abs() < 1e3);
     if n == 0 || n > 60 || !moderate(state.q()) || !moderate(state.qd()) || state.t().abs() > 1e3 {
@@ -988,14 +978,14 @@ mod tests {
         assert_eq!(outcomes.len(), 7);
         // The change took: the same time gives another state.
         assert_ne!(outcomes[2], outcomes[3]);
-        assert_eq!(same_on_jit(&model, &plan, true, &outcomes), Ok(()));
+        assert_eq!(same_on_jit(&model, &plan, &outcomes), Ok(()));
         // Outcomes the tape did not give: found different.
         let mut wrong = outcomes.clone();
         if let Some(Outcome::Step(q, _, _)) = wrong.last_mut() {
             q[0] = q[0].next_up();
         }
         assert!(matches!(
-            same_on_jit(&model, &plan, true, &wrong),
+            same_on_jit(&model, &plan, &wrong),
             Err(Finding {
                 kind: "jit-differs",
                 ..
@@ -1043,7 +1033,7 @@ mod tests {
             Ok(s) => s.clone(),
             Err(e) => panic!("{e}"),
         };
-        assert_eq!(check_derivatives(solver.system_mut(), &state), Ok(()));
+        assert_eq!(check_derivatives(solver.system(), &state), Ok(()));
     }
 
     #[test]

@@ -199,8 +199,9 @@ pub fn compile_split(tapes: &[(&Tape, usize)]) -> Result<Vec<JitTape>, JitError>
 /// part of it that reads neither q nor q̇ (a driver's functions of t, the
 /// parameters' expressions) with its key, t and the parameters it reads:
 /// computed once per (t, parameters) by a function of its own, read back
-/// at the next call with the same ones (see `hoist.rs`). A caller whose cache slice holds other
-/// things up to some index puts the memo after them; the slice must be
+/// at the next call with the same ones (see `hoist.rs`). A caller whose
+/// cache slice holds other things up to some index puts the memo after
+/// them; the slice must be
 /// [`JitTape::trig_len`] long, filled with NaN when new, and is the cache
 /// of the tapes of one compilation: another compilation's functions (or
 /// an interpreter's registers) may leave values there that these would
