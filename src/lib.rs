@@ -36,7 +36,7 @@ pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
     Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, DynDenseLu, Dynamics,
     Error, FoldedLu, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
-    InverseDynamics, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
+    InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
     Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
     SparseLu, State, StepStats, System, Trajectory, diagnose, integrate, point_kinematics,
 };

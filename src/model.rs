@@ -265,6 +265,9 @@ pub struct TapeSystem {
     dynamics: crate::dynamics::TapeDynamics,
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
+    /// Whether Φ's tape has a function that can be at a kink (see
+    /// [`System::kink`]).
+    phi_kinks: bool,
     zeros: Vec<f64>,
     /// The JIT compiling (or having compiled) the hot path, shared by
     /// clones.
@@ -313,6 +316,7 @@ impl TapeSystem {
             .max(outputs.registers())
             .max(dynamics.registers());
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
+        let phi_kinks = phi.has_kinks();
         let n = d.nc();
         #[cfg(feature = "jit")]
         let (jit, jit_fallback) = match backend {
@@ -361,6 +365,7 @@ impl TapeSystem {
             outputs,
             dynamics,
             registers,
+            phi_kinks,
             #[cfg(feature = "jit")]
             jit,
             jit_fallback,
@@ -534,10 +539,7 @@ impl System for TapeSystem {
 
     fn scratch(&self) -> Vec<f64> {
         // The cache's angles NaN: no angle seen yet.
-        let interpreter = self.trig_len() + self.registers;
-        #[cfg(feature = "jit")]
-        let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |j| j.cache_len()));
-        vec![f64::NAN; interpreter]
+        vec![f64::NAN; self.kink_base() + self.kink_len()]
     }
 
     fn len(&self) -> usize {
@@ -604,6 +606,23 @@ impl System for TapeSystem {
         (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.factor(factor))
     }
 
+    /// Φ's tape, with a bound on each value's error (see [`Tape::kink`]),
+    /// when it has a function that can be at a kink.
+    #[inline]
+    fn kink(
+        &self,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        uncertainty: f64,
+        t: f64,
+    ) -> Option<kinema_runtime::Kink> {
+        if self.phi_kinks {
+            self.phi_kink(scratch, q, uncertainty, t)
+        } else {
+            None
+        }
+    }
+
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
         let inputs = self.inputs(q, &self.zeros, t);
         #[cfg(feature = "jit")]
@@ -663,6 +682,54 @@ impl System for TapeSystem {
 }
 
 impl TapeSystem {
+    /// Where the kink check's registers and error bounds start in the
+    /// scratch: after everything the evaluations use (the interpreter's
+    /// cache and registers, the compiled tapes' memo).
+    fn kink_base(&self) -> usize {
+        let interpreter = self.trig_len() + self.registers;
+        #[cfg(feature = "jit")]
+        let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |j| j.cache_len()));
+        interpreter
+    }
+
+    /// Length of the kink check's part of the scratch: Φ's registers and
+    /// their error bounds (none without a function that can be at a kink).
+    fn kink_len(&self) -> usize {
+        if self.phi_kinks {
+            2 * self.phi.registers()
+        } else {
+            0
+        }
+    }
+
+    /// [`System::kink`] on Φ's tape (out of line: most models have no
+    /// function with a kink).
+    #[inline(never)]
+    fn phi_kink(
+        &self,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        uncertainty: f64,
+        t: f64,
+    ) -> Option<kinema_runtime::Kink> {
+        let (base, len) = (self.kink_base(), self.kink_len());
+        if scratch.len() < base + len {
+            grow(scratch, base + len);
+        }
+        let (registers, errors) = scratch[base..base + len].split_at_mut(len / 2);
+        let inputs = self.inputs(q, &self.zeros, t);
+        // A slice of the wrong length cannot tell (the evaluations poison
+        // their outputs in that case).
+        let kink = self
+            .phi
+            .kink(&inputs, uncertainty, registers, errors)
+            .ok()??;
+        Some(kinema_runtime::Kink {
+            equation: kink.output,
+            function: kink.function,
+        })
+    }
+
     /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.
     fn inputs<'a>(&'a self, q: &'a [f64], qd: &'a [f64], t: f64) -> TapeInputs<'a> {
         TapeInputs {

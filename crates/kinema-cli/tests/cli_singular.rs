@@ -258,3 +258,42 @@ fn the_lingering_model_is_diagnosed_at_its_start() {
     );
     assert!(stderr.len() < 20_000, "{} bytes on stderr", stderr.len());
 }
+
+/// A coordinate that crosses the kink of `abs` (tests/kinks/fold.kin): the
+/// row whose q is on it, within roundoff, is named in one warning with its
+/// equation and function (fuzz finding F16); the run succeeds (q is a
+/// solution) and the other rows are not flagged.
+#[test]
+fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
+    let dir = TempDir::new("kink");
+    let out = dir.path("fold.csv");
+    let o = kinema(&[
+        "run",
+        "tests/kinks/fold.kin",
+        "--t-end",
+        "0.8",
+        "--steps",
+        "8",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].starts_with("warning: 1 row at t = 0.3: equation `slide` has abs where"),
+        "{stderr}"
+    );
+    assert!(
+        warnings[0].contains("q̇ and q̈ are not determined"),
+        "{stderr}"
+    );
+    // The solution away from the kink is silent.
+    let o = kinema(&["run", "tests/kinks/ring.kin", "--out", &out]);
+    assert!(o.status.success());
+    assert!(!text(&o.stderr).contains("warning"), "{}", text(&o.stderr));
+}

@@ -50,4 +50,4 @@ pub use function::{FUNCTIONS, Function, FunctionKind, function, unary_function};
 pub use node::{ExprId, Factor, NodeRef, SymId, SymKind, Symbol, Term, UnaryOp, smooth};
 pub use print::{Display, format_number};
 pub use schedule::Schedule;
-pub use tape::{Instr, Reg, Tape, TapeError, TapeInputs, TapeLayout};
+pub use tape::{Instr, Reg, Tape, TapeError, TapeInputs, TapeKink, TapeLayout};

@@ -76,6 +76,6 @@ pub use linalg::{
 pub use options::Options;
 pub use outputs::{Outputs, Table};
 pub use solver::Solver;
-pub use state::{State, StepStats};
+pub use state::{Kink, State, StepStats};
 pub use system::System;
 pub use trajectory::Trajectory;

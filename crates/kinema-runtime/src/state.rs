@@ -32,6 +32,22 @@ pub struct StepStats {
     pub substeps: usize,
 }
 
+/// A function of an equation at a point where it is not differentiable,
+/// within the uncertainty of its argument ([`State::kink`]): the norm
+/// of a vector that is zero but for roundoff, say, whose derivative is the
+/// direction of the rounding errors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Kink {
+    /// The equation (its index in Φ); `None` if the system could not tell
+    /// which.
+    pub equation: Option<usize>,
+    /// The function, as the model language spells it: `"sqrt"` (a square
+    /// root or a norm), `"power"` (a fractional power), `"abs"`,
+    /// `"atan2"`, `"asin"`, `"acos"`, `"ln"` or `"smoothstep"` (the ends
+    /// of a cubic step).
+    pub function: &'static str,
+}
+
 /// The kinematic state at time t: q with Φ(q, t) = 0, q̇ with Φ_q q̇ = ν,
 /// q̈ with Φ_q q̈ = γ.
 #[derive(Debug, Clone)]
@@ -43,6 +59,8 @@ pub struct State {
     pub(crate) stats: StepStats,
     /// Sign of det Φ_q at q (0 when unknown).
     pub(crate) det_sign: f64,
+    /// See [`State::kink`].
+    pub(crate) kink: Option<Kink>,
     /// The solver's tag of the factorization of Φ_q at this q (0: none):
     /// its LU still holds that factorization while the solver's
     /// `factored` tag equals this one. Bookkeeping, not part of the state's
@@ -56,7 +74,7 @@ pub struct State {
     pub(crate) h_back: f64,
 }
 
-/// Equal times, coordinates, rates, statistics and det sign (the
+/// Equal times, coordinates, rates, statistics, det sign and kink (the
 /// factorization tag and `h_back` are bookkeeping).
 impl PartialEq for State {
     fn eq(&self, other: &Self) -> bool {
@@ -66,6 +84,7 @@ impl PartialEq for State {
             && self.qdd == other.qdd
             && self.stats == other.stats
             && self.det_sign == other.det_sign
+            && self.kink == other.kink
     }
 }
 
@@ -78,6 +97,7 @@ impl State {
             qdd: vec![0.0; n],
             stats: StepStats::default(),
             det_sign: 0.0,
+            kink: None,
             tag: 0,
             h_back: f64::NAN,
         }
@@ -112,6 +132,17 @@ impl State {
     #[must_use]
     pub fn near_singular(&self) -> bool {
         self.stats.near_singular
+    }
+
+    /// An equation that, at this q, goes through a function at a point
+    /// where it is not differentiable, within roundoff and Newton's
+    /// tolerance (see [`System::kink`](crate::System::kink)): its Φ_q, ν
+    /// and γ there are the rounding errors', and so are q̇ and q̈; q itself
+    /// is a solution. `None` for a near-singular state (whose q̇ and q̈ are
+    /// limits, not solves) and for systems that cannot tell.
+    #[must_use]
+    pub fn kink(&self) -> Option<Kink> {
+        self.kink
     }
 
     /// What the step's position analysis cost.

@@ -116,6 +116,27 @@ pub trait System {
         None
     }
 
+    /// The first equation of Φ that, at the solution q, goes through a
+    /// function at a point where it is not differentiable (a `sqrt` or
+    /// norm of zero, `abs` of zero, `atan2` of (0, 0), `acos` of ±1 …),
+    /// within a bound on its argument's error: each coordinate uncertain
+    /// by `uncertainty` (the solution's residual ‖Φ‖∞, as a stand-in for
+    /// Newton's error in q) and by roundoff. There Φ_q, ν and γ are the
+    /// roundoff's, and so are q̇ and q̈: the runtime flags the state
+    /// ([`State::kink`](crate::State::kink)). Called once per
+    /// state kept; may allocate the first time (its scratch), not after.
+    /// The default: `None`, the system cannot tell.
+    fn kink(
+        &self,
+        scratch: &mut Self::Scratch,
+        q: &[f64],
+        uncertainty: f64,
+        t: f64,
+    ) -> Option<crate::Kink> {
+        let _ = (scratch, q, uncertainty, t);
+        None
+    }
+
     /// Writes Φ(q, t) (length n).
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
@@ -188,6 +209,15 @@ macro_rules! forward {
                 factor: &crate::linalg::FoldedFactor<'_>,
             ) -> Option<Box<dyn crate::linalg::CompiledFactor>> {
                 (**self).compile_folded_factor(factor)
+            }
+            fn kink(
+                &self,
+                scratch: &mut S::Scratch,
+                q: &[f64],
+                uncertainty: f64,
+                t: f64,
+            ) -> Option<crate::Kink> {
+                (**self).kink(scratch, q, uncertainty, t)
             }
             fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
                 (**self).phi(scratch, q, t, phi);

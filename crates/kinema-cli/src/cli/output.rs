@@ -511,6 +511,10 @@ impl CsvSink {
         let rows = self.rows;
         let destination = self.destination.clone();
         match (self.finish(), &destination) {
+            (Ok(()), Destination::File(p)) if rows == 1 => format!(
+                "\n  = note: the 1 row computed before the failure is in `{}`",
+                p.display()
+            ),
             (Ok(()), Destination::File(p)) if rows > 0 => format!(
                 "\n  = note: the {rows} rows computed before the failure are in `{}`",
                 p.display()

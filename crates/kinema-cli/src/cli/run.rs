@@ -431,6 +431,9 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
             if state.near_singular() {
                 rows.flagged.push(state.t());
             }
+            if let Some(kink) = state.kink() {
+                rows.kinks.push((state.t(), kink));
+            }
             if let Err(failure) = rows.write(&mut solver, loaded, t) {
                 progress.finish();
                 return Err(rows.stop(failure));
@@ -441,6 +444,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     progress.finish();
     let events = solver.close_events().to_vec();
     print_singular_warnings(&events, &rows.flagged);
+    print_kink_warning(solver.system(), &rows.kinks);
     stats.events = events.len();
     let w = Instant::now();
     let sink = &rows.sink;
@@ -498,6 +502,8 @@ struct Rows {
     /// The last output state's time if thinning left it out of `samples`.
     skipped: Option<f64>,
     flagged: Vec<f64>,
+    /// Output times whose q puts a function at its kink, and which.
+    kinks: Vec<(f64, kinema::Kink)>,
     /// Output times in the grid, every how many one is kept, how many are
     /// written.
     outputs: usize,
@@ -532,6 +538,7 @@ impl Rows {
             samples,
             skipped: None,
             flagged: Vec::new(),
+            kinks: Vec::new(),
             outputs,
             stride: outputs.div_ceil(MAX_PLOT_STATES).max(1),
             written: 0,
@@ -616,6 +623,7 @@ fn step_failure(
         .cloned()
         .collect();
     print_singular_warnings(&passed, &rows.flagged);
+    print_kink_warning(solver.system(), &rows.kinks);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
     let rows_note = rows.sink.finish_after_failure();
@@ -722,6 +730,42 @@ fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
             flagged.len()
         );
     }
+}
+
+/// One `warning:` line for the output rows whose q puts a function of an
+/// equation at a point where it is not differentiable (named by the first
+/// such row): their q̇ and q̈ are roundoff.
+fn print_kink_warning(system: &TapeSystem, kinks: &[(f64, kinema::Kink)]) {
+    let (Some((first, kink)), Some((last, _))) = (kinks.first(), kinks.last()) else {
+        return;
+    };
+    let n = kinks.len();
+    let (rows, at, their) = if n == 1 {
+        ("1 row".to_owned(), format!("t = {}", time(*first)), "its")
+    } else {
+        (
+            format!("{n} rows"),
+            format!("t = {} … {}", time(*first), time(*last)),
+            "their",
+        )
+    };
+    let equation = kink.equation.map_or_else(
+        || "an equation".to_owned(),
+        |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
+    );
+    let (function, argument) = match kink.function {
+        "atan2" => ("atan2", "its arguments are (0, 0)"),
+        "acos" | "asin" => (kink.function, "its argument is ±1"),
+        "smoothstep" => ("a cubic step", "its argument is at an end of the step"),
+        "power" => ("a fractional power", "its base is 0"),
+        "sqrt" => ("a square root or norm", "its argument is 0"),
+        other => (other, "its argument is 0"),
+    };
+    eprintln!(
+        "warning: {rows} at {at}: {equation} has {function} where it is not differentiable \
+         ({argument} within roundoff): {their} q̇ and q̈ are not determined by the model \
+         (the derivatives there are the rounding errors'); q is a solution"
+    );
 }
 
 fn plot_title(loaded: &Loaded, grid: &Grid) -> String {

@@ -1,0 +1,409 @@
+//! Kinks: where a tape's outputs, at a given point, go through a function
+//! at a point where it is not differentiable (or whose derivative is
+//! infinite), within the uncertainty of its argument ([`Tape::kink`]).
+//!
+//! A derivation's derivatives of `sqrt(x)`, `|x|`, `atan2(y, x)` … are right
+//! wherever the function is differentiable. A solution that puts such an
+//! argument at its kink *within roundoff* (a norm of a vector that is zero
+//! but for rounding, say) gives derivatives that are the roundoff's: Φ_q
+//! holds r/|r|, the direction of the rounding errors, and a solver that
+//! prints q̇ and q̈ from them prints noise. So the argument's value is
+//! compared with a bound on its absolute error, propagated through the tape
+//! to first order from the coordinates' own uncertainty and one unit
+//! roundoff per operation.
+
+use super::{Instr, Reg, Tape, TapeError, TapeInputs, check};
+use crate::node::{UnaryOp, smooth};
+
+/// A function of a tape at a point where it is not differentiable, within
+/// the uncertainty of its argument (see [`Tape::kink`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TapeKink {
+    /// The first output that depends on the function's value; `None` if
+    /// none does (dead code).
+    pub output: Option<usize>,
+    /// The function: `"sqrt"` (a square root or a norm), `"power"` (a
+    /// fractional power), `"abs"`, `"atan2"`, `"asin"`, `"acos"`, `"ln"`
+    /// or `"smoothstep"` (the ends of the cubic step, where its second
+    /// derivative jumps).
+    pub function: &'static str,
+}
+
+/// How many error bounds an argument may be from a kink and still count as
+/// on it: the bound is a first-order estimate, and the library's sin, cos,
+/// powf … round within a few units, not one.
+const MARGIN: f64 = 16.0;
+
+/// Unit roundoff, 2⁻⁵³.
+const UNIT: f64 = f64::EPSILON / 2.0;
+
+impl Tape {
+    /// Whether the tape has an instruction that can be at a kink (see
+    /// [`kink`](Self::kink)); a tape without one never is.
+    #[must_use]
+    pub fn has_kinks(&self) -> bool {
+        self.instrs.iter().any(|ins| kink_kind(ins).is_some())
+    }
+
+    /// The first instruction whose argument, at `inputs`, is at its kink
+    /// within a bound on its absolute error: each coordinate q_k uncertain
+    /// by `q_error` + one unit roundoff of 1 + |q_k| (a solution's q is
+    /// never exact: a coordinate at 0 is 0 within rounding), q̇, the
+    /// parameters, `t` and the constants exact, one unit roundoff added by
+    /// each operation, propagated to first order. An argument that reads
+    /// no coordinate (its bound 0) is never at a kink: its derivative with
+    /// respect to q vanishes, and a function of time at its kink at an
+    /// exact time (a driver's `abs(t - 1)` at t = 1) is the model's own
+    /// one-sided definition, not roundoff.
+    ///
+    /// `registers` and `errors` are scratch of at least
+    /// [`registers`](Self::registers) values each. Does not allocate unless a
+    /// kink is found (to name the output that reads it).
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval), for `errors` too.
+    pub fn kink(
+        &self,
+        inputs: &TapeInputs<'_>,
+        q_error: f64,
+        registers: &mut [f64],
+        errors: &mut [f64],
+    ) -> Result<Option<TapeKink>, TapeError> {
+        self.check_inputs(inputs, registers)?;
+        check("errors", self.registers, errors.len())?;
+        let (r, e) = (registers, errors);
+        self.load(inputs, r);
+        // The inputs' and constants' errors are set here, every other
+        // register's by the instruction that writes it.
+        e[..self.registers].fill(0.0);
+        for (k, &x) in inputs.q[..self.need_q].iter().enumerate() {
+            e[self.outputs + k] = q_error.abs() + UNIT * (1.0 + x.abs());
+        }
+        for (i, ins) in self.instrs.iter().enumerate() {
+            if let Some(function) = kink_kind(ins)
+                && at_kink(ins, r, e)
+            {
+                return Ok(Some(TapeKink {
+                    output: self.first_reader(i),
+                    function,
+                }));
+            }
+            let (value, error) = value_and_error(ins, r, e);
+            let dst = ins.dst() as usize;
+            r[dst] = value;
+            e[dst] = error + UNIT * value.abs();
+        }
+        Ok(None)
+    }
+
+    /// The first output that depends on the value instruction `at` writes
+    /// (forward through the registers; a register overwritten by a value
+    /// that does not depend on it no longer does).
+    #[cold]
+    fn first_reader(&self, at: usize) -> Option<usize> {
+        let mut tainted = vec![false; self.registers];
+        let dst = self.instrs.get(at)?.dst() as usize;
+        *tainted.get_mut(dst)? = true;
+        for ins in &self.instrs[at + 1..] {
+            let reads = operands(ins)
+                .into_iter()
+                .flatten()
+                .any(|a| tainted.get(a as usize).copied().unwrap_or(false));
+            if let Some(d) = tainted.get_mut(ins.dst() as usize) {
+                *d = reads;
+            }
+        }
+        tainted[..self.outputs].iter().position(|&t| t)
+    }
+}
+
+/// The function of an instruction that can be at a kink, by name.
+fn kink_kind(ins: &Instr) -> Option<&'static str> {
+    match *ins {
+        Instr::Sqrt { .. } => Some("sqrt"),
+        // A fractional power below 2 has an infinite first or second
+        // derivative at 0 (γ needs the second).
+        Instr::PowF { p, .. } if p < 2.0 => Some("power"),
+        Instr::Pow { .. } => Some("power"),
+        Instr::Atan2 { .. } => Some("atan2"),
+        Instr::Unary { op, .. } => match op {
+            UnaryOp::Abs => Some("abs"),
+            UnaryOp::Asin => Some("asin"),
+            UnaryOp::Acos => Some("acos"),
+            UnaryOp::Ln => Some("ln"),
+            UnaryOp::Smooth(_) => Some("smoothstep"),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// Whether the argument of a kink instruction is at its kink within
+/// [`MARGIN`] error bounds (never when the bound is 0).
+fn at_kink(ins: &Instr, r: &[f64], e: &[f64]) -> bool {
+    let near = |distance: f64, error: f64| error > 0.0 && distance <= MARGIN * error;
+    let arg = |a: Reg| (r[a as usize], e[a as usize]);
+    match *ins {
+        Instr::Sqrt { a, .. } | Instr::PowF { a, .. } | Instr::Pow { a, .. } => {
+            let (x, ex) = arg(a);
+            near(x.abs(), ex)
+        }
+        Instr::Atan2 { y, x, .. } => {
+            let ((y, ey), (x, ex)) = (arg(y), arg(x));
+            near(y.abs(), ey) && near(x.abs(), ex)
+        }
+        Instr::Unary { op, a, .. } => {
+            let (x, ex) = arg(a);
+            match op {
+                UnaryOp::Abs | UnaryOp::Ln => near(x.abs(), ex),
+                UnaryOp::Asin | UnaryOp::Acos => near(1.0 - x.abs(), ex),
+                UnaryOp::Smooth(_) => near(x.abs().min((x - 1.0).abs()), ex),
+                _ => false,
+            }
+        }
+        _ => false,
+    }
+}
+
+/// The registers an instruction reads.
+fn operands(ins: &Instr) -> [Option<Reg>; 2] {
+    match *ins {
+        Instr::Const { .. } => [None, None],
+        Instr::Copy { a, .. }
+        | Instr::Neg { a, .. }
+        | Instr::Scale { a, .. }
+        | Instr::AddConst { a, .. }
+        | Instr::Recip { a, .. }
+        | Instr::Square { a, .. }
+        | Instr::Sqrt { a, .. }
+        | Instr::PowI { a, .. }
+        | Instr::PowF { a, .. }
+        | Instr::Sin { a, .. }
+        | Instr::Cos { a, .. }
+        | Instr::SinQ { a, .. }
+        | Instr::CosQ { a, .. }
+        | Instr::Unary { a, .. } => [Some(a), None],
+        Instr::Add { a, b, .. }
+        | Instr::Sub { a, b, .. }
+        | Instr::Mul { a, b, .. }
+        | Instr::Div { a, b, .. }
+        | Instr::Pow { a, b, .. } => [Some(a), Some(b)],
+        Instr::MulAdd { acc, a, .. } => [Some(acc), Some(a)],
+        Instr::Atan2 { y, x, .. } => [Some(y), Some(x)],
+    }
+}
+
+/// An instruction's value, as [`Tape::eval`] computes it, and the
+/// first-order bound on its error from its operands' (the rounding of the
+/// result is added by the caller).
+fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
+    let v = |a: Reg| r[a as usize];
+    let err = |a: Reg| e[a as usize];
+    match *ins {
+        Instr::Const { v: c, .. } => (c, 0.0),
+        Instr::Copy { a, .. } => (v(a), err(a)),
+        Instr::Neg { a, .. } => (-v(a), err(a)),
+        Instr::Scale { a, k, .. } => (k * v(a), k.abs() * err(a)),
+        Instr::Add { a, b, .. } => (v(a) + v(b), err(a) + err(b)),
+        Instr::Sub { a, b, .. } => (v(a) - v(b), err(a) + err(b)),
+        Instr::MulAdd { acc, a, k, .. } => {
+            let product = k * v(a);
+            (
+                v(acc) + product,
+                err(acc) + k.abs() * err(a) + UNIT * product.abs(),
+            )
+        }
+        Instr::AddConst { a, c, .. } => (v(a) + c, err(a)),
+        Instr::Mul { a, b, .. } => (v(a) * v(b), v(b).abs() * err(a) + v(a).abs() * err(b)),
+        Instr::Div { a, b, .. } => {
+            let q = v(a) / v(b);
+            (q, (err(a) + q.abs() * err(b)) / v(b).abs())
+        }
+        Instr::Recip { a, .. } => {
+            let q = 1.0 / v(a);
+            (q, q * q * err(a))
+        }
+        Instr::Square { a, .. } => {
+            let x = v(a);
+            (x * x, 2.0 * x.abs() * err(a))
+        }
+        Instr::Sqrt { a, .. } => {
+            let s = v(a).sqrt();
+            (s, err(a) / (2.0 * s))
+        }
+        Instr::PowI { a, n, .. } => (
+            v(a).powi(n),
+            (f64::from(n) * v(a).powi(n - 1)).abs() * err(a),
+        ),
+        Instr::PowF { a, p, .. } => (v(a).powf(p), (p * v(a).powf(p - 1.0)).abs() * err(a)),
+        Instr::Sin { a, .. } | Instr::SinQ { a, .. } => (v(a).sin(), v(a).cos().abs() * err(a)),
+        Instr::Cos { a, .. } | Instr::CosQ { a, .. } => (v(a).cos(), v(a).sin().abs() * err(a)),
+        Instr::Unary { op, a, .. } => {
+            let x = v(a);
+            (op.apply(x), slope(op, x).abs() * err(a))
+        }
+        Instr::Pow { a, b, .. } => {
+            let (x, y) = (v(a), v(b));
+            let p = x.powf(y);
+            (
+                p,
+                (y * x.powf(y - 1.0)).abs() * err(a) + (p * x.ln()).abs() * err(b),
+            )
+        }
+        Instr::Atan2 { y, x, .. } => {
+            let (yv, xv) = (v(y), v(x));
+            (
+                yv.atan2(xv),
+                (xv.abs() * err(y) + yv.abs() * err(x)) / (xv * xv + yv * yv),
+            )
+        }
+    }
+}
+
+/// The derivative of a unary function at x.
+fn slope(op: UnaryOp, x: f64) -> f64 {
+    match op {
+        UnaryOp::Sin => x.cos(),
+        UnaryOp::Cos => x.sin(),
+        UnaryOp::Tan => 1.0 + x.tan().powi(2),
+        UnaryOp::Asin | UnaryOp::Acos => 1.0 / (1.0 - x * x).sqrt(),
+        UnaryOp::Atan => 1.0 / (1.0 + x * x),
+        UnaryOp::Sinh => x.cosh(),
+        UnaryOp::Cosh => x.sinh(),
+        UnaryOp::Tanh => 1.0 - x.tanh().powi(2),
+        UnaryOp::Exp => x.exp(),
+        UnaryOp::Ln => 1.0 / x,
+        UnaryOp::Abs => 1.0,
+        UnaryOp::Smooth(k) if k < 3 => smooth(k + 1, x),
+        UnaryOp::Smooth(_) => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::arena::Arena;
+    use crate::node::UnaryOp;
+    use crate::tape::{Tape, TapeInputs};
+
+    /// The kink of `f` (built on coordinates x, y) at (x, y), uncertain by
+    /// `q_error`.
+    fn kink_at(
+        f: impl Fn(&mut Arena, crate::ExprId, crate::ExprId) -> crate::ExprId,
+        x: f64,
+        y: f64,
+        q_error: f64,
+    ) -> Option<super::TapeKink> {
+        let mut a = Arena::new();
+        let xs = a.coordinate("x", 0);
+        let ys = a.coordinate("y", 1);
+        let out = f(&mut a, xs, ys);
+        let other = a.add(xs, ys);
+        let tape = Tape::compile(&a, &[other, out]);
+        let inputs = TapeInputs {
+            q: &[x, y],
+            qd: &[],
+            params: &[],
+            t: 0.0,
+        };
+        let mut r = vec![0.0; tape.registers()];
+        let mut e = vec![0.0; tape.registers()];
+        tape.kink(&inputs, q_error, &mut r, &mut e)
+            .expect("slices of the tape's lengths")
+    }
+
+    fn norm(a: &mut Arena, x: crate::ExprId, y: crate::ExprId) -> crate::ExprId {
+        let (x2, y2) = (a.powi(x, 2), a.powi(y, 2));
+        let s = a.add(x2, y2);
+        a.sqrt(s)
+    }
+
+    #[test]
+    fn a_norm_of_roundoff_is_at_its_kink_and_names_its_output() {
+        // (x − 9) + 9 is 0 but for rounding at x = 9 − 1e-15.
+        let shifted = |a: &mut Arena, x, y| {
+            let nine = a.num(9.0);
+            let dx = a.sub(x, nine);
+            let dy = a.sub(y, nine);
+            norm(a, dx, dy)
+        };
+        let kink = kink_at(shifted, 9.0 + 1e-15, 9.0 - 2e-15, 0.0).expect("a kink");
+        assert_eq!((kink.output, kink.function), (Some(1), "sqrt"));
+        // A norm well away from zero is no kink, nor one whose smallness
+        // the coordinates determine (1e-8 against errors of 1e-15).
+        assert_eq!(kink_at(shifted, 12.0, 5.0, 0.0), None);
+        assert_eq!(kink_at(shifted, 9.0 + 1e-8, 9.0, 0.0), None);
+        // … unless the coordinates are that uncertain.
+        assert!(kink_at(shifted, 9.0 + 1e-8, 9.0, 1e-8).is_some());
+    }
+
+    #[test]
+    fn each_kind_of_kink_is_found_and_exact_arguments_are_not() {
+        let abs = |a: &mut Arena, x, _| a.abs(x);
+        assert_eq!(
+            kink_at(abs, 1e-300, 0.0, 1e-16).map(|k| k.function),
+            Some("abs")
+        );
+        // A coordinate at exactly 0 is 0 within rounding.
+        assert_eq!(kink_at(abs, 0.0, 0.0, 0.0).map(|k| k.function), Some("abs"));
+        assert_eq!(kink_at(abs, 0.5, 0.0, 1e-16), None);
+        let atan2 = |a: &mut Arena, x, y| a.atan2(y, x);
+        assert_eq!(
+            kink_at(atan2, 1e-17, -1e-17, 1e-16).map(|k| k.function),
+            Some("atan2")
+        );
+        assert_eq!(kink_at(atan2, 1e-17, 1.0, 1e-16), None);
+        let acos = |a: &mut Arena, x, _| a.acos(x);
+        assert_eq!(
+            kink_at(acos, 1.0 - 1e-16, 0.0, 1e-16).map(|k| k.function),
+            Some("acos")
+        );
+        assert_eq!(kink_at(acos, 0.9, 0.0, 1e-16), None);
+        let power = |a: &mut Arena, x, _| a.powf(x, 1.5);
+        assert_eq!(
+            kink_at(power, 1e-17, 0.0, 1e-16).map(|k| k.function),
+            Some("power")
+        );
+        let step = |a: &mut Arena, x, _| a.unary(UnaryOp::Smooth(0), x);
+        assert_eq!(
+            kink_at(step, 1.0 + 1e-17, 0.0, 1e-16).map(|k| k.function),
+            Some("smoothstep")
+        );
+        assert_eq!(kink_at(step, 0.5, 0.0, 1e-16), None);
+    }
+
+    #[test]
+    fn arguments_that_read_no_coordinate_are_never_at_a_kink() {
+        // |t − 0.5| at t = 0.5 and √p at p = 0: exact, whatever q's error.
+        let mut a = Arena::new();
+        let x = a.coordinate("x", 0);
+        let t = a.time();
+        let p = a.parameter("p", 0);
+        let half = a.num(0.5);
+        let d = a.sub(t, half);
+        let at_t = a.abs(d);
+        let at_p = a.sqrt(p);
+        let smooth = a.add(x, at_t);
+        let out = a.add(smooth, at_p);
+        let tape = Tape::compile(&a, &[out]);
+        assert!(tape.has_kinks());
+        let inputs = TapeInputs {
+            q: &[0.3],
+            qd: &[],
+            params: &[0.0],
+            t: 0.5,
+        };
+        let mut r = vec![0.0; tape.registers()];
+        let mut e = vec![0.0; tape.registers()];
+        assert_eq!(tape.kink(&inputs, 1e-3, &mut r, &mut e), Ok(None));
+    }
+
+    #[test]
+    fn tapes_without_kink_functions_say_so() {
+        let mut a = Arena::new();
+        let x = a.coordinate("x", 0);
+        let s = a.sin(x);
+        let r = a.sqrt(x);
+        assert!(!Tape::compile(&a, &[s]).has_kinks());
+        assert!(Tape::compile(&a, &[s, r]).has_kinks());
+    }
+}
