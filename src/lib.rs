@@ -56,6 +56,8 @@ mod model;
 pub use model::{Backend, Model, ModelSolver, TapeSystem};
 #[cfg(feature = "model")]
 mod model_outputs;
+#[cfg(feature = "model")]
+pub use model_outputs::OutputKink;
 #[cfg(feature = "parallel")]
 pub mod sweep;
 

@@ -692,14 +692,30 @@ impl TapeSystem {
         interpreter
     }
 
-    /// Length of the kink check's part of the scratch: Φ's registers and
-    /// their error bounds (none without a function that can be at a kink).
+    /// Length of the kink checks' part of the scratch: the registers of
+    /// Φ's tape or the results' (the larger) and their error bounds (none
+    /// without a function that can be at a kink).
     fn kink_len(&self) -> usize {
-        if self.phi_kinks {
-            2 * self.phi.registers()
+        let phi = if self.phi_kinks {
+            self.phi.registers()
         } else {
             0
+        };
+        2 * phi.max(self.outputs.kink_registers())
+    }
+
+    /// The kink checks' registers and error bounds, `len` each, in the
+    /// scratch (grown if it came from another system).
+    pub(crate) fn kink_scratch<'a>(
+        &self,
+        scratch: &'a mut Vec<f64>,
+        len: usize,
+    ) -> (&'a mut [f64], &'a mut [f64]) {
+        let base = self.kink_base();
+        if scratch.len() < base + 2 * len {
+            grow(scratch, base + 2 * len);
         }
+        scratch[base..base + 2 * len].split_at_mut(len)
     }
 
     /// [`System::kink`] on Φ's tape (out of line: most models have no
@@ -712,11 +728,7 @@ impl TapeSystem {
         uncertainty: f64,
         t: f64,
     ) -> Option<kinema_runtime::Kink> {
-        let (base, len) = (self.kink_base(), self.kink_len());
-        if scratch.len() < base + len {
-            grow(scratch, base + len);
-        }
-        let (registers, errors) = scratch[base..base + len].split_at_mut(len / 2);
+        let (registers, errors) = self.kink_scratch(scratch, self.phi.registers());
         let inputs = self.inputs(q, &self.zeros, t);
         // A slice of the wrong length cannot tell (the evaluations poison
         // their outputs in that case).

@@ -14,6 +14,20 @@ pub(crate) struct OutputTape {
     tape: Tape,
     /// For each column, its y_q entries as (coordinate index, tape output).
     jacobian: Vec<Vec<(usize, usize)>>,
+    /// Whether the tape has a function that can be at a kink.
+    kinks: bool,
+}
+
+/// A result column that, at a state, goes through a function at a point
+/// where it is not differentiable, within the uncertainty of its argument
+/// (see [`TapeSystem::output_kink`]): its value is right, its rates are
+/// the rounding errors'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OutputKink {
+    /// The result column (its index in [`Outputs::output_name`]'s order).
+    pub column: usize,
+    /// The function, as in [`Kink::function`](kinema_runtime::Kink::function).
+    pub function: &'static str,
 }
 
 impl OutputTape {
@@ -32,15 +46,72 @@ impl OutputTape {
             }
             jacobian.push(row);
         }
+        let tape = Tape::compile(&d.arena, &exprs);
         OutputTape {
             names: d.outputs.iter().map(|o| o.name.clone()).collect(),
-            tape: Tape::compile(&d.arena, &exprs),
+            kinks: tape.has_kinks(),
+            tape,
             jacobian,
         }
     }
 
     pub(crate) fn registers(&self) -> usize {
         self.tape.registers()
+    }
+
+    /// Registers of the kink check (0 without a function that can be at
+    /// one).
+    pub(crate) fn kink_registers(&self) -> usize {
+        if self.kinks { self.tape.registers() } else { 0 }
+    }
+
+    /// The column of tape output `k`: y, ẏ and c are m each, then the y_q
+    /// entries, column by column.
+    fn column_of(&self, k: usize) -> Option<usize> {
+        let m = self.names.len();
+        if k < 3 * m {
+            return Some(k % m);
+        }
+        self.jacobian
+            .iter()
+            .position(|row| row.iter().any(|&(_, j)| j == k))
+    }
+}
+
+impl TapeSystem {
+    /// The first result column that, at `state`, goes through a function
+    /// at a point where it is not differentiable (a distance between two
+    /// points that coincide but for roundoff, `atan2(0, 0)`, `acos(±1)`),
+    /// within a bound on its argument's error (the state's residual and
+    /// roundoff, as [`System::kink`](kinema_runtime::System::kink) for Φ):
+    /// its value is right, its rates ẏ and ÿ there are the rounding
+    /// errors'. `None` if none is, or the model's results have no such
+    /// function. Allocates only the first time (the scratch), and when one
+    /// is found.
+    pub fn output_kink(
+        &self,
+        scratch: &mut Vec<f64>,
+        state: &kinema_runtime::State,
+    ) -> Option<OutputKink> {
+        let o = &self.outputs;
+        if !o.kinks {
+            return None;
+        }
+        let inputs = TapeInputs {
+            q: state.q(),
+            qd: state.qd(),
+            params: &self.params,
+            t: state.t(),
+        };
+        let (registers, errors) = self.kink_scratch(scratch, o.tape.registers());
+        let kink = o
+            .tape
+            .kink(&inputs, state.stats().residual, registers, errors)
+            .ok()??;
+        Some(OutputKink {
+            column: o.column_of(kink.output?)?,
+            function: kink.function,
+        })
     }
 }
 

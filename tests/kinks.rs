@@ -12,7 +12,7 @@ fn model(path: &str) -> Model {
 
 /// The states at `times` (as far as the run gets) and the error that
 /// stopped it, if any.
-fn states(model: &Model, times: &[f64]) -> (Vec<State>, Option<kinema::Error>) {
+fn run(model: &Model, times: &[f64]) -> (Vec<State>, Option<kinema::Error>) {
     let mut solver = model
         .solver(Options::default())
         .unwrap_or_else(|e| panic!("{e}"));
@@ -35,7 +35,7 @@ fn equation(model: &Model, kink: Kink) -> String {
 #[test]
 fn a_solution_on_the_kink_of_a_norm_is_flagged_with_its_equation() {
     let m = model("tests/kinks/at_origin.kin");
-    let (states, _) = states(&m, &[0.0]);
+    let (states, _) = run(&m, &[0.0]);
     let s = states.first().expect("assembly succeeds");
     // The tip is at the origin but for roundoff.
     assert!(
@@ -52,7 +52,7 @@ fn a_solution_on_the_kink_of_a_norm_is_flagged_with_its_equation() {
 fn a_norm_away_from_its_kink_is_never_flagged() {
     let m = model("tests/kinks/ring.kin");
     let times: Vec<f64> = (0..=200).map(|k| k as f64 * 0.05).collect();
-    let (states, error) = states(&m, &times);
+    let (states, error) = run(&m, &times);
     assert!(error.is_none(), "{error:?}");
     assert_eq!(states.len(), times.len());
     for s in &states {
@@ -68,7 +68,7 @@ fn a_coordinate_crossing_the_kink_of_abs_is_flagged_there_only() {
     // 0.1 · 3 is 0.3 + 5.6e-17: x there is roundoff, on the kink.
     let m = model("tests/kinks/fold.kin");
     let times: Vec<f64> = (0..=8).map(|k| k as f64 * 0.1).collect();
-    let (states, error) = states(&m, &times);
+    let (states, error) = run(&m, &times);
     assert!(error.is_none(), "{error:?}");
     let flagged: Vec<usize> = (0..states.len())
         .filter(|&k| states[k].kink().is_some())
@@ -89,4 +89,35 @@ fn a_coordinate_crossing_the_kink_of_abs_is_flagged_there_only() {
             s.qd()[0]
         );
     }
+}
+
+#[test]
+fn a_result_column_through_its_kink_is_flagged_there_only() {
+    // gap = |x| with x = t − 0.3: its rate jumps from −1 to 1 at 0.3
+    // (0.1 · 3 is 0.3 + 5.6e-17, x there is roundoff). Φ has no kink.
+    let m = model("tests/kinks/gap.kin");
+    let system = m.system();
+    let mut scratch = system.scratch();
+    let times: Vec<f64> = (0..=8).map(|k| k as f64 * 0.1).collect();
+    let (states, error) = run(&m, &times);
+    assert!(error.is_none(), "{error:?}");
+    let mut flagged = Vec::new();
+    for (k, s) in states.iter().enumerate() {
+        assert_eq!(s.kink(), None);
+        if let Some(kink) = system.output_kink(&mut scratch, s) {
+            assert_eq!(kink.function, "sqrt");
+            assert_eq!(kinema::Outputs::output_name(&system, kink.column), "gap");
+            flagged.push(k);
+        }
+    }
+    assert_eq!(flagged, [3]);
+    // The rows of a norm away from its kink are not.
+    let m = model("models/slider_crank.kin");
+    let system = m.system();
+    let (states, _) = run(&m, &times);
+    assert!(
+        states
+            .iter()
+            .all(|s| system.output_kink(&mut scratch, s).is_none())
+    );
 }

@@ -292,6 +292,27 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
         warnings[0].contains("q̇ and q̈ are not determined"),
         "{stderr}"
     );
+    // A result column at its kink: its rates are named.
+    let o = kinema(&[
+        "run",
+        "tests/kinks/gap.kin",
+        "--t-end",
+        "0.8",
+        "--steps",
+        "8",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: 1 row at t = 0.3: result `gap` has a square root or norm where it is not \
+             differentiable (its argument is 0 within roundoff): its `gap_dot` and `gap_ddot` are \
+             not determined"
+        ),
+        "{stderr}"
+    );
     // The solution away from the kink is silent.
     let o = kinema(&["run", "tests/kinks/ring.kin", "--out", &out]);
     assert!(o.status.success());

@@ -444,7 +444,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     progress.finish();
     let events = solver.close_events().to_vec();
     print_singular_warnings(&events, &rows.flagged);
-    print_kink_warning(solver.system(), &rows.kinks);
+    print_kink_warnings(solver.system(), &rows);
     stats.events = events.len();
     let w = Instant::now();
     let sink = &rows.sink;
@@ -502,8 +502,10 @@ struct Rows {
     /// The last output state's time if thinning left it out of `samples`.
     skipped: Option<f64>,
     flagged: Vec<f64>,
-    /// Output times whose q puts a function at its kink, and which.
+    /// Output times whose q puts a function at its kink, and which: of an
+    /// equation, of a result column.
     kinks: Vec<(f64, kinema::Kink)>,
+    output_kinks: Vec<(f64, kinema::OutputKink)>,
     /// Output times in the grid, every how many one is kept, how many are
     /// written.
     outputs: usize,
@@ -539,6 +541,7 @@ impl Rows {
             skipped: None,
             flagged: Vec::new(),
             kinks: Vec::new(),
+            output_kinks: Vec::new(),
             outputs,
             stride: outputs.div_ceil(MAX_PLOT_STATES).max(1),
             written: 0,
@@ -578,6 +581,9 @@ impl Rows {
                 state,
                 &mut self.results,
             );
+            if let Some(kink) = solver.system().output_kink(&mut self.scratch, state) {
+                self.output_kinks.push((t, kink));
+            }
         }
         let [y, yd, ydd] = &self.results;
         self.sink.write_with(state, [y, yd, ydd], extra)?;
@@ -623,7 +629,7 @@ fn step_failure(
         .cloned()
         .collect();
     print_singular_warnings(&passed, &rows.flagged);
-    print_kink_warning(solver.system(), &rows.kinks);
+    print_kink_warnings(solver.system(), &rows);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
     let rows_note = rows.sink.finish_after_failure();
@@ -734,12 +740,45 @@ fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
 
 /// One `warning:` line for the output rows whose q puts a function of an
 /// equation at a point where it is not differentiable (named by the first
-/// such row): their q̇ and q̈ are roundoff.
-fn print_kink_warning(system: &TapeSystem, kinks: &[(f64, kinema::Kink)]) {
-    let (Some((first, kink)), Some((last, _))) = (kinks.first(), kinks.last()) else {
+/// such row: their q̇ and q̈ are roundoff), and one for those where a
+/// result column's function is (their rates are).
+fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
+    if let Some((_, kink)) = rows.kinks.first() {
+        let equation = kink.equation.map_or_else(
+            || "an equation".to_owned(),
+            |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
+        );
+        let times: Vec<f64> = rows.kinks.iter().map(|k| k.0).collect();
+        print_kink_warning(
+            &times,
+            &equation,
+            kink.function,
+            "q̇ and q̈ are not determined by the model (the derivatives there are the \
+             rounding errors'); q is a solution",
+        );
+    }
+    if let Some((_, kink)) = rows.output_kinks.first() {
+        let name = kinema::Outputs::output_name(system, kink.column);
+        let times: Vec<f64> = rows.output_kinks.iter().map(|k| k.0).collect();
+        print_kink_warning(
+            &times,
+            &format!("result `{name}`"),
+            kink.function,
+            &format!(
+                "`{name}_dot` and `{name}_ddot` are not determined (the rounding errors'); \
+                 `{name}` is right"
+            ),
+        );
+    }
+}
+
+/// `warning: N rows at t = a … b: SUBJECT has FUNCTION where it is not
+/// differentiable (…): their CONSEQUENCE`.
+fn print_kink_warning(times: &[f64], subject: &str, function: &str, consequence: &str) {
+    let (Some(first), Some(last)) = (times.first(), times.last()) else {
         return;
     };
-    let n = kinks.len();
+    let n = times.len();
     let (rows, at, their) = if n == 1 {
         ("1 row".to_owned(), format!("t = {}", time(*first)), "its")
     } else {
@@ -749,22 +788,17 @@ fn print_kink_warning(system: &TapeSystem, kinks: &[(f64, kinema::Kink)]) {
             "their",
         )
     };
-    let equation = kink.equation.map_or_else(
-        || "an equation".to_owned(),
-        |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
-    );
-    let (function, argument) = match kink.function {
+    let (function, argument) = match function {
         "atan2" => ("atan2", "its arguments are (0, 0)"),
-        "acos" | "asin" => (kink.function, "its argument is ±1"),
+        "acos" | "asin" => (function, "its argument is ±1"),
         "smoothstep" => ("a cubic step", "its argument is at an end of the step"),
         "power" => ("a fractional power", "its base is 0"),
         "sqrt" => ("a square root or norm", "its argument is 0"),
         other => (other, "its argument is 0"),
     };
     eprintln!(
-        "warning: {rows} at {at}: {equation} has {function} where it is not differentiable \
-         ({argument} within roundoff): {their} q̇ and q̈ are not determined by the model \
-         (the derivatives there are the rounding errors'); q is a solution"
+        "warning: {rows} at {at}: {subject} has {function} where it is not differentiable \
+         ({argument} within roundoff): {their} {consequence}"
     );
 }
 
