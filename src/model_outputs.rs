@@ -14,8 +14,11 @@ pub(crate) struct OutputTape {
     tape: Tape,
     /// For each column, its y_q entries as (coordinate index, tape output).
     jacobian: Vec<Vec<(usize, usize)>>,
-    /// Whether the tape has a function that can be at a kink.
-    kinks: bool,
+    /// The values of the columns that have a function that can be at a
+    /// kink, and those columns (see [`TapeSystem::output_kink`]): the
+    /// rates' formulas hold the same functions of the same arguments, and
+    /// this tape is a few instructions where the whole one is hundreds.
+    kinks: Option<(Tape, Vec<usize>)>,
 }
 
 /// A result column that, at a state, goes through a function at a point
@@ -46,12 +49,15 @@ impl OutputTape {
             }
             jacobian.push(row);
         }
-        let tape = Tape::compile(&d.arena, &exprs);
+        let columns: Vec<usize> = (0..m)
+            .filter(|&k| Tape::compile(&d.arena, &exprs[k..=k]).has_kinks())
+            .collect();
+        let values: Vec<ExprId> = columns.iter().map(|&k| exprs[k]).collect();
         OutputTape {
             names: d.outputs.iter().map(|o| o.name.clone()).collect(),
-            kinks: tape.has_kinks(),
-            tape,
+            tape: Tape::compile(&d.arena, &exprs),
             jacobian,
+            kinks: (!columns.is_empty()).then(|| (Tape::compile(&d.arena, &values), columns)),
         }
     }
 
@@ -62,19 +68,7 @@ impl OutputTape {
     /// Registers of the kink check (0 without a function that can be at
     /// one).
     pub(crate) fn kink_registers(&self) -> usize {
-        if self.kinks { self.tape.registers() } else { 0 }
-    }
-
-    /// The column of tape output `k`: y, ẏ and c are m each, then the y_q
-    /// entries, column by column.
-    fn column_of(&self, k: usize) -> Option<usize> {
-        let m = self.names.len();
-        if k < 3 * m {
-            return Some(k % m);
-        }
-        self.jacobian
-            .iter()
-            .position(|row| row.iter().any(|&(_, j)| j == k))
+        self.kinks.as_ref().map_or(0, |(tape, _)| tape.registers())
     }
 }
 
@@ -93,23 +87,19 @@ impl TapeSystem {
         scratch: &mut Vec<f64>,
         state: &kinema_runtime::State,
     ) -> Option<OutputKink> {
-        let o = &self.outputs;
-        if !o.kinks {
-            return None;
-        }
+        let (tape, columns) = self.outputs.kinks.as_ref()?;
         let inputs = TapeInputs {
             q: state.q(),
             qd: state.qd(),
             params: &self.params,
             t: state.t(),
         };
-        let (registers, errors) = self.kink_scratch(scratch, o.tape.registers());
-        let kink = o
-            .tape
+        let (registers, errors) = self.kink_scratch(scratch, tape.registers());
+        let kink = tape
             .kink(&inputs, state.stats().residual, registers, errors)
             .ok()??;
         Some(OutputKink {
-            column: o.column_of(kink.output?)?,
+            column: *columns.get(kink.output?)?,
             function: kink.function,
         })
     }

@@ -163,3 +163,42 @@ fn bad_tables_and_arguments_are_refused_with_their_place() -> TestResult {
     assert_status(&o, 2);
     Ok(())
 }
+
+/// A variant whose rows `kinema run` would warn of (here the change-point
+/// four-bar's bifurcations, at l1 = 1 only) is named with what is flagged,
+/// and counted in the summary; the CSV is written as for any variant.
+#[test]
+fn variants_with_flagged_rows_are_named() -> TestResult {
+    let dir = TempDir::new("sweep-flagged");
+    let table = dir.path("t.csv");
+    std::fs::write(&table, "l1\n1\n0.9\n")?;
+    let out = dir.path("s.csv");
+    let o = kinema(&[
+        "sweep",
+        "tests/singular/change_point.kin",
+        "--params",
+        &table,
+        "--t-end",
+        "2",
+        "--steps",
+        "72",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 0);
+    let err = stderr(&o);
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(
+        warnings[0].starts_with("warning: variant 1 (l1 = 1): bifurcation at t = 0.87"),
+        "{err}"
+    );
+    assert!(warnings[0].contains("; bifurcation at t = 1.87"), "{err}");
+    let summary = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        summary.contains("0 failed; 1 with flagged rows"),
+        "{summary}"
+    );
+    assert_eq!(Csv::read(&out)?.rows.len(), 2 * 73);
+    Ok(())
+}

@@ -194,27 +194,31 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     );
     let batch = (threads * BATCH_PER_THREAD).max(1);
     let mut failures: Vec<String> = Vec::new();
+    let mut flagged: Vec<String> = Vec::new();
     for (b, chunk) in rows.chunks(batch).enumerate() {
         let first = range.start + b * batch;
         let texts = sweep_chunk(&sweep, chunk, first, &grid.times, orders);
         for (k, result) in texts.into_iter().enumerate() {
-            let (bytes, failure) = match result {
+            let (bytes, failure, flags) = match result {
                 Ok(done) => done,
-                Err(e) => (Vec::new(), Some(e)),
+                Err(e) => (Vec::new(), Some(e), Flags::default()),
             };
             out.write_all(&bytes)
                 .map_err(|e| write_failure(&destination, &e))?;
+            let index = first + k;
+            let values = || describe(&table.names, &table.rows[index]);
             if let Some(e) = failure {
-                let index = first + k;
-                let values = describe(&table.names, &table.rows[index]);
-                failures.push(format!("variant {} ({values}): {e}", index + 1));
+                failures.push(format!("variant {} ({}): {e}", index + 1, values()));
+            }
+            if let Some(flags) = flags.describe() {
+                flagged.push(format!("variant {} ({}): {flags}", index + 1, values()));
             }
         }
     }
     Sink::finish(out, &destination)?;
 
     let summary = format!(
-        "{} ({}): {} of {} variants{}, {} each; {} failed; {}",
+        "{} ({}): {} of {} variants{}, {} each; {} failed; {} with flagged rows; {}",
         loaded.name(),
         loaded.file,
         rows.len(),
@@ -226,10 +230,20 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         },
         grid.description,
         failures.len(),
+        flagged.len(),
         duration(start.elapsed()),
     );
     for f in &failures {
         print_stderr(&format!("warning: {f}\n"));
+    }
+    for f in flagged.iter().take(MAX_FLAGGED_WARNINGS) {
+        print_stderr(&format!("warning: {f}\n"));
+    }
+    if flagged.len() > MAX_FLAGGED_WARNINGS {
+        print_stderr(&format!(
+            "warning: … and {} more variants with flagged rows (not listed)\n",
+            flagged.len() - MAX_FLAGGED_WARNINGS
+        ));
     }
     let to_stdout = destination == Destination::Stdout;
     if to_stdout {
@@ -246,9 +260,77 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     }
 }
 
-/// A variant's CSV text, and the error that stopped it (its rows before
-/// the error are in the text).
-type VariantText = (Vec<u8>, Option<Error>);
+/// Most variants with flagged rows named one by one (the rest are
+/// counted).
+const MAX_FLAGGED_WARNINGS: usize = 20;
+
+/// A variant's CSV text, the error that stopped it (its rows before the
+/// error are in the text), and its rows that are not plain solves.
+type VariantText = (Vec<u8>, Option<Error>, Flags);
+
+/// A variant's rows that `kinema run` would warn of: near a singular
+/// configuration (q̇ and q̈ the branch's limits, not solves), at a kink
+/// of an equation (q̇ and q̈ not determined) or of a result (its rates not
+/// determined), and the singular configurations passed.
+#[derive(Debug, Default)]
+struct Flags {
+    near: Vec<f64>,
+    kinks: Vec<f64>,
+    output_kinks: Vec<f64>,
+    events: Vec<(kinema::SingularKind, f64)>,
+}
+
+impl Flags {
+    /// Notes `state`, a row written.
+    fn note(&mut self, system: &kinema::TapeSystem, scratch: &mut Vec<f64>, state: &kinema::State) {
+        if state.near_singular() {
+            self.near.push(state.t());
+        }
+        if state.kink().is_some() {
+            self.kinks.push(state.t());
+        }
+        if system.output_kink(scratch, state).is_some() {
+            self.output_kinks.push(state.t());
+        }
+    }
+
+    /// One clause per kind of flag, `None` without any.
+    fn describe(&self) -> Option<String> {
+        let rows = |times: &[f64], what: &str| {
+            let (first, last) = (times.first()?, times.last()?);
+            Some(if times.len() == 1 {
+                format!("1 row at t = {} {what}", time(*first))
+            } else {
+                format!(
+                    "{} rows at t = {} … {} {what}",
+                    times.len(),
+                    time(*first),
+                    time(*last)
+                )
+            })
+        };
+        let events = self
+            .events
+            .iter()
+            .map(|(kind, t)| format!("{kind} at t = {}", time(*t)));
+        let clauses: Vec<String> = events
+            .chain(rows(
+                &self.near,
+                "within the threshold of a singular configuration (q̇ and q̈ are the branch's \
+                 limits, not solves)",
+            ))
+            .chain(rows(
+                &self.kinks,
+                "at a kink of an equation (q̇ and q̈ are not determined)",
+            ))
+            .chain(rows(
+                &self.output_kinks,
+                "at a kink of a result (its rates are not determined)",
+            ))
+            .collect();
+        (!clauses.is_empty()).then(|| clauses.join("; "))
+    }
+}
 
 /// One batch: each variant's CSV text, and the error that stopped it (its
 /// rows before the error are in the text).
@@ -270,12 +352,15 @@ fn sweep_chunk(
         let m = kinema::Outputs::output_len(solver.system());
         let mut scratch = kinema::System::scratch(solver.system());
         let mut results = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+        let mut flags = Flags::default();
         for &t in times {
             if let Err(e) = solver.step(t) {
-                return Ok((text, Some(e)));
+                flags.events = events(solver.events());
+                return Ok((text, Some(e), flags));
             }
             let Some(state) = solver.state() else { break };
             kinema::Outputs::outputs_of(solver.system(), &mut scratch, state, &mut results);
+            flags.note(solver.system(), &mut scratch, state);
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());
@@ -285,8 +370,14 @@ fn sweep_chunk(
             text.extend_from_slice(line.as_bytes());
             text.push(b'\n');
         }
-        Ok((text, None))
+        flags.events = events(solver.close_events());
+        Ok((text, None, flags))
     })
+}
+
+/// The kind and time of each singular configuration met.
+fn events(events: &[kinema::SingularEvent]) -> Vec<(kinema::SingularKind, f64)> {
+    events.iter().map(|e| (e.kind, e.t)).collect()
 }
 
 /// `row,<params>,t,<coordinates>,<_dot>,<_ddot>,<results>,<_dot>,<_ddot>`

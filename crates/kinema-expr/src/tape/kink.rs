@@ -193,7 +193,8 @@ fn operands(ins: &Instr) -> [Option<Reg>; 2] {
     }
 }
 
-/// An instruction's value, as [`Tape::eval`] computes it, and the
+/// An instruction's value, as [`Tape::eval`] computes it (sines and
+/// cosines to within an ulp), and the
 /// first-order bound on its error from its operands' (the rounding of the
 /// result is added by the caller).
 fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
@@ -236,8 +237,17 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
             (f64::from(n) * v(a).powi(n - 1)).abs() * err(a),
         ),
         Instr::PowF { a, p, .. } => (v(a).powf(p), (p * v(a).powf(p - 1.0)).abs() * err(a)),
-        Instr::Sin { a, .. } | Instr::SinQ { a, .. } => (v(a).sin(), v(a).cos().abs() * err(a)),
-        Instr::Cos { a, .. } | Instr::CosQ { a, .. } => (v(a).cos(), v(a).sin().abs() * err(a)),
+        // One library call for both (the bound needs the other): the
+        // values may differ from the tape's by an ulp, which decides no
+        // kink.
+        Instr::Sin { a, .. } | Instr::SinQ { a, .. } => {
+            let (sin, cos) = v(a).sin_cos();
+            (sin, cos.abs() * err(a))
+        }
+        Instr::Cos { a, .. } | Instr::CosQ { a, .. } => {
+            let (sin, cos) = v(a).sin_cos();
+            (cos, sin.abs() * err(a))
+        }
         Instr::Unary { op, a, .. } => {
             let x = v(a);
             (op.apply(x), slope(op, x).abs() * err(a))
