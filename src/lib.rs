@@ -55,6 +55,8 @@ mod model;
 #[cfg(feature = "model")]
 pub use model::{Backend, Model, ModelSolver, TapeSystem};
 #[cfg(feature = "model")]
+mod kinks;
+#[cfg(feature = "model")]
 mod model_outputs;
 #[cfg(feature = "model")]
 pub use model_outputs::OutputKink;

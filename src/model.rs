@@ -265,9 +265,9 @@ pub struct TapeSystem {
     dynamics: crate::dynamics::TapeDynamics,
     /// Registers the largest tape needs (the scratch's length).
     registers: usize,
-    /// Whether Φ's tape has a function that can be at a kink (see
+    /// Φ's subexpressions with a function that can be at a kink (see
     /// [`System::kink`]).
-    phi_kinks: bool,
+    kinks: Option<crate::kinks::KinkTape>,
     zeros: Vec<f64>,
     /// The JIT compiling (or having compiled) the hot path, shared by
     /// clones.
@@ -316,7 +316,6 @@ impl TapeSystem {
             .max(outputs.registers())
             .max(dynamics.registers());
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
-        let phi_kinks = phi.has_kinks();
         let n = d.nc();
         #[cfg(feature = "jit")]
         let (jit, jit_fallback) = match backend {
@@ -365,7 +364,7 @@ impl TapeSystem {
             outputs,
             dynamics,
             registers,
-            phi_kinks,
+            kinks: crate::kinks::KinkTape::new(a, &d.phi),
             #[cfg(feature = "jit")]
             jit,
             jit_fallback,
@@ -498,6 +497,14 @@ impl TapeSystem {
     }
 }
 
+/// The parts of the scratch a kink check uses (see
+/// [`TapeSystem::kink_scratch`]).
+pub(crate) struct KinkScratch<'a> {
+    pub(crate) trig: &'a mut [f64],
+    pub(crate) registers: &'a mut [f64],
+    pub(crate) errors: &'a mut [f64],
+}
+
 /// The part of the scratch the compiled tapes use (the coordinates'
 /// sin/cos cache at its start, the memo after the interpreter's
 /// registers): its first `n` entries, grown if the scratch came from
@@ -616,7 +623,7 @@ impl System for TapeSystem {
         uncertainty: f64,
         t: f64,
     ) -> Option<kinema_runtime::Kink> {
-        if self.phi_kinks {
+        if self.kinks.is_some() {
             self.phi_kink(scratch, q, uncertainty, t)
         } else {
             None
@@ -693,33 +700,40 @@ impl TapeSystem {
     }
 
     /// Length of the kink checks' part of the scratch: the registers of
-    /// Φ's tape or the results' (the larger) and their error bounds (none
-    /// without a function that can be at a kink).
+    /// Φ's kink tape or the results' (the larger) and their error bounds
+    /// (none without a function that can be at a kink).
     fn kink_len(&self) -> usize {
-        let phi = if self.phi_kinks {
-            self.phi.registers()
-        } else {
-            0
-        };
+        let phi = self
+            .kinks
+            .as_ref()
+            .map_or(0, crate::kinks::KinkTape::registers);
         2 * phi.max(self.outputs.kink_registers())
     }
 
     /// The kink checks' registers and error bounds, `len` each, in the
-    /// scratch (grown if it came from another system).
+    /// scratch (grown if it came from another system), and the
+    /// coordinates' sin/cos cache at its start (which the evaluations at
+    /// this q have filled).
     pub(crate) fn kink_scratch<'a>(
         &self,
         scratch: &'a mut Vec<f64>,
         len: usize,
-    ) -> (&'a mut [f64], &'a mut [f64]) {
+    ) -> KinkScratch<'a> {
         let base = self.kink_base();
         if scratch.len() < base + 2 * len {
             grow(scratch, base + 2 * len);
         }
-        scratch[base..base + 2 * len].split_at_mut(len)
+        let (start, rest) = scratch.split_at_mut(base);
+        let (registers, errors) = rest[..2 * len].split_at_mut(len);
+        KinkScratch {
+            trig: &mut start[..self.trig_len()],
+            registers,
+            errors,
+        }
     }
 
-    /// [`System::kink`] on Φ's tape (out of line: most models have no
-    /// function with a kink).
+    /// [`System::kink`] on Φ's kink tape (out of line: most models have
+    /// no function with a kink).
     #[inline(never)]
     fn phi_kink(
         &self,
@@ -728,17 +742,13 @@ impl TapeSystem {
         uncertainty: f64,
         t: f64,
     ) -> Option<kinema_runtime::Kink> {
-        let (registers, errors) = self.kink_scratch(scratch, self.phi.registers());
+        let kinks = self.kinks.as_ref()?;
+        let s = self.kink_scratch(scratch, kinks.registers());
         let inputs = self.inputs(q, &self.zeros, t);
-        // A slice of the wrong length cannot tell (the evaluations poison
-        // their outputs in that case).
-        let kink = self
-            .phi
-            .kink(&inputs, uncertainty, registers, errors)
-            .ok()??;
+        let found = kinks.find(&inputs, uncertainty, s.registers, s.errors, s.trig)?;
         Some(kinema_runtime::Kink {
-            equation: kink.output,
-            function: kink.function,
+            equation: Some(found.root),
+            function: found.function,
         })
     }
 

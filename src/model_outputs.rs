@@ -14,11 +14,10 @@ pub(crate) struct OutputTape {
     tape: Tape,
     /// For each column, its y_q entries as (coordinate index, tape output).
     jacobian: Vec<Vec<(usize, usize)>>,
-    /// The values of the columns that have a function that can be at a
-    /// kink, and those columns (see [`TapeSystem::output_kink`]): the
-    /// rates' formulas hold the same functions of the same arguments, and
-    /// this tape is a few instructions where the whole one is hundreds.
-    kinks: Option<(Tape, Vec<usize>)>,
+    /// The values' subexpressions with a function that can be at a kink
+    /// (see [`TapeSystem::output_kink`]): the rates' formulas hold the
+    /// same functions of the same arguments.
+    kinks: Option<crate::kinks::KinkTape>,
 }
 
 /// A result column that, at a state, goes through a function at a point
@@ -49,15 +48,11 @@ impl OutputTape {
             }
             jacobian.push(row);
         }
-        let columns: Vec<usize> = (0..m)
-            .filter(|&k| Tape::compile(&d.arena, &exprs[k..=k]).has_kinks())
-            .collect();
-        let values: Vec<ExprId> = columns.iter().map(|&k| exprs[k]).collect();
         OutputTape {
             names: d.outputs.iter().map(|o| o.name.clone()).collect(),
             tape: Tape::compile(&d.arena, &exprs),
             jacobian,
-            kinks: (!columns.is_empty()).then(|| (Tape::compile(&d.arena, &values), columns)),
+            kinks: crate::kinks::KinkTape::new(&d.arena, &exprs[..m]),
         }
     }
 
@@ -68,7 +63,9 @@ impl OutputTape {
     /// Registers of the kink check (0 without a function that can be at
     /// one).
     pub(crate) fn kink_registers(&self) -> usize {
-        self.kinks.as_ref().map_or(0, |(tape, _)| tape.registers())
+        self.kinks
+            .as_ref()
+            .map_or(0, crate::kinks::KinkTape::registers)
     }
 }
 
@@ -87,20 +84,24 @@ impl TapeSystem {
         scratch: &mut Vec<f64>,
         state: &kinema_runtime::State,
     ) -> Option<OutputKink> {
-        let (tape, columns) = self.outputs.kinks.as_ref()?;
+        let kinks = self.outputs.kinks.as_ref()?;
         let inputs = TapeInputs {
             q: state.q(),
             qd: state.qd(),
             params: &self.params,
             t: state.t(),
         };
-        let (registers, errors) = self.kink_scratch(scratch, tape.registers());
-        let kink = tape
-            .kink(&inputs, state.stats().residual, registers, errors)
-            .ok()??;
+        let s = self.kink_scratch(scratch, kinks.registers());
+        let found = kinks.find(
+            &inputs,
+            state.stats().residual,
+            s.registers,
+            s.errors,
+            s.trig,
+        )?;
         Some(OutputKink {
-            column: *columns.get(kink.output?)?,
-            function: kink.function,
+            column: found.root,
+            function: found.function,
         })
     }
 }

@@ -12,7 +12,7 @@
 //! to first order from the coordinates' own uncertainty and one unit
 //! roundoff per operation.
 
-use super::{Instr, Reg, Tape, TapeError, TapeInputs, check};
+use super::{Instr, Reg, Tape, TapeError, TapeInputs, cached, check};
 use crate::node::{UnaryOp, smooth};
 
 /// A function of a tape at a point where it is not differentiable, within
@@ -57,8 +57,11 @@ impl Tape {
     /// one-sided definition, not roundoff.
     ///
     /// `registers` and `errors` are scratch of at least
-    /// [`registers`](Self::registers) values each. Does not allocate unless a
-    /// kink is found (to name the output that reads it).
+    /// [`registers`](Self::registers) values each; `trig` is the cache of
+    /// the coordinates' sines and cosines of
+    /// [`eval_with_cache`](Self::eval_with_cache) (filled, and used, as
+    /// there; empty for none). Does not allocate unless a kink is found (to
+    /// name the output that reads it).
     ///
     /// # Errors
     /// [`TapeError::ShortSlice`] as [`eval`](Self::eval), for `errors` too.
@@ -68,6 +71,7 @@ impl Tape {
         q_error: f64,
         registers: &mut [f64],
         errors: &mut [f64],
+        trig: &mut [f64],
     ) -> Result<Option<TapeKink>, TapeError> {
         self.check_inputs(inputs, registers)?;
         check("errors", self.registers, errors.len())?;
@@ -88,7 +92,20 @@ impl Tape {
                     function,
                 }));
             }
-            let (value, error) = value_and_error(ins, r, e);
+            let (value, error) = match *ins {
+                // The coordinates' sines and cosines through the cache.
+                Instr::SinQ { a, k, .. } | Instr::CosQ { a, k, .. } => {
+                    let x = r[a as usize];
+                    let (sin, cos) = cached(trig, k, x).unwrap_or_else(|| x.sin_cos());
+                    let error = e[a as usize];
+                    if matches!(ins, Instr::SinQ { .. }) {
+                        (sin, cos.abs() * error)
+                    } else {
+                        (cos, sin.abs() * error)
+                    }
+                }
+                _ => value_and_error(ins, r, e),
+            };
             let dst = ins.dst() as usize;
             r[dst] = value;
             e[dst] = error + UNIT * value.abs();
@@ -317,7 +334,7 @@ mod tests {
         };
         let mut r = vec![0.0; tape.registers()];
         let mut e = vec![0.0; tape.registers()];
-        tape.kink(&inputs, q_error, &mut r, &mut e)
+        tape.kink(&inputs, q_error, &mut r, &mut e, &mut [])
             .expect("slices of the tape's lengths")
     }
 
@@ -404,7 +421,7 @@ mod tests {
         };
         let mut r = vec![0.0; tape.registers()];
         let mut e = vec![0.0; tape.registers()];
-        assert_eq!(tape.kink(&inputs, 1e-3, &mut r, &mut e), Ok(None));
+        assert_eq!(tape.kink(&inputs, 1e-3, &mut r, &mut e, &mut []), Ok(None));
     }
 
     #[test]
