@@ -610,6 +610,53 @@ proptest! {
         }
     }
 
+    /// The kink check's error bound (`Tape::kink`, which leaves each
+    /// output's bound in `errors` when it finds no kink) covers what moving
+    /// the coordinates by up to their uncertainty does to the value: the
+    /// first-order propagation through every operation is right. Moves
+    /// are small (10⁻⁹ relative) so that second-order terms stay below it.
+    #[test]
+    fn kink_bound_covers_a_move_of_the_coordinates(
+        t in expr(),
+        x in point(),
+        signs in proptest::array::uniform3(prop_oneof![Just(-1.0f64), Just(1.0)]),
+    ) {
+        let mut a = Arena::new();
+        symbols(&mut a);
+        let e = build(&mut a, &t, false);
+        let tape = Tape::compile(&a, &[e]);
+        let inputs = TapeInputs { q: &x[..3], qd: &[], params: &x[3..4], t: x[4] };
+        let delta = 1e-9;
+        let mut regs = vec![0.0; tape.registers()];
+        let mut errors = vec![0.0; tape.registers()];
+        let found = tape.kink(&inputs, delta, &mut regs, &mut errors, &mut []);
+        prop_assert!(found.is_ok());
+        let bound = errors[0];
+        let mut out = [0.0];
+        prop_assert!(tape.eval(&inputs, &mut regs, &mut out).is_ok());
+        let value = out[0];
+        // Only where the check passed and the bound says something: a
+        // relative bound near 1 leaves first order (a pole, a steep tan).
+        if found != Ok(None) || !value.is_finite() || !bound.is_finite()
+            || bound > 1e-3 * (1.0 + value.abs())
+        {
+            return Ok(());
+        }
+        let q: Vec<f64> = x[..3].iter().zip(signs).map(|(v, s)| v + s * delta).collect();
+        let moved_inputs = TapeInputs { q: &q, ..inputs };
+        let mut moved = [0.0];
+        prop_assert!(tape.eval(&moved_inputs, &mut regs, &mut moved).is_ok());
+        if !moved[0].is_finite() {
+            return Ok(());
+        }
+        // Each evaluation rounds within the bound (its rounding part), the
+        // move within it too (its first-order part): twice, with room for
+        // the library's functions' few ulps.
+        let change = (moved[0] - value).abs();
+        prop_assert!(change <= 2.0 * bound + 8.0 * EPS * value.abs(),
+            "{}: moved by {change:e}, bound {bound:e} (value {value:e})", a.display(e));
+    }
+
     /// Building in another order (operands swapped, right operand first, in a
     /// fresh arena whose symbols were created in reverse order) prints the
     /// same text; in the same arena it yields the same id.

@@ -60,8 +60,9 @@ impl Tape {
     /// [`registers`](Self::registers) values each; `trig` is the cache of
     /// the coordinates' sines and cosines of
     /// [`eval_with_cache`](Self::eval_with_cache) (filled, and used, as
-    /// there; empty for none). Does not allocate unless a kink is found (to
-    /// name the output that reads it).
+    /// there; empty for none). Without a kink, `errors[..outputs]` hold the
+    /// outputs' error bounds on return. Does not allocate unless a kink is
+    /// found (to name the output that reads it).
     ///
     /// # Errors
     /// [`TapeError::ShortSlice`] as [`eval`](Self::eval), for `errors` too.
