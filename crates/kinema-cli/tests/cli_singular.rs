@@ -318,3 +318,25 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
     assert!(o.status.success());
     assert!(!text(&o.stderr).contains("warning"), "{}", text(&o.stderr));
 }
+
+/// `kinema check` on a model that assembles on a kink (the F16 model):
+/// a warning naming the equation and the function, never "ok".
+#[test]
+fn check_warns_of_an_assembly_at_a_kink() {
+    let o = kinema(&["check", "tests/kinks/at_origin.kin"]);
+    let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(
+        stdout.contains(
+            "warning: `AtOrigin` assembles with equation `tip.x` at a kink of its `sqrt`"
+        ),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("ok:"), "{stdout}");
+    assert!(
+        stderr.contains("q̇ and q̈ there are not determined"),
+        "{stderr}"
+    );
+    let o = kinema(&["check", "tests/kinks/ring.kin"]);
+    assert!(text(&o.stdout).contains("ok: `Ring` assembles and is ready to run"));
+}

@@ -45,9 +45,11 @@ pub fn check(path: &Path) -> Result<(), Failure> {
         let _ = writeln!(report, "  rank of Φ_q at the guess: {}", describe(&rank));
     }
 
-    let assembled = solver.assemble(0.0).map(|s| (s.q().to_vec(), *s.stats()));
+    let assembled = solver
+        .assemble(0.0)
+        .map(|s| (s.q().to_vec(), *s.stats(), s.kink()));
     match assembled {
-        Ok((q, stats)) => {
+        Ok((q, stats, kink)) => {
             for w in assembly_warnings(&loaded, solver.system(), &q) {
                 eprintln!("{w}");
             }
@@ -71,6 +73,28 @@ pub fn check(path: &Path) -> Result<(), Failure> {
             let near = stats.near_singular || rank.is_some_and(|r| r.near_singular(tolerance));
             if !near {
                 let _ = writeln!(report, "  redundant equations: none");
+                if let Some(kink) = kink {
+                    // q̇ and q̈ at the start would be roundoff: a warning,
+                    // not "ok".
+                    let equation = kink.equation.map_or_else(
+                        || "an equation".to_owned(),
+                        |e| format!("equation `{}`", solver.system().equation_name(e)),
+                    );
+                    let _ = write!(
+                        report,
+                        "warning: `{}` assembles with {equation} at a kink of its `{}`; \
+                         `kinema run` will flag the rows there",
+                        loaded.name(),
+                        kink.function
+                    );
+                    eprintln!(
+                        "warning: the assembled configuration (t = 0) puts {equation}'s `{}` \
+                         where it is not differentiable, within roundoff: q̇ and q̈ there are \
+                         not determined by the model",
+                        kink.function
+                    );
+                    return print_stdout(&report);
+                }
                 let _ = write!(
                     report,
                     "ok: `{}` assembles and is ready to run",
