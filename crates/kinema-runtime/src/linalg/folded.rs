@@ -157,7 +157,7 @@ pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
 /// (see [`FoldedSolves`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SolveOp {
-    /// y[dst] −= v[s] · y[src].
+    /// `y[dst] −= v[s] · y[src]`.
     MulSub {
         /// Entry of y written.
         dst: u32,
@@ -166,7 +166,7 @@ pub enum SolveOp {
         /// Entry of v read.
         s: u32,
     },
-    /// y[dst] −= c · y[src].
+    /// `y[dst] −= c · y[src]`.
     ConstMulSub {
         /// Entry of y written.
         dst: u32,
@@ -175,28 +175,28 @@ pub enum SolveOp {
         /// The folded constant.
         c: f64,
     },
-    /// y[dst] −= y[src].
+    /// `y[dst] −= y[src]`.
     Sub {
         /// Entry of y written.
         dst: u32,
         /// Entry of y read.
         src: u32,
     },
-    /// y[dst] += y[src].
+    /// `y[dst] += y[src]`.
     Add {
         /// Entry of y written.
         dst: u32,
         /// Entry of y read.
         src: u32,
     },
-    /// y[dst] ·= v[s].
+    /// `y[dst] ·= v[s]`.
     Scale {
         /// Entry of y written.
         dst: u32,
         /// Entry of v read.
         s: u32,
     },
-    /// y[dst] ·= c.
+    /// `y[dst] ·= c`.
     ConstScale {
         /// Entry of y written.
         dst: u32,
@@ -233,9 +233,9 @@ impl SolveOp {
 }
 
 /// A read-only view of a [`FoldedLu`]'s solves, for a compiler of them
-/// (kinema-jit): a solve of A x = b gathers y[k] = b[gather[k]], runs the
+/// (kinema-jit): a solve of A x = b gathers `y[k] = b[gather[k]]`, runs the
 /// two sweeps on y in order (rounding each operation as written, no fused
-/// multiply-add), and scatters b[scatter[k]] = y[k]; the transposed solve
+/// multiply-add), and scatters `b[scatter[k]] = y[k]`; the transposed solve
 /// the same with the `_t` lists, the gather and scatter swapped.
 #[derive(Clone, Copy, Debug)]
 pub struct FoldedSolves<'a> {
@@ -288,7 +288,7 @@ enum Current {
 }
 
 /// LU with a pivot order fixed at analysis and the system's constant
-/// Jacobian entries folded out (see the [module docs](self)). Built by
+/// Jacobian entries folded out (see the module `linalg::folded`). Built by
 /// [`Auto`]'s [`LinearSolver::analyze_system`] for systems that say which
 /// entries are constant ([`System::jacobian_constant`]); falls back to a
 /// general [`Auto`] at any factorization the fixed order does not accept.
