@@ -613,8 +613,8 @@ impl System for TapeSystem {
         (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.factor(factor))
     }
 
-    /// Φ's tape, with a bound on each value's error (see [`Tape::kink`]),
-    /// when it has a function that can be at a kink.
+    /// Φ's kink tape, with a bound on each value's error (see
+    /// [`Tape::kink`]), when Φ has a function that can be at a kink.
     #[inline]
     fn kink(
         &self,

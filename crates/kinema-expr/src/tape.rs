@@ -252,6 +252,35 @@ pub enum Instr {
 }
 
 impl Instr {
+    /// The registers the instruction reads: the first `n` of the array.
+    #[must_use]
+    pub fn sources(&self) -> ([Reg; 2], usize) {
+        match *self {
+            Instr::Const { .. } => ([0, 0], 0),
+            Instr::Copy { a, .. }
+            | Instr::Neg { a, .. }
+            | Instr::Scale { a, .. }
+            | Instr::AddConst { a, .. }
+            | Instr::Recip { a, .. }
+            | Instr::Square { a, .. }
+            | Instr::Sqrt { a, .. }
+            | Instr::PowI { a, .. }
+            | Instr::PowF { a, .. }
+            | Instr::Sin { a, .. }
+            | Instr::Cos { a, .. }
+            | Instr::SinQ { a, .. }
+            | Instr::CosQ { a, .. }
+            | Instr::Unary { a, .. } => ([a, 0], 1),
+            Instr::Add { a, b, .. }
+            | Instr::Sub { a, b, .. }
+            | Instr::Mul { a, b, .. }
+            | Instr::Div { a, b, .. }
+            | Instr::Pow { a, b, .. } => ([a, b], 2),
+            Instr::MulAdd { acc, a, .. } => ([acc, a], 2),
+            Instr::Atan2 { y, x, .. } => ([y, x], 2),
+        }
+    }
+
     /// The register the instruction writes.
     #[must_use]
     pub fn dst(&self) -> Reg {

@@ -24,8 +24,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use kinema_expr::{Instr, Tape};
 
-use crate::tape::sources;
-
 /// A hoisted part's estimated cost below which it is left in place: the
 /// key's check costs about as much as a few arithmetic instructions.
 const WORTH: usize = 8;
@@ -98,7 +96,7 @@ impl Hoisted {
         let mut read_params = vec![false; np];
         let (mut reads_t, mut cost) = (false, 0);
         for (i, ins) in instrs.iter().enumerate() {
-            let (srcs, n) = sources(ins);
+            let (srcs, n) = ins.sources();
             let srcs = &srcs[..n];
             let dst = ins.dst() as usize;
             let free = match ins {

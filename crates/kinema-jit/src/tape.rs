@@ -471,7 +471,7 @@ impl SpillPlan {
                     written.push(ins.dst());
                 }
                 live[d] = false;
-                let (srcs, n) = sources(ins);
+                let (srcs, n) = ins.sources();
                 for &s in &srcs[..n] {
                     live[reg(s)?] = true;
                 }
@@ -500,34 +500,6 @@ fn widest(a: Needs, b: Needs) -> Needs {
         out: a.out.max(b.out),
         out2: a.out2.max(b.out2),
         trig: a.trig.max(b.trig),
-    }
-}
-
-/// The registers an instruction reads (the first `n` of the array).
-pub(crate) fn sources(ins: &Instr) -> ([u32; 2], usize) {
-    match *ins {
-        Instr::Const { .. } => ([0, 0], 0),
-        Instr::Copy { a, .. }
-        | Instr::Neg { a, .. }
-        | Instr::Scale { a, .. }
-        | Instr::AddConst { a, .. }
-        | Instr::Recip { a, .. }
-        | Instr::Square { a, .. }
-        | Instr::Sqrt { a, .. }
-        | Instr::PowI { a, .. }
-        | Instr::PowF { a, .. }
-        | Instr::Sin { a, .. }
-        | Instr::Cos { a, .. }
-        | Instr::SinQ { a, .. }
-        | Instr::CosQ { a, .. }
-        | Instr::Unary { a, .. } => ([a, 0], 1),
-        Instr::Add { a, b, .. }
-        | Instr::Sub { a, b, .. }
-        | Instr::Mul { a, b, .. }
-        | Instr::Div { a, b, .. }
-        | Instr::Pow { a, b, .. } => ([a, b], 2),
-        Instr::MulAdd { acc, a, .. } => ([acc, a], 2),
-        Instr::Atan2 { y, x, .. } => ([y, x], 2),
     }
 }
 

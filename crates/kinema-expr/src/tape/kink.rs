@@ -123,10 +123,10 @@ impl Tape {
         let dst = self.instrs.get(at)?.dst() as usize;
         *tainted.get_mut(dst)? = true;
         for ins in &self.instrs[at + 1..] {
-            let reads = operands(ins)
-                .into_iter()
-                .flatten()
-                .any(|a| tainted.get(a as usize).copied().unwrap_or(false));
+            let (sources, n) = ins.sources();
+            let reads = sources[..n]
+                .iter()
+                .any(|&a| tainted.get(a as usize).copied().unwrap_or(false));
             if let Some(d) = tainted.get_mut(ins.dst() as usize) {
                 *d = reads;
             }
@@ -180,34 +180,6 @@ fn at_kink(ins: &Instr, r: &[f64], e: &[f64]) -> bool {
             }
         }
         _ => false,
-    }
-}
-
-/// The registers an instruction reads.
-fn operands(ins: &Instr) -> [Option<Reg>; 2] {
-    match *ins {
-        Instr::Const { .. } => [None, None],
-        Instr::Copy { a, .. }
-        | Instr::Neg { a, .. }
-        | Instr::Scale { a, .. }
-        | Instr::AddConst { a, .. }
-        | Instr::Recip { a, .. }
-        | Instr::Square { a, .. }
-        | Instr::Sqrt { a, .. }
-        | Instr::PowI { a, .. }
-        | Instr::PowF { a, .. }
-        | Instr::Sin { a, .. }
-        | Instr::Cos { a, .. }
-        | Instr::SinQ { a, .. }
-        | Instr::CosQ { a, .. }
-        | Instr::Unary { a, .. } => [Some(a), None],
-        Instr::Add { a, b, .. }
-        | Instr::Sub { a, b, .. }
-        | Instr::Mul { a, b, .. }
-        | Instr::Div { a, b, .. }
-        | Instr::Pow { a, b, .. } => [Some(a), Some(b)],
-        Instr::MulAdd { acc, a, .. } => [Some(acc), Some(a)],
-        Instr::Atan2 { y, x, .. } => [Some(y), Some(x)],
     }
 }
 
