@@ -13,9 +13,11 @@ fn model(path: &str) -> Model {
 /// The states at `times` (as far as the run gets) and the error that
 /// stopped it, if any.
 fn run(model: &Model, times: &[f64]) -> (Vec<State>, Option<kinema::Error>) {
-    let mut solver = model
-        .solver(Options::default())
-        .unwrap_or_else(|e| panic!("{e}"));
+    run_with(model, times, Options::default())
+}
+
+fn run_with(model: &Model, times: &[f64], options: Options) -> (Vec<State>, Option<kinema::Error>) {
+    let mut solver = model.solver(options).unwrap_or_else(|e| panic!("{e}"));
     let mut states = Vec::new();
     for &t in times {
         match solver.step(t) {
@@ -79,6 +81,11 @@ fn a_coordinate_crossing_the_kink_of_abs_is_flagged_there_only() {
         (kink.function, equation(&m, kink).as_str()),
         ("abs", "slide")
     );
+    // With positions only, q̇ and q̈ are differences: nothing to flag.
+    let only = Options::default().with_positions_only(true);
+    let (positions, _) = run_with(&m, &times[..4], only);
+    assert_eq!(positions.len(), 4);
+    assert!(positions.iter().all(|s| s.kink().is_none()));
     // Away from it the rates are the closed form's, on either side.
     for s in states.iter().filter(|s| s.kink().is_none()) {
         let rate = if s.t() < 0.3 { 2.0 } else { 1.0 / 1.5 };

@@ -292,6 +292,20 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
         warnings[0].contains("q̇ and q̈ are not determined"),
         "{stderr}"
     );
+    // With positions only, no rate is written: nothing to flag.
+    let o = kinema(&[
+        "run",
+        "tests/kinks/gap.kin",
+        "--t-end",
+        "0.8",
+        "--steps",
+        "8",
+        "--positions-only",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success());
+    assert!(!text(&o.stderr).contains("warning"), "{}", text(&o.stderr));
     // A result column at its kink: its rates are named.
     let o = kinema(&[
         "run",

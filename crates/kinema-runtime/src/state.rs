@@ -139,7 +139,9 @@ impl State {
     /// tolerance (see [`System::kink`](crate::System::kink)): its Φ_q, ν
     /// and γ there are the rounding errors', and so are q̇ and q̈; q itself
     /// is a solution. `None` for a near-singular state (whose q̇ and q̈ are
-    /// limits, not solves) and for systems that cannot tell.
+    /// limits, not solves), with [`Options::positions_only`](crate::Options::positions_only)
+    /// (q̇ and q̈ are differences of positions) and for systems that cannot
+    /// tell.
     #[must_use]
     pub fn kink(&self) -> Option<Kink> {
         self.kink

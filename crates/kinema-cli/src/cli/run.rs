@@ -581,7 +581,10 @@ impl Rows {
                 state,
                 &mut self.results,
             );
-            if let Some(kink) = solver.system().output_kink(&mut self.scratch, state) {
+            // With positions only, no rate is written.
+            if !solver.options().positions_only
+                && let Some(kink) = solver.system().output_kink(&mut self.scratch, state)
+            {
                 self.output_kinks.push((t, kink));
             }
         }

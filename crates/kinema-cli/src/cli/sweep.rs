@@ -360,7 +360,11 @@ fn sweep_chunk(
             }
             let Some(state) = solver.state() else { break };
             kinema::Outputs::outputs_of(solver.system(), &mut scratch, state, &mut results);
-            flags.note(solver.system(), &mut scratch, state);
+            if orders > 1 {
+                flags.note(solver.system(), &mut scratch, state);
+            } else if state.near_singular() {
+                flags.near.push(state.t());
+            }
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());

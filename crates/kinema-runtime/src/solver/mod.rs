@@ -625,7 +625,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     fn commit(&mut self, t: f64) -> Result<(), Error> {
         let sign = self.next.det_sign;
         let near = self.next.stats.near_singular;
-        let kink = if near {
+        // Near a singular configuration q̇ and q̈ are limits, with only
+        // positions asked for they are differences: neither reads Φ_q.
+        let kink = if near || self.options.positions_only {
             None
         } else {
             let uncertainty = self.next.stats.residual;
