@@ -425,7 +425,11 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // gives the state at t0 back.
         self.held.clone_from(&self.state);
         let (events, zone, sign) = (self.events.len(), self.zone.clone(), self.branch_sign);
-        let result = self.substeps(t0, t);
+        let result = if self.options.positions_only {
+            self.substeps_with_rates(t0, t)
+        } else {
+            self.substeps(t0, t)
+        };
         if let Err(e) = &result {
             // What the failed step found is rolled back with it, but for the
             // lock-up that ended it.
@@ -442,6 +446,42 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             self.factorization = Factorization::None;
         }
         result
+    }
+
+    /// [`Options::positions_only`]'s refinement: the sub-steps predict
+    /// from solved rates, starting with the current state's. Its difference
+    /// estimates are the quadratic's through the last three positions,
+    /// which across a kink of the motion (a coordinate through the kink of
+    /// an `abs`) point the wrong way however short the sub-step, so the
+    /// branch test would never pass (finding F17). The rates are the
+    /// estimates again from the next step on.
+    #[cold]
+    #[inline(never)]
+    fn substeps_with_rates(&mut self, t0: f64, t: f64) -> Result<(), Error> {
+        self.options.positions_only = false;
+        let result = self
+            .solve_state_rates(t0)
+            .and_then(|()| self.substeps(t0, t));
+        self.options.positions_only = true;
+        result
+    }
+
+    /// q̇ and q̈ of the current state solved at its q (at `t0`), unless it
+    /// is near singular (its rates are then the branch's limits already).
+    fn solve_state_rates(&mut self, t0: f64) -> Result<(), Error> {
+        if self.state.stats.near_singular {
+            return Ok(());
+        }
+        std::mem::swap(&mut self.state, &mut self.next);
+        self.renew_scratch();
+        self.system
+            .jacobian(&mut self.scratch, &self.next.q, t0, &mut self.ws.jac);
+        let solved = self.factor_and_rates(t0);
+        std::mem::swap(&mut self.state, &mut self.next);
+        solved?;
+        // Solved, not the quadratic's: the next estimate starts afresh.
+        self.state.h_back = f64::NAN;
+        Ok(())
     }
 
     /// Solves at `t` from the current state into `self.next` (Newton from
