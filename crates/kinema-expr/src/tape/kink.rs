@@ -224,7 +224,7 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
         }
         Instr::PowI { a, n, .. } => (
             v(a).powi(n),
-            (f64::from(n) * v(a).powi(n - 1)).abs() * err(a),
+            (f64::from(n) * v(a).powi(n.saturating_sub(1))).abs() * err(a),
         ),
         Instr::PowF { a, p, .. } => (v(a).powf(p), (p * v(a).powf(p - 1.0)).abs() * err(a)),
         // One library call for both (the bound needs the other): the
