@@ -497,14 +497,6 @@ impl TapeSystem {
     }
 }
 
-/// The parts of the scratch a kink check uses (see
-/// [`TapeSystem::kink_scratch`]).
-pub(crate) struct KinkScratch<'a> {
-    pub(crate) trig: &'a mut [f64],
-    pub(crate) registers: &'a mut [f64],
-    pub(crate) errors: &'a mut [f64],
-}
-
 /// The part of the scratch the compiled tapes use (the coordinates'
 /// sin/cos cache at its start, the memo after the interpreter's
 /// registers): its first `n` entries, grown if the scratch came from
@@ -623,11 +615,13 @@ impl System for TapeSystem {
         uncertainty: f64,
         t: f64,
     ) -> Option<kinema_runtime::Kink> {
-        if self.kinks.is_some() {
-            self.phi_kink(scratch, q, uncertainty, t)
-        } else {
-            None
-        }
+        let kinks = self.kinks.as_ref()?;
+        let inputs = self.inputs(q, &self.zeros, t);
+        let found = self.find_kink(kinks, scratch, &inputs, uncertainty)?;
+        Some(kinema_runtime::Kink {
+            equation: Some(found.root),
+            function: found.function,
+        })
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {
@@ -710,46 +704,27 @@ impl TapeSystem {
         2 * phi.max(self.outputs.kink_registers())
     }
 
-    /// The kink checks' registers and error bounds, `len` each, in the
-    /// scratch (grown if it came from another system), and the
-    /// coordinates' sin/cos cache at its start (which the evaluations at
-    /// this q have filled).
-    pub(crate) fn kink_scratch<'a>(
+    /// The first function of `kinks` at its kink at `inputs` (see
+    /// [`Tape::kink`]), in the scratch's kink part (grown if the scratch
+    /// came from another system) through its sin/cos cache, which the
+    /// evaluations at this q have filled. Out of line: most models have no
+    /// function with a kink.
+    #[inline(never)]
+    pub(crate) fn find_kink(
         &self,
-        scratch: &'a mut Vec<f64>,
-        len: usize,
-    ) -> KinkScratch<'a> {
-        let base = self.kink_base();
+        kinks: &crate::kinks::KinkTape,
+        scratch: &mut Vec<f64>,
+        inputs: &TapeInputs<'_>,
+        uncertainty: f64,
+    ) -> Option<crate::kinks::Found> {
+        let (base, len) = (self.kink_base(), kinks.registers());
         if scratch.len() < base + 2 * len {
             grow(scratch, base + 2 * len);
         }
         let (start, rest) = scratch.split_at_mut(base);
         let (registers, errors) = rest[..2 * len].split_at_mut(len);
-        KinkScratch {
-            trig: &mut start[..self.trig_len()],
-            registers,
-            errors,
-        }
-    }
-
-    /// [`System::kink`] on Φ's kink tape (out of line: most models have
-    /// no function with a kink).
-    #[inline(never)]
-    fn phi_kink(
-        &self,
-        scratch: &mut Vec<f64>,
-        q: &[f64],
-        uncertainty: f64,
-        t: f64,
-    ) -> Option<kinema_runtime::Kink> {
-        let kinks = self.kinks.as_ref()?;
-        let s = self.kink_scratch(scratch, kinks.registers());
-        let inputs = self.inputs(q, &self.zeros, t);
-        let found = kinks.find(&inputs, uncertainty, s.registers, s.errors, s.trig)?;
-        Some(kinema_runtime::Kink {
-            equation: Some(found.root),
-            function: found.function,
-        })
+        let trig = &mut start[..self.trig_len()];
+        kinks.find(inputs, uncertainty, registers, errors, trig)
     }
 
     /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.

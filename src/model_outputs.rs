@@ -91,14 +91,7 @@ impl TapeSystem {
             params: &self.params,
             t: state.t(),
         };
-        let s = self.kink_scratch(scratch, kinks.registers());
-        let found = kinks.find(
-            &inputs,
-            state.stats().residual,
-            s.registers,
-            s.errors,
-            s.trig,
-        )?;
+        let found = self.find_kink(kinks, scratch, &inputs, state.stats().residual)?;
         Some(OutputKink {
             column: found.root,
             function: found.function,

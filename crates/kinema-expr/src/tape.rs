@@ -767,6 +767,23 @@ impl Tape {
         check("registers", self.registers, registers.len())
     }
 
+    /// Loads the inputs and constants into their registers (slices checked
+    /// by the caller); no instruction writes these registers.
+    fn load(&self, inputs: &TapeInputs<'_>, r: &mut [f64]) {
+        let (q, qd, p) = (
+            self.outputs,
+            self.outputs + self.need_q,
+            self.outputs + self.need_q + self.need_qd,
+        );
+        r[q..qd].copy_from_slice(&inputs.q[..self.need_q]);
+        r[qd..p].copy_from_slice(&inputs.qd[..self.need_qd]);
+        r[p..p + self.need_params].copy_from_slice(&inputs.params[..self.need_params]);
+        if let Some(t) = self.t_reg {
+            r[t] = inputs.t;
+        }
+        r[self.consts_base..self.consts_base + self.consts.len()].copy_from_slice(&self.consts);
+    }
+
     /// Loads the inputs and constants, then runs the instructions (slices
     /// checked by the caller).
     fn run(&self, inputs: &TapeInputs<'_>, r: &mut [f64], trig: &mut [f64]) {
@@ -808,25 +825,6 @@ impl Tape {
                 Instr::Atan2 { dst, y, x } => r[dst as usize] = r[y as usize].atan2(r[x as usize]),
             }
         }
-    }
-}
-
-impl Tape {
-    /// Loads the inputs and constants into their registers (slices checked
-    /// by the caller); no instruction writes these registers.
-    fn load(&self, inputs: &TapeInputs<'_>, r: &mut [f64]) {
-        let (q, qd, p) = (
-            self.outputs,
-            self.outputs + self.need_q,
-            self.outputs + self.need_q + self.need_qd,
-        );
-        r[q..qd].copy_from_slice(&inputs.q[..self.need_q]);
-        r[qd..p].copy_from_slice(&inputs.qd[..self.need_qd]);
-        r[p..p + self.need_params].copy_from_slice(&inputs.params[..self.need_params]);
-        if let Some(t) = self.t_reg {
-            r[t] = inputs.t;
-        }
-        r[self.consts_base..self.consts_base + self.consts.len()].copy_from_slice(&self.consts);
     }
 }
 

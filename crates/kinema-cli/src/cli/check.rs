@@ -76,10 +76,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                 if let Some(kink) = kink {
                     // q̇ and q̈ at the start would be roundoff: a warning,
                     // not "ok".
-                    let equation = kink.equation.map_or_else(
-                        || "an equation".to_owned(),
-                        |e| format!("equation `{}`", solver.system().equation_name(e)),
-                    );
+                    let equation = super::run::equation_of(solver.system(), kink);
                     let _ = write!(
                         report,
                         "warning: `{}` assembles with {equation} at a kink of its `{}`; \

@@ -564,6 +564,22 @@ pub fn duration(d: Duration) -> String {
     }
 }
 
+/// `1 row at t = a` or `N rows at t = a … b` for the rows at `times`;
+/// `None` for none.
+pub fn rows_at(times: &[f64]) -> Option<String> {
+    let (first, last) = (times.first()?, times.last()?);
+    Some(if times.len() == 1 {
+        format!("1 row at t = {}", time(*first))
+    } else {
+        format!(
+            "{} rows at t = {} … {}",
+            times.len(),
+            time(*first),
+            time(*last)
+        )
+    })
+}
+
 /// A time value, short: `0`, `0.25`, `1.5e-7`, `1.7e308` (never the
 /// hundreds of digits of a large number written out).
 pub fn time(t: f64) -> String {

@@ -12,7 +12,7 @@ use super::args::{Backend, RunArgs};
 use super::check::run_error;
 use super::files::RunFiles;
 use super::load::{Format, Loaded, load};
-use super::output::{CsvSink, Destination, duration, time};
+use super::output::{CsvSink, Destination, duration, rows_at, time};
 use super::plot::Samples;
 use super::progress::Progress;
 use super::{Failure, adm, animate};
@@ -747,14 +747,10 @@ fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
 /// result column's function is (their rates are).
 fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
     if let Some((_, kink)) = rows.kinks.first() {
-        let equation = kink.equation.map_or_else(
-            || "an equation".to_owned(),
-            |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
-        );
         let times: Vec<f64> = rows.kinks.iter().map(|k| k.0).collect();
         print_kink_warning(
             &times,
-            &equation,
+            &equation_of(system, *kink),
             kink.function,
             "q̇ and q̈ are not determined by the model (the derivatives there are the \
              rounding errors'); q is a solution",
@@ -775,22 +771,22 @@ fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
     }
 }
 
+/// "equation `NAME`" for the equation of a kink ("an equation" when the
+/// system could not tell which).
+pub(super) fn equation_of(system: &TapeSystem, kink: kinema::Kink) -> String {
+    kink.equation.map_or_else(
+        || "an equation".to_owned(),
+        |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
+    )
+}
+
 /// `warning: N rows at t = a … b: SUBJECT has FUNCTION where it is not
 /// differentiable (…): their CONSEQUENCE`.
 fn print_kink_warning(times: &[f64], subject: &str, function: &str, consequence: &str) {
-    let (Some(first), Some(last)) = (times.first(), times.last()) else {
+    let Some(rows) = rows_at(times) else {
         return;
     };
-    let n = times.len();
-    let (rows, at, their) = if n == 1 {
-        ("1 row".to_owned(), format!("t = {}", time(*first)), "its")
-    } else {
-        (
-            format!("{n} rows"),
-            format!("t = {} … {}", time(*first), time(*last)),
-            "their",
-        )
-    };
+    let their = if times.len() == 1 { "its" } else { "their" };
     let (function, argument) = match function {
         "atan2" => ("atan2", "its arguments are (0, 0)"),
         "acos" | "asin" => (function, "its argument is ±1"),
@@ -800,7 +796,7 @@ fn print_kink_warning(times: &[f64], subject: &str, function: &str, consequence:
         other => (other, "its argument is 0"),
     };
     eprintln!(
-        "warning: {rows} at {at}: {subject} has {function} where it is not differentiable \
+        "warning: {rows}: {subject} has {function} where it is not differentiable \
          ({argument} within roundoff): {their} {consequence}"
     );
 }

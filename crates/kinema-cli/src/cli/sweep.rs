@@ -21,7 +21,7 @@ use kinema::sweep::{ModelSweep, shard};
 
 use super::args::SweepArgs;
 use super::load::{Format, load};
-use super::output::{Destination, Outputs, Sink, duration, time, write_failure};
+use super::output::{Destination, Outputs, Sink, duration, rows_at, time, write_failure};
 use super::run::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
 use super::{Failure, print_stderr};
 use kinema::CsvLine;
@@ -281,34 +281,29 @@ struct Flags {
 }
 
 impl Flags {
-    /// Notes `state`, a row written.
-    fn note(&mut self, system: &kinema::TapeSystem, scratch: &mut Vec<f64>, state: &kinema::State) {
+    /// Notes `state`, a row written (its results' rates among them if
+    /// `rates`).
+    fn note(
+        &mut self,
+        system: &kinema::TapeSystem,
+        scratch: &mut Vec<f64>,
+        state: &kinema::State,
+        rates: bool,
+    ) {
         if state.near_singular() {
             self.near.push(state.t());
         }
         if state.kink().is_some() {
             self.kinks.push(state.t());
         }
-        if system.output_kink(scratch, state).is_some() {
+        if rates && system.output_kink(scratch, state).is_some() {
             self.output_kinks.push(state.t());
         }
     }
 
     /// One clause per kind of flag, `None` without any.
     fn describe(&self) -> Option<String> {
-        let rows = |times: &[f64], what: &str| {
-            let (first, last) = (times.first()?, times.last()?);
-            Some(if times.len() == 1 {
-                format!("1 row at t = {} {what}", time(*first))
-            } else {
-                format!(
-                    "{} rows at t = {} … {} {what}",
-                    times.len(),
-                    time(*first),
-                    time(*last)
-                )
-            })
-        };
+        let rows = |times: &[f64], what: &str| Some(format!("{} {what}", rows_at(times)?));
         let events = self
             .events
             .iter()
@@ -360,11 +355,7 @@ fn sweep_chunk(
             }
             let Some(state) = solver.state() else { break };
             kinema::Outputs::outputs_of(solver.system(), &mut scratch, state, &mut results);
-            if orders > 1 {
-                flags.note(solver.system(), &mut scratch, state);
-            } else if state.near_singular() {
-                flags.near.push(state.t());
-            }
+            flags.note(solver.system(), &mut scratch, state, orders > 1);
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());

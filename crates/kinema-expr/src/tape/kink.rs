@@ -93,20 +93,7 @@ impl Tape {
                     function,
                 }));
             }
-            let (value, error) = match *ins {
-                // The coordinates' sines and cosines through the cache.
-                Instr::SinQ { a, k, .. } | Instr::CosQ { a, k, .. } => {
-                    let x = r[a as usize];
-                    let (sin, cos) = cached(trig, k, x).unwrap_or_else(|| x.sin_cos());
-                    let error = e[a as usize];
-                    if matches!(ins, Instr::SinQ { .. }) {
-                        (sin, cos.abs() * error)
-                    } else {
-                        (cos, sin.abs() * error)
-                    }
-                }
-                _ => value_and_error(ins, r, e),
-            };
+            let (value, error) = value_and_error(ins, r, e, trig);
             let dst = ins.dst() as usize;
             r[dst] = value;
             e[dst] = error + UNIT * value.abs();
@@ -187,7 +174,7 @@ fn at_kink(ins: &Instr, r: &[f64], e: &[f64]) -> bool {
 /// cosines to within an ulp), and the
 /// first-order bound on its error from its operands' (the rounding of the
 /// result is added by the caller).
-fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
+fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64, f64) {
     let v = |a: Reg| r[a as usize];
     let err = |a: Reg| e[a as usize];
     match *ins {
@@ -229,14 +216,14 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
         Instr::PowF { a, p, .. } => (v(a).powf(p), (p * v(a).powf(p - 1.0)).abs() * err(a)),
         // One library call for both (the bound needs the other): the
         // values may differ from the tape's by an ulp, which decides no
-        // kink.
-        Instr::Sin { a, .. } | Instr::SinQ { a, .. } => {
-            let (sin, cos) = v(a).sin_cos();
-            (sin, cos.abs() * err(a))
+        // kink. The coordinates' go through the cache.
+        Instr::Sin { a, .. } | Instr::Cos { a, .. } => {
+            sine_or_cosine(v(a).sin_cos(), matches!(ins, Instr::Sin { .. }), err(a))
         }
-        Instr::Cos { a, .. } | Instr::CosQ { a, .. } => {
-            let (sin, cos) = v(a).sin_cos();
-            (cos, sin.abs() * err(a))
+        Instr::SinQ { a, k, .. } | Instr::CosQ { a, k, .. } => {
+            let x = v(a);
+            let both = cached(trig, k, x).unwrap_or_else(|| x.sin_cos());
+            sine_or_cosine(both, matches!(ins, Instr::SinQ { .. }), err(a))
         }
         Instr::Unary { op, a, .. } => {
             let x = v(a);
@@ -257,6 +244,16 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64]) -> (f64, f64) {
                 (xv.abs() * err(y) + yv.abs() * err(x)) / (xv * xv + yv * yv),
             )
         }
+    }
+}
+
+/// sin x (`sine`) or cos x from (sin x, cos x), with the bound from x's
+/// error `error` (the slope is the other one).
+fn sine_or_cosine((sin, cos): (f64, f64), sine: bool, error: f64) -> (f64, f64) {
+    if sine {
+        (sin, cos.abs() * error)
+    } else {
+        (cos, sin.abs() * error)
     }
 }
 
