@@ -333,6 +333,45 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
     assert!(!text(&o.stderr).contains("warning"), "{}", text(&o.stderr));
 }
 
+/// A run whose step fails after a state at a kink (the F16 model, solved
+/// only at the origin, where `norm` has its kink): the error's note names
+/// the kink as the likely cause, whatever the failure's own message.
+#[test]
+fn a_failure_after_a_kink_names_it() {
+    let dir = TempDir::new("kink-failure");
+    let out = dir.path("at_origin.csv");
+    let o = kinema(&[
+        "run",
+        "tests/kinks/at_origin.kin",
+        "--steps",
+        "10",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(
+            "= note: the last state solved (t = 0) lies where a square root or norm in \
+             equation `tip.x` is not differentiable"
+        ),
+        "{stderr}"
+    );
+    // A failure with no kink before it (a lock-up) has no such note.
+    let o = kinema(&[
+        "run",
+        "tests/singular/dead_point.kin",
+        "--steps",
+        "360",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("error: lock-up"), "{stderr}");
+    assert!(!stderr.contains("not differentiable"), "{stderr}");
+}
+
 /// `kinema check` on a model that assembles on a kink (the F16 model):
 /// a warning naming the equation and the function, never "ok".
 #[test]

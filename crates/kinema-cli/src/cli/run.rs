@@ -638,6 +638,7 @@ fn step_failure(
     let rows_note = rows.sink.finish_after_failure();
     let failure = run_error(loaded, e);
     let mut message = format!("error: {failure}");
+    message.push_str(&kink_note(solver));
     if let (Some(target), Some(samples)) = (page_target, &mut rows.samples) {
         let note = failed_page(
             target,
@@ -652,6 +653,26 @@ fn step_failure(
     }
     message.push_str(&rows_note);
     Failure::Analysis(message)
+}
+
+/// A note for the error of a step that started from a state at a kink:
+/// the motion past it is not determined by the model, so the step's
+/// failure (a Jacobian undefined at the kink, a branch that the rounding
+/// errors chose) has that cause, whatever its message says.
+fn kink_note(solver: &Solver<TapeSystem, Auto>) -> String {
+    let Some((state, kink)) = solver
+        .state()
+        .and_then(|state| Some((state, state.kink()?)))
+    else {
+        return String::new();
+    };
+    format!(
+        "\n  = note: the last state solved (t = {}) lies where {} in {} is not differentiable: \
+         the model does not determine the motion from there, the likely cause of this failure",
+        time(state.t()),
+        kink_function(kink.function).0,
+        equation_of(solver.system(), kink),
+    )
 }
 
 /// After a failed run: the page with the states computed before the
@@ -787,18 +808,24 @@ fn print_kink_warning(times: &[f64], subject: &str, function: &str, consequence:
         return;
     };
     let their = if times.len() == 1 { "its" } else { "their" };
-    let (function, argument) = match function {
+    let (function, argument) = kink_function(function);
+    eprintln!(
+        "warning: {rows}: {subject} has {function} where it is not differentiable \
+         ({argument} within roundoff): {their} {consequence}"
+    );
+}
+
+/// A kink's function ([`kinema::Kink::function`]) in words, and where it
+/// is not differentiable.
+fn kink_function(function: &str) -> (&str, &'static str) {
+    match function {
         "atan2" => ("atan2", "its arguments are (0, 0)"),
         "acos" | "asin" => (function, "its argument is ±1"),
         "smoothstep" => ("a cubic step", "its argument is at an end of the step"),
         "power" => ("a fractional power", "its base is 0"),
         "sqrt" => ("a square root or norm", "its argument is 0"),
         other => (other, "its argument is 0"),
-    };
-    eprintln!(
-        "warning: {rows}: {subject} has {function} where it is not differentiable \
-         ({argument} within roundoff): {their} {consequence}"
-    );
+    }
 }
 
 fn plot_title(loaded: &Loaded, grid: &Grid) -> String {
