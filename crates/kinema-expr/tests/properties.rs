@@ -312,8 +312,10 @@ fn reference_node(t: &T, x: &[f64; 5], seed: Option<usize>) -> R {
                 Fun::Sinh => a.chain2(u.sinh(), u.cosh(), u.sinh(), true),
                 Fun::Cosh => a.chain2(u.cosh(), u.sinh(), u.cosh(), true),
                 Fun::Tanh => {
-                    let th = u.tanh();
-                    a.chain2(th, 1.0 - th * th, -2.0 * th * (1.0 - th * th), true)
+                    // sech², without 1 − tanh²'s cancellation for large |u|.
+                    let (th, c) = (u.tanh(), u.cosh());
+                    let sech2 = 1.0 / (c * c);
+                    a.chain2(th, sech2, -2.0 * th * sech2, true)
                 }
                 Fun::Exp => a.chain2(u.exp(), u.exp(), u.exp(), true),
                 Fun::Ln => a.chain2(u.ln(), 1.0 / u, -1.0 / (u * u), u > 1e-6),
