@@ -118,6 +118,13 @@ fn merge_like<T: Weighted>(
     lost
 }
 
+/// Whether `a·b` of two coefficients is not flushed to zero from nonzero
+/// operands (an underflowed coefficient would silently turn a whole term
+/// into 0, as in [`fold_power`]).
+fn scales_within_range(a: f64, b: f64) -> bool {
+    a == 0.0 || b == 0.0 || a * b != 0.0
+}
+
 fn finite_or(v: f64) -> Option<f64> {
     v.is_finite().then_some(if v == 0.0 { 0.0 } else { v })
 }
@@ -235,11 +242,13 @@ impl Arena {
                     constant += coeff * v;
                     buf[i].coeff = 0.0;
                 }
+                // Inner sums are canonical: their terms need no further
+                // expansion. A term whose coefficient would underflow keeps
+                // the sum unflattened, as the scaled product below.
                 NodeRef::Add {
                     constant: c,
                     terms: inner,
-                } => {
-                    // Inner sums are canonical: their terms need no further expansion.
+                } if inner.iter().all(|t| scales_within_range(coeff, t.coeff)) => {
                     constant += coeff * c;
                     buf[i].coeff = 0.0;
                     buf.extend(inner.iter().map(|t| Term {
@@ -247,9 +256,12 @@ impl Arena {
                         expr: t.expr,
                     }));
                 }
-                NodeRef::Mul { coeff: c, .. } if c != 1.0 => {
-                    // c·X: the unit product X may itself be a sum (c·(a + b)),
-                    // so the slot is examined again.
+                // c·X: the unit product X may itself be a sum (c·(a + b)),
+                // so the slot is examined again. Unless coeff·c underflows:
+                // a coefficient flushed to 0 would drop the term, and with it
+                // a pole (1e-300/t·1e-300 is undefined at t = 0, finding
+                // F18), so the product keeps its own coefficient.
+                NodeRef::Mul { coeff: c, .. } if c != 1.0 && scales_within_range(coeff, c) => {
                     let unit = self.unit_product(expr);
                     buf[i] = Term {
                         coeff: coeff * c,

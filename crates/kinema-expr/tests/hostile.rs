@@ -308,3 +308,49 @@ fn undefined_expressions_have_one_form_whatever_the_order() {
     }
     assert_eq!(inf, nan);
 }
+
+/// A term whose coefficient would underflow keeps its coefficient, and with
+/// it its pole: `x − 1e-300/t · 1e-300` is undefined at t = 0 (fuzz finding
+/// F18: the sum folded the product's 1e-300 into the term's, the
+/// coefficient flushed to 0 and the term, 1/t and all, vanished, so a
+/// driver ran through its pole). Where the coefficients stay in range,
+/// scaled products and sums fold as before.
+#[test]
+fn underflowing_coefficients_keep_their_terms() {
+    let mut a = Arena::new();
+    let t = a.time();
+    let x = a.coordinate("x", 0);
+    let tiny = a.num(1e-300);
+    let over_t = a.div(tiny, t);
+    let product = a.mul(over_t, tiny);
+    let scaled_t = a.mul(tiny, t);
+    let inner = a.add(scaled_t, over_t);
+    let scaled_sum = a.mul(inner, tiny);
+    let at = |a: &Arena, e: ExprId, time: f64| {
+        a.eval(e, |s| match a.symbol(s).kind {
+            SymKind::Time => time,
+            _ => 0.5,
+        })
+    };
+    for term in [product, scaled_sum] {
+        for e in [a.sub(x, term), a.scale(-2.0, term), a.add(term, t)] {
+            assert!(!at(&a, e, 0.0).is_finite(), "{}", a.display(e));
+            assert!(at(&a, e, 1.0).is_finite(), "{}", a.display(e));
+        }
+    }
+    // x − (1e-300/t)·1e-300 at t = 1 is x (the term is below f64's range).
+    let e = a.sub(x, product);
+    assert_eq!(at(&a, e, 1.0), 0.5);
+    // In range, the coefficients fold: 2·(3·x) is 6·x, and 2·(x + 3·t)
+    // scaled is 2·x + 6·t.
+    let (two, three) = (a.num(2.0), a.num(3.0));
+    let three_x = a.mul(three, x);
+    let six_x = a.scale(6.0, x);
+    assert_eq!(a.mul(two, three_x), six_x);
+    let three_t = a.mul(three, t);
+    let sum = a.add(x, three_t);
+    let doubled = a.scale(2.0, sum);
+    let two_x = a.scale(2.0, x);
+    let six_t = a.scale(6.0, t);
+    assert_eq!(doubled, a.add(two_x, six_t));
+}
