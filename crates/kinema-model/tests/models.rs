@@ -42,6 +42,10 @@ fn dof_reports() {
             "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
         ),
         (
+            "jansen.kin",
+            "nc = 21, kinematic equations = 20, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
             "parabola_follower.kin",
             "nc = 6, kinematic equations = 5, drivers = 1, KDOF = 1, NDOF = 0",
         ),
