@@ -14,4 +14,12 @@ kinema::mechanism! {
     }
 }
 
+kinema::mechanism! {
+    mechanism P {
+        body bar { guess: (0.5, 0, 0) }
+        joint pin: revolute(ground(0, 0), bar(-0.5, 0));
+        driver swing: bar.phi == t + 1 / (1e-320 * (1 + t));
+    }
+}
+
 fn main() {}

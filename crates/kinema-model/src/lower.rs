@@ -18,6 +18,9 @@ pub(crate) enum Value {
 pub(crate) enum Undefined {
     /// The node is a divisor that is identically zero.
     ZeroDivisor,
+    /// The node is a divisor that is a nonzero number whose reciprocal is
+    /// beyond f64's range (`1e-320`): the quotient cannot be formed.
+    TinyDivisor,
     /// The node's value is undefined though its operands' are not.
     Value,
 }
@@ -259,7 +262,9 @@ impl<'m> Lowerer<'m> {
                 },
             };
             if undefined(arena, v) && !divided_by_zero {
-                report_undefined(arena, n, i, &vals, &mut operands, zero, report);
+                // A chain's operands are its links, filled in above.
+                let chain = !operands.is_empty();
+                report_undefined(arena, n, i, &vals, &mut operands, chain, zero, report);
             }
             vals.push(v);
         }
@@ -295,8 +300,8 @@ impl<'m> Lowerer<'m> {
 
     /// The chain of scalar products and quotients rooted at node `i` as
     /// one product Π operand^±1 (a divisor gets exponent −1); a divisor
-    /// that is the number 0 is reported. Returns the value and whether
-    /// such a divisor was found.
+    /// that is the number 0, or a number whose reciprocal overflows, is
+    /// reported. Returns the value and whether such a divisor was found.
     fn product_chain(
         arena: &mut Arena,
         chains: &Chains<'_>,
@@ -317,6 +322,9 @@ impl<'m> Lowerer<'m> {
             let base = scalar(vals, k, zero);
             if exp < 0.0 && base == zero {
                 report(k, Undefined::ZeroDivisor);
+                divided_by_zero = true;
+            } else if exp < 0.0 && arena.as_num(base).is_some_and(|v| !(1.0 / v).is_finite()) {
+                report(k, Undefined::TinyDivisor);
                 divided_by_zero = true;
             }
             operands.push(k);
@@ -462,13 +470,17 @@ fn operation(arena: &mut Arena, n: &TNode, vals: &[Value], zero: ExprId) -> Valu
 
 /// Node `i` lowered to an undefined value: reported where it starts — at
 /// the node itself, or at a vector's divisor that is 0 — unless an operand
-/// already was undefined (reported there).
+/// already was undefined (reported there). A `chain` root's operands are
+/// its links: its divisor node, inside the chain, has no value of its own
+/// (a placeholder 0 that must not read as a zero divisor).
+#[allow(clippy::too_many_arguments)]
 fn report_undefined(
     arena: &Arena,
     n: &TNode,
     i: usize,
     vals: &[Value],
     operands: &mut Vec<u32>,
+    chain: bool,
     zero: ExprId,
     report: &mut dyn FnMut(u32, Undefined),
 ) {
@@ -481,7 +493,9 @@ fn report_undefined(
     match *n {
         _ if inherited => {}
         // A vector divided by zero (scalar quotients are chains).
-        TNode::Div(_, b) if scalar(vals, b, zero) == zero => report(b, Undefined::ZeroDivisor),
+        TNode::Div(_, b) if !chain && scalar(vals, b, zero) == zero => {
+            report(b, Undefined::ZeroDivisor);
+        }
         _ => report(idx(i), Undefined::Value),
     }
 }

@@ -291,6 +291,7 @@ pub(super) fn check_undefined_curves(
                     "division by zero: this divisor is identically zero",
                 )
                 .with_help("the curve is undefined whatever its parameter"),
+                crate::lower::Undefined::TinyDivisor => super::count::tiny_divisor(span),
                 crate::lower::Undefined::Value => Diagnostic::error(
                     span,
                     "this expression is undefined whatever the curve's parameter",

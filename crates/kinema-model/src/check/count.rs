@@ -48,6 +48,7 @@ fn plural(n: i64) -> &'static str {
 /// such parts undefined (NaN) instead of simplifying them away
 /// ([`kinema_expr::Arena::is_undefined`]); this reports each at its span.
 ///   error: division by zero: this divisor is identically zero
+///   error: division overflows: 1 divided by this number is beyond f64's range
 pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
     let mut arena = kinema_expr::Arena::new();
     let lo = crate::lower::Lowerer::new(&mut arena, model);
@@ -72,6 +73,18 @@ pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
     }
 }
 
+/// The error for a divisor that is a number too small to divide by.
+pub(super) fn tiny_divisor(span: crate::span::Span) -> Diagnostic {
+    Diagnostic::error(
+        span,
+        "division overflows: 1 divided by this number is beyond f64's range",
+    )
+    .with_help(
+        "a number below about 5.6e-309 in magnitude has no finite reciprocal; \
+         rescale the expression so that its numbers stay in range",
+    )
+}
+
 /// The error for a part of an expression that is undefined whatever the
 /// coordinates and time.
 pub(super) fn undefined_diagnostic(
@@ -84,6 +97,7 @@ pub(super) fn undefined_diagnostic(
             "division by zero: this divisor is identically zero",
         )
         .with_help("the quotient is undefined whatever the coordinates and time"),
+        crate::lower::Undefined::TinyDivisor => tiny_divisor(span),
         crate::lower::Undefined::Value => Diagnostic::error(
             span,
             "this expression is undefined whatever the coordinates and time",
