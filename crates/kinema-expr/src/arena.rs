@@ -57,6 +57,10 @@ pub struct Arena {
     /// calls simply get a fresh one).
     pub(crate) scratch_terms: Vec<Term>,
     pub(crate) scratch_factors: Vec<Factor>,
+    /// The factors of a product as given, and the wide fold's copy of them
+    /// (see `product_from`).
+    pub(crate) scratch_numbers: Vec<Factor>,
+    pub(crate) scratch_wide: Vec<Factor>,
 }
 
 impl Default for Arena {
@@ -146,6 +150,8 @@ impl Arena {
             calc: crate::calculus::Memo::default(),
             scratch_terms: Vec::new(),
             scratch_factors: Vec::new(),
+            scratch_numbers: Vec::new(),
+            scratch_wide: Vec::new(),
         };
         arena.zero = arena.num(0.0);
         arena.one = arena.num(1.0);

@@ -148,6 +148,81 @@ fn fold_power(coeff: f64, v: f64, p: f64) -> Option<f64> {
     Some(if product == 0.0 { 0.0 } else { product })
 }
 
+/// Folds `v^p` into the coefficient `coeff`: as [`fold_power`] (`wide`
+/// is `None`), or, for `p = ±1`, into the wide coefficient, which no
+/// product of f64 numbers leaves (other powers fold as [`fold_power`] does
+/// on the wide value). The new coefficient (the wide one rounded to f64:
+/// possibly 0 or ±∞ until later numbers bring it back), or `None` if the
+/// number stays a factor.
+fn fold(coeff: f64, wide: &mut Option<Wide>, v: f64, p: f64) -> Option<f64> {
+    let Some(w) = wide else {
+        return fold_power(coeff, v, p);
+    };
+    if !v.is_finite() || v == 0.0 || (p != 1.0 && p != -1.0) {
+        let folded = fold_power(w.to_f64(), v, p).filter(|x| x.is_finite())?;
+        *w = Wide::from(folded);
+        return Some(folded);
+    }
+    w.mul_pow(v, p);
+    Some(w.to_f64())
+}
+
+/// A number m·2^e with m in [0.5, 1) (or 0): a product of f64 numbers and
+/// their reciprocals never leaves its range, and each product rounds as
+/// the same product of f64s does where that one stays normal.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Wide {
+    m: f64,
+    e: i64,
+}
+
+impl Wide {
+    /// `v` (finite) split into mantissa and exponent.
+    pub(crate) fn from(v: f64) -> Wide {
+        if v == 0.0 || !v.is_finite() {
+            return Wide { m: v, e: 0 };
+        }
+        // Subnormals are scaled into the normal range first.
+        let (v, bias) = if v.abs() < f64::MIN_POSITIVE {
+            (v * 2f64.powi(64), -64)
+        } else {
+            (v, 0)
+        };
+        let bits = v.to_bits();
+        let biased = ((bits >> 52) & 0x7ff) as i64;
+        let m = f64::from_bits((bits & !(0x7ff << 52)) | (1022 << 52));
+        Wide {
+            m,
+            e: biased - 1022 + bias,
+        }
+    }
+
+    /// Multiplies by `v` (finite, nonzero) to the power `p = ±1`.
+    fn mul_pow(&mut self, v: f64, p: f64) {
+        let x = Wide::from(v);
+        let (m, e) = if p > 0.0 {
+            (self.m * x.m, self.e + x.e)
+        } else {
+            (self.m / x.m, self.e - x.e)
+        };
+        let n = Wide::from(m);
+        *self = Wide { m: n.m, e: n.e + e };
+    }
+
+    /// The value rounded to f64 (±∞ or 0 outside its range).
+    pub(crate) fn to_f64(self) -> f64 {
+        if self.m == 0.0 || !self.m.is_finite() {
+            return self.m;
+        }
+        // m·2^e in two steps, each by a power of two within f64's range
+        // (exact, but for the rounding of a subnormal result); beyond it
+        // the result is ±∞ or 0, as it should be.
+        let e = self.e.clamp(-2200, 2200) as i32;
+        let half = e / 2;
+        self.m * 2f64.powi(half) * 2f64.powi(e - half)
+    }
+}
+
 /// Whether a number left as a factor, `v^p`, has a value: `v` finite and the
 /// power finite (a power that underflows is kept unfolded, and is defined).
 pub(crate) fn number_power_defined(v: f64, p: f64) -> bool {
@@ -380,7 +455,7 @@ impl Arena {
     }
 
     /// [`product_of`](Self::product_of) working in (and clobbering) `buf`.
-    fn product_from(&mut self, coeff: f64, buf: &mut Vec<Factor>) -> ExprId {
+    fn product_from(&mut self, coeff0: f64, buf: &mut Vec<Factor>) -> ExprId {
         // u^0 is not 1 when u is undefined.
         if buf
             .iter()
@@ -388,53 +463,24 @@ impl Arena {
         {
             return self.num(f64::NAN);
         }
-        let mut coeff = coeff;
-        // Expand in place: numbers fold into the coefficient, products raised
-        // to integer powers are flattened (their factors are examined again).
-        let mut i = 0;
-        while i < buf.len() {
-            let Factor { base, exp } = buf[i];
-            if exp == 0.0 {
-                i += 1;
-                continue;
+        // Numbers fold one at a time while the coefficient stays in f64's
+        // range; if one cannot (1e300·1e300·1e-300, 1/5e-324 · 1e308), the
+        // numbers are folded again as a set, in a wider range, and kept
+        // folded when the whole coefficient is in range (finding F14).
+        let mut saved = std::mem::take(&mut self.scratch_numbers);
+        saved.clone_from(buf);
+        let (mut coeff, refused) = self.fold_numbers(coeff0, buf, None);
+        if refused {
+            let mut wide = std::mem::take(&mut self.scratch_wide);
+            wide.clone_from(&saved);
+            let (c, _) = self.fold_numbers(coeff0, &mut wide, Some(Wide::from(coeff0)));
+            if c.is_finite() && c != 0.0 {
+                std::mem::swap(buf, &mut wide);
+                coeff = c;
             }
-            match self.node(base) {
-                NodeRef::Num(v) => {
-                    if v.is_finite()
-                        && let Some(next) = fold_power(coeff, v, exp)
-                    {
-                        coeff = next;
-                        buf[i].exp = 0.0;
-                    }
-                }
-                // (c·Π xᵢ^eᵢ)^n = cⁿ · Π xᵢ^(eᵢn) only when cⁿ folds within
-                // f64's range: (ln t / ln 10)^1000 flattened would fold
-                // 0.434^1000 to 0 and the whole term would vanish, and
-                // (1e200·t)^2 would overflow; both stay as written.
-                NodeRef::Mul {
-                    coeff: c,
-                    factors: inner,
-                } if is_int(exp) && inner.len() <= FLATTEN_MAX => {
-                    if let Some(next) = fold_power(coeff, c, exp).filter(|x| x.is_finite()) {
-                        coeff = next;
-                        buf[i].exp = 0.0;
-                        buf.extend(inner.iter().map(|f| Factor {
-                            base: f.base,
-                            exp: f.exp * exp,
-                        }));
-                    }
-                }
-                NodeRef::Mul { coeff: c, .. } if c > 0.0 && c != 1.0 => {
-                    // (c·X)^p = c^p · X^p for c > 0, under the same condition.
-                    if let Some(next) = fold_power(coeff, c, exp).filter(|x| x.is_finite()) {
-                        coeff = next;
-                        buf[i].base = self.unit_product(base);
-                    }
-                }
-                _ => {}
-            }
-            i += 1;
+            self.scratch_wide = wide;
         }
+        self.scratch_numbers = saved;
         // A factor undefined, or a number whose power is not finite: 0 times
         // it is not 0.
         let undefined = |arena: &Self, f: &Factor| {
@@ -470,6 +516,83 @@ impl Arena {
                 self.intern(Node::Mul { coeff, start, len })
             }
         }
+    }
+
+    /// The expansion of [`product_from`](Self::product_from), in place:
+    /// numbers fold into the coefficient, products raised to integer powers
+    /// are flattened (their factors are examined again). Folds as
+    /// [`fold_power`] does, or with `wide` in [`Wide`]'s range (the
+    /// coefficient returned is then the wide one rounded to f64). Returns
+    /// the coefficient and whether a number could not be folded.
+    fn fold_numbers(
+        &mut self,
+        coeff: f64,
+        buf: &mut Vec<Factor>,
+        mut wide: Option<Wide>,
+    ) -> (f64, bool) {
+        let mut coeff = coeff;
+        let mut refused = false;
+        // Expand in place: numbers fold into the coefficient, products raised
+        // to integer powers are flattened (their factors are examined again).
+        let mut i = 0;
+        while i < buf.len() {
+            let Factor { base, exp } = buf[i];
+            if exp == 0.0 {
+                i += 1;
+                continue;
+            }
+            match self.node(base) {
+                NodeRef::Num(v) => {
+                    // An overflowing coefficient is taken (and kept
+                    // visible as undefined below) unless the wide fold
+                    // brings it back into range.
+                    if v.is_finite()
+                        && let Some(next) = fold(coeff, &mut wide, v, exp)
+                    {
+                        refused |= !next.is_finite();
+                        coeff = next;
+                        buf[i].exp = 0.0;
+                    } else {
+                        refused |= v.is_finite();
+                    }
+                }
+                // (c·Π xᵢ^eᵢ)^n = cⁿ · Π xᵢ^(eᵢn) only when cⁿ folds within
+                // f64's range: (ln t / ln 10)^1000 flattened would fold
+                // 0.434^1000 to 0 and the whole term would vanish, and
+                // (1e200·t)^2 would overflow; both stay as written.
+                NodeRef::Mul {
+                    coeff: c,
+                    factors: inner,
+                } if is_int(exp) && inner.len() <= FLATTEN_MAX => {
+                    if let Some(next) =
+                        fold(coeff, &mut wide, c, exp).filter(|x| wide.is_some() || x.is_finite())
+                    {
+                        coeff = next;
+                        buf[i].exp = 0.0;
+                        buf.extend(inner.iter().map(|f| Factor {
+                            base: f.base,
+                            exp: f.exp * exp,
+                        }));
+                    } else {
+                        refused = true;
+                    }
+                }
+                NodeRef::Mul { coeff: c, .. } if c > 0.0 && c != 1.0 => {
+                    // (c·X)^p = c^p · X^p for c > 0, under the same condition.
+                    if let Some(next) =
+                        fold(coeff, &mut wide, c, exp).filter(|x| wide.is_some() || x.is_finite())
+                    {
+                        coeff = next;
+                        buf[i].base = self.unit_product(base);
+                    } else {
+                        refused = true;
+                    }
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        (coeff, refused)
     }
 
     /// A function of one argument, folded when the argument is a number and

@@ -354,3 +354,50 @@ fn underflowing_coefficients_keep_their_terms() {
     let six_t = a.scale(6.0, t);
     assert_eq!(doubled, a.add(two_x, six_t));
 }
+
+/// A product's numbers fold as a set (finding F14): the product of
+/// 1e300, 1e300, 1e-300 and x is 1e300·x in every order, with 1e300·x
+/// built first too, and 1/(5e-324·1e308·x) is 2.02e15/x, though a fold
+/// one number at a time overflows on the way (1e300·1e300, 1/5e-324). A
+/// product whose numbers leave f64's range as a whole is undefined still,
+/// as is a constant that does on its own (1e300·1e300).
+#[test]
+fn numbers_fold_as_a_set() {
+    let mut a = Arena::new();
+    let x = a.coordinate("x", 0);
+    let (big, small) = (a.num(1e300), a.num(1e-300));
+    let big_x = a.mul(big, x);
+    let mut forms = Vec::new();
+    for factors in [
+        [big, big, small, x],
+        [big, small, big, x],
+        [x, small, big, big],
+    ] {
+        forms.push(a.product(&factors));
+    }
+    forms.push(a.product(&[big, big_x, small]));
+    forms.push(a.product(&[small, big, big_x]));
+    for &e in &forms {
+        assert!(!a.is_undefined(e), "{}", a.display(e));
+        let v = eval(&a, e, &[2.0], &[0.0]);
+        assert!((v - 2e300).abs() <= 1e-15 * 2e300, "{}: {v}", a.display(e));
+    }
+    let tiny = a.num(5e-324);
+    let huge = a.num(1e308);
+    let d = a.product(&[tiny, huge, x]);
+    let one = a.one();
+    let q = a.div(one, d);
+    assert!(!a.is_undefined(q), "{}", a.display(q));
+    let want = 1.0 / (5e-324 * 1e308 * 2.0);
+    let v = eval(&a, q, &[2.0], &[0.0]);
+    assert!(
+        (v - want).abs() <= 1e-15 * want,
+        "{}: {v} vs {want}",
+        a.display(q)
+    );
+    // Beyond the range as a whole, or on its own: undefined, as before.
+    let over = a.product(&[big, big, x]);
+    assert!(a.is_undefined(over), "{}", a.display(over));
+    let constant = a.mul(big, big);
+    assert!(a.is_undefined(constant), "{}", a.display(constant));
+}

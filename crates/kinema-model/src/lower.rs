@@ -300,8 +300,9 @@ impl<'m> Lowerer<'m> {
 
     /// The chain of scalar products and quotients rooted at node `i` as
     /// one product Π operand^±1 (a divisor gets exponent −1); a divisor
-    /// that is the number 0, or a number whose reciprocal overflows, is
-    /// reported. Returns the value and whether such a divisor was found.
+    /// that is the number 0 is reported, and one that is a number whose
+    /// reciprocal overflows when the product is undefined. Returns the
+    /// value and whether such a divisor was reported.
     fn product_chain(
         arena: &mut Arena,
         chains: &Chains<'_>,
@@ -318,19 +319,29 @@ impl<'m> Lowerer<'m> {
         });
         let mut divided_by_zero = false;
         let mut factors = Vec::with_capacity(links.len());
+        // Divisors that are numbers with no finite reciprocal: the cause if
+        // the product is undefined (the engine folds a product's numbers as
+        // a set, so 1/(5e-324 · 1e308 · t) is defined).
+        let mut tiny = Vec::new();
         for (k, exp) in links {
             let base = scalar(vals, k, zero);
             if exp < 0.0 && base == zero {
                 report(k, Undefined::ZeroDivisor);
                 divided_by_zero = true;
             } else if exp < 0.0 && arena.as_num(base).is_some_and(|v| !(1.0 / v).is_finite()) {
-                report(k, Undefined::TinyDivisor);
-                divided_by_zero = true;
+                tiny.push(k);
             }
             operands.push(k);
             factors.push(Factor { base, exp });
         }
-        (Value::S(arena.product_of(1.0, &factors)), divided_by_zero)
+        let product = arena.product_of(1.0, &factors);
+        if !divided_by_zero && !tiny.is_empty() && undefined(arena, Value::S(product)) {
+            for k in tiny {
+                report(k, Undefined::TinyDivisor);
+            }
+            divided_by_zero = true;
+        }
+        (Value::S(product), divided_by_zero)
     }
 
     /// A node that names something of the model (a number, π, t, a param,
