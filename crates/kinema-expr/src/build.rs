@@ -160,7 +160,7 @@ fn fold(coeff: f64, wide: &mut Option<Wide>, v: f64, p: f64) -> Option<f64> {
     };
     if !v.is_finite() || v == 0.0 || (p != 1.0 && p != -1.0) {
         let folded = fold_power(w.to_f64(), v, p).filter(|x| x.is_finite())?;
-        *w = Wide::from(folded);
+        *w = Wide::of(folded);
         return Some(folded);
     }
     w.mul_pow(v, p);
@@ -171,14 +171,14 @@ fn fold(coeff: f64, wide: &mut Option<Wide>, v: f64, p: f64) -> Option<f64> {
 /// their reciprocals never leaves its range, and each product rounds as
 /// the same product of f64s does where that one stays normal.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Wide {
+struct Wide {
     m: f64,
     e: i64,
 }
 
 impl Wide {
     /// `v` (finite) split into mantissa and exponent.
-    pub(crate) fn from(v: f64) -> Wide {
+    fn of(v: f64) -> Wide {
         if v == 0.0 || !v.is_finite() {
             return Wide { m: v, e: 0 };
         }
@@ -199,18 +199,18 @@ impl Wide {
 
     /// Multiplies by `v` (finite, nonzero) to the power `p = ±1`.
     fn mul_pow(&mut self, v: f64, p: f64) {
-        let x = Wide::from(v);
+        let x = Wide::of(v);
         let (m, e) = if p > 0.0 {
             (self.m * x.m, self.e + x.e)
         } else {
             (self.m / x.m, self.e - x.e)
         };
-        let n = Wide::from(m);
+        let n = Wide::of(m);
         *self = Wide { m: n.m, e: n.e + e };
     }
 
     /// The value rounded to f64 (±∞ or 0 outside its range).
-    pub(crate) fn to_f64(self) -> f64 {
+    fn to_f64(self) -> f64 {
         if self.m == 0.0 || !self.m.is_finite() {
             return self.m;
         }
@@ -473,7 +473,7 @@ impl Arena {
         if refused {
             let mut wide = std::mem::take(&mut self.scratch_wide);
             wide.clone_from(&saved);
-            let (c, _) = self.fold_numbers(coeff0, &mut wide, Some(Wide::from(coeff0)));
+            let (c, _) = self.fold_numbers(coeff0, &mut wide, Some(Wide::of(coeff0)));
             if c.is_finite() && c != 0.0 {
                 std::mem::swap(buf, &mut wide);
                 coeff = c;
