@@ -1,0 +1,1 @@
+tan(acos(-t)*log10(1e-3)-atan2(1e16,t)+tan(t-t)-pi)
