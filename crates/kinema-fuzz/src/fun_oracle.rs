@@ -74,7 +74,7 @@ pub(crate) fn trace(expr: &Expr, t: f64, delta: f64) -> Trace {
         let nudge = if k % 2 == 0 { 1.0 + delta } else { 1.0 - delta };
         let x = match node {
             Node::Num(x) => x * nudge,
-            Node::Pi => std::f64::consts::PI,
+            Node::Pi => std::f64::consts::PI * nudge,
             Node::T => t * nudge,
             Node::Neg(a) => -get(a),
             Node::Bin(op, a, b) => {
@@ -190,18 +190,24 @@ pub(crate) fn tolerance(expr: &Expr, t: f64) -> Option<f64> {
     if tr.range_event || tr.atan2_ambiguous {
         return None;
     }
-    let w = trace(expr, t, 4.0 * f64::EPSILON).value();
-    // A few ulps carry the value out of a function's domain (asin of
-    // log10(10) = 1): at its edge, where the slope is infinite, one rounding
-    // of either evaluator moves the value by √ε; not comparable.
-    if !w.is_finite() && tr.value().is_finite() {
-        return None;
+    // The value's sensitivity to a few ulps on every number, π and t, with
+    // the nudges' signs alternating along the nodes, both ways (one pattern
+    // alone can cancel: tan at its pole, where the argument's ulps decide
+    // the value, was missed by one).
+    let mut sensitivity = 0.0f64;
+    for delta in [4.0 * f64::EPSILON, -4.0 * f64::EPSILON] {
+        let w = trace(expr, t, delta).value();
+        // A few ulps carry the value out of a function's domain (asin of
+        // log10(10) = 1): at its edge, where the slope is infinite, one
+        // rounding of either evaluator moves the value by √ε; not
+        // comparable.
+        if !w.is_finite() && tr.value().is_finite() {
+            return None;
+        }
+        if (w - tr.value()).is_finite() {
+            sensitivity = sensitivity.max((w - tr.value()).abs());
+        }
     }
-    let sensitivity = if (w - tr.value()).is_finite() {
-        (w - tr.value()).abs()
-    } else {
-        0.0
-    };
     Some(1e-9 * (1.0 + tr.scale) * (expr.nodes().len() as f64) + 1000.0 * sensitivity)
 }
 
