@@ -141,10 +141,10 @@ fn fold_power(coeff: f64, v: f64, p: f64) -> Option<f64> {
     if v != 0.0 && r == 0.0 {
         return None;
     }
-    let product = coeff * r;
-    if coeff != 0.0 && r != 0.0 && product == 0.0 {
+    if !scales_within_range(coeff, r) {
         return None;
     }
+    let product = coeff * r;
     Some(if product == 0.0 { 0.0 } else { product })
 }
 

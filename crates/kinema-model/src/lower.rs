@@ -245,15 +245,17 @@ impl<'m> Lowerer<'m> {
                 continue;
             }
             operands.clear();
-            let mut divided_by_zero = false;
+            // A divisor found undefined (0, or a number with no finite
+            // reciprocal) has been reported at its own span.
+            let mut reported = false;
             let v = match *n {
                 TNode::Add(..) | TNode::Sub(..) if chains.is_sum(i) => {
                     Self::sum_chain(arena, &chains, &vals, i, &mut operands, zero)
                 }
                 TNode::Mul(..) | TNode::Div(..) if chains.is_product(i) => {
-                    let (v, by_zero) =
+                    let (v, divisor_reported) =
                         Self::product_chain(arena, &chains, &vals, i, &mut operands, zero, report);
-                    divided_by_zero = by_zero;
+                    reported = divisor_reported;
                     v
                 }
                 _ => match self.leaf(arena, n, &vals, arg, zero) {
@@ -261,9 +263,8 @@ impl<'m> Lowerer<'m> {
                     None => operation(arena, n, &vals, zero),
                 },
             };
-            if undefined(arena, v) && !divided_by_zero {
-                // A chain's operands are its links, filled in above.
-                let chain = !operands.is_empty();
+            if undefined(arena, v) && !reported {
+                let chain = chains.is_sum(i) || chains.is_product(i);
                 report_undefined(arena, n, i, &vals, &mut operands, chain, zero, report);
             }
             vals.push(v);
@@ -317,7 +318,7 @@ impl<'m> Lowerer<'m> {
             TNode::Div(a, b) => Some((a, b, true)),
             _ => None,
         });
-        let mut divided_by_zero = false;
+        let mut reported = false;
         let mut factors = Vec::with_capacity(links.len());
         // Divisors that are numbers with no finite reciprocal: the cause if
         // the product is undefined (the engine folds a product's numbers as
@@ -327,7 +328,7 @@ impl<'m> Lowerer<'m> {
             let base = scalar(vals, k, zero);
             if exp < 0.0 && base == zero {
                 report(k, Undefined::ZeroDivisor);
-                divided_by_zero = true;
+                reported = true;
             } else if exp < 0.0 && arena.as_num(base).is_some_and(|v| !(1.0 / v).is_finite()) {
                 tiny.push(k);
             }
@@ -335,13 +336,13 @@ impl<'m> Lowerer<'m> {
             factors.push(Factor { base, exp });
         }
         let product = arena.product_of(1.0, &factors);
-        if !divided_by_zero && !tiny.is_empty() && undefined(arena, Value::S(product)) {
+        if !reported && !tiny.is_empty() && undefined(arena, Value::S(product)) {
             for k in tiny {
                 report(k, Undefined::TinyDivisor);
             }
-            divided_by_zero = true;
+            reported = true;
         }
-        (Value::S(product), divided_by_zero)
+        (Value::S(product), reported)
     }
 
     /// A node that names something of the model (a number, π, t, a param,
