@@ -51,6 +51,8 @@ pub mod forward;
 #[cfg(feature = "jit")]
 mod jit;
 #[cfg(feature = "model")]
+mod linkage;
+#[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
 pub use model::{Backend, Model, ModelSolver, TapeSystem};

@@ -269,6 +269,12 @@ pub struct TapeSystem {
     /// [`System::kink`]).
     kinks: Option<crate::kinks::KinkTape>,
     zeros: Vec<f64>,
+    /// The tapes of the closed-form position solution, if the model is a
+    /// linkage of revolute joints and driven angles (shared by clones).
+    linkage_tapes: Option<std::sync::Arc<crate::linkage::LinkageTapes>>,
+    /// That solution planned at the current parameters (see
+    /// [`System::linkage`]).
+    linkage: Option<kinema_runtime::Linkage>,
     /// The JIT compiling (or having compiled) the hot path, shared by
     /// clones.
     #[cfg(feature = "jit")]
@@ -308,13 +314,17 @@ impl TapeSystem {
         ];
         let outputs = crate::model_outputs::OutputTape::new(d);
         let dynamics = crate::dynamics::TapeDynamics::new(d);
+        let linkage_tapes = crate::linkage::LinkageTapes::new(d);
         let registers = tapes
             .iter()
             .map(Tape::registers)
             .max()
             .unwrap_or(0)
             .max(outputs.registers())
-            .max(dynamics.registers());
+            .max(dynamics.registers())
+            .max(linkage_tapes.as_ref().map_or(0, |l| l.registers()));
+        let params = d.param_values();
+        let linkage = linkage_tapes.as_ref().and_then(|l| l.plan(&params));
         let [guess, phi, jacobian, both, nu, gamma] = tapes;
         let n = d.nc();
         #[cfg(feature = "jit")]
@@ -343,7 +353,7 @@ impl TapeSystem {
             coordinate_names: d.coordinates.iter().map(|c| c.name.clone()).collect(),
             equation_names: d.rows.iter().map(|r| r.name.clone()).collect(),
             param_names: d.params.iter().map(|p| p.name.clone()).collect(),
-            params: d.param_values(),
+            params,
             pattern: d.phi_q.entries.iter().map(|e| (e.row, e.col)).collect(),
             constants: d
                 .phi_q
@@ -365,6 +375,8 @@ impl TapeSystem {
             dynamics,
             registers,
             kinks: crate::kinks::KinkTape::new(a, &d.phi),
+            linkage_tapes: linkage_tapes.map(std::sync::Arc::new),
+            linkage,
             #[cfg(feature = "jit")]
             jit,
             jit_fallback,
@@ -436,10 +448,7 @@ impl TapeSystem {
     /// Sets a parameter by name; returns `false` if there is no such parameter.
     pub fn set_param(&mut self, name: &str, value: f64) -> bool {
         match self.param_names.iter().position(|p| p == name) {
-            Some(i) => {
-                self.params[i] = value;
-                true
-            }
+            Some(i) => self.set_param_at(i, value),
             None => false,
         }
     }
@@ -450,9 +459,17 @@ impl TapeSystem {
         match self.params.get_mut(index) {
             Some(p) => {
                 *p = value;
+                self.replan();
                 true
             }
             None => false,
+        }
+    }
+
+    /// Plans the closed-form solution again at the current parameters.
+    fn replan(&mut self) {
+        if let Some(tapes) = &self.linkage_tapes {
+            self.linkage = tapes.plan(&self.params);
         }
     }
 
@@ -622,6 +639,20 @@ impl System for TapeSystem {
             equation: Some(found.root),
             function: found.function,
         })
+    }
+
+    fn linkage(&self) -> Option<&kinema_runtime::Linkage> {
+        self.linkage.as_ref()
+    }
+
+    fn linkage_angles(&self, registers: &mut Vec<f64>, t: f64, angles: &mut [f64]) {
+        match &self.linkage_tapes {
+            Some(tapes) => {
+                let inputs = self.inputs(&self.zeros, &self.zeros, t);
+                self.run(tapes.angles(), registers, &inputs, angles);
+            }
+            None => angles.fill(f64::NAN),
+        }
     }
 
     fn phi(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, phi: &mut [f64]) {

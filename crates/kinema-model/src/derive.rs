@@ -144,6 +144,10 @@ pub struct Derivation {
     /// Mass matrix, applied forces, their derivatives and the reactions'
     /// arms; `None` for a kinematic model.
     pub dynamics: Option<crate::dynamics::DynamicsDerivation>,
+    /// The model as revolute joints and driven angles, if that is all it
+    /// is (a closed-form position solution may exist: see
+    /// [`crate::linkage`]).
+    pub linkage: Option<crate::linkage::LinkageDesc>,
 }
 
 impl Derivation {
@@ -193,6 +197,7 @@ impl Derivation {
         let d = Derivatives::of(&mut arena, &phi, &source, q_syms.len(), &along)
             .map_err(|row| too_large(&model.equations[source[row]], budget))?;
         let outputs = crate::outputs::derive_outputs(model, &lo, &mut arena, &along)?;
+        let linkage = crate::linkage::describe(&mut arena, &lo, model, &phi, &d.phi_q, &source);
         let dynamics = model.dynamics.as_ref().map(|dy| {
             crate::dynamics::derive(&lo, &mut arena, model, dy, &rows, &d.phi_q, along.seeds)
         });
@@ -219,6 +224,7 @@ impl Derivation {
             dof: model.dof(),
             outputs,
             dynamics,
+            linkage,
             arena,
         })
     }

@@ -150,6 +150,7 @@ pub mod diagnostic;
 pub mod dynamics;
 pub mod follower;
 mod library;
+pub mod linkage;
 mod lower;
 pub mod outputs;
 mod points;
@@ -162,6 +163,7 @@ pub use check::{BodyRef, CheckedModel, Comp, Coord, Curve, DofReport, LibKind, O
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use dynamics::{DynamicsDerivation, Reaction};
+pub use linkage::{LinkageAngle, LinkageDesc, LinkagePin};
 pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
 pub use span::Span;

@@ -19,6 +19,7 @@
 //! | [`linalg`] | dense and sparse LU behind the [`LinearSolver`] trait |
 //! | [`solver`] | [`Solver`]: assembly, stepping, runs over a time grid |
 //! | [`options`] | [`Options`]: tolerances, predictor, full or modified Newton |
+//! | [`linkage`] | [`Linkage`]: closed-form positions of linkages of cranks and dyads |
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
 //! | [`diagnose`], [`event`] | the one rank rule (equilibrated SVD); singular configurations met during a run |
 //! | [`integrate`] | forward dynamics: HHT-α ([`Hht`]) over a [`ForwardSystem`] |
@@ -52,6 +53,7 @@ pub mod handwritten;
 pub mod integrate;
 pub mod kinematics;
 pub mod linalg;
+pub mod linkage;
 mod newton;
 pub mod options;
 pub mod outputs;
@@ -73,6 +75,7 @@ pub use linalg::{
     Auto, CompiledSolves, DenseLu, DynDenseLu, FoldedLu, FoldedSolves, LinalgError, LinearSolver,
     LinearSolverFor, PivotReport, SparseLu,
 };
+pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
 pub use outputs::{Outputs, Table};
 pub use solver::Solver;

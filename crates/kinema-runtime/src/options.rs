@@ -68,6 +68,17 @@ pub struct Options {
     /// factorization Newton made (at its last iterate, or an earlier step's
     /// when no update was needed).
     pub positions_only: bool,
+    /// With [`positions_only`](Self::positions_only), place the bodies in
+    /// closed form where the system has one ([`System::linkage`]: a linkage
+    /// of cranks and dyads) instead of iterating: no Φ_q, no factorization,
+    /// one evaluation of Φ to check the placement. Steps near a singular
+    /// configuration of a dyad (its links within about 0.6° of a line),
+    /// the first step after assembly or a change of the system, and any
+    /// placement whose residual or branch test fails are solved by Newton
+    /// as before (see [`Solver`](crate::Solver)). Off: Newton always.
+    ///
+    /// [`System::linkage`]: crate::System::linkage
+    pub closed_form: bool,
 }
 
 impl Default for Options {
@@ -90,6 +101,7 @@ impl Default for Options {
             singular_tolerance: 1e-10,
             stop_at_singular: false,
             positions_only: false,
+            closed_form: true,
         }
     }
 }
@@ -111,6 +123,7 @@ impl Options {
             singular_tolerance: Self::default().singular_tolerance,
             stop_at_singular: false,
             positions_only: false,
+            closed_form: false,
         }
     }
 
@@ -144,6 +157,16 @@ impl Options {
     pub fn with_positions_only(self, positions_only: bool) -> Self {
         Self {
             positions_only,
+            ..self
+        }
+    }
+
+    /// These options placing linkages in closed form with positions only,
+    /// or always iterating (see [`closed_form`](Self::closed_form)).
+    #[must_use]
+    pub fn with_closed_form(self, closed_form: bool) -> Self {
+        Self {
+            closed_form,
             ..self
         }
     }

@@ -30,6 +30,12 @@ pub struct StepStats {
     /// was refined near a singular configuration or where a full step left
     /// the branch.
     pub substeps: usize,
+    /// The bodies were placed in closed form ([`Options::closed_form`]),
+    /// not by Newton: `iterations` is 0, `residual` the placement's and
+    /// `pivot_ratio` 1 (no factorization was made).
+    ///
+    /// [`Options::closed_form`]: crate::Options::closed_form
+    pub closed_form: bool,
 }
 
 /// A function of an equation at a point where it is not differentiable,

@@ -137,6 +137,26 @@ pub trait System {
         None
     }
 
+    /// The system's closed-form position solution, if it is a linkage of
+    /// cranks and dyads ([`Linkage`](crate::Linkage)) whose body k has
+    /// coordinates 3k, 3k + 1, 3k + 2 and nothing else: with
+    /// [`Options::positions_only`](crate::Options::positions_only) the
+    /// solver then places the bodies in closed form instead of iterating
+    /// (see [`Solver`](crate::Solver)). It must describe the same equations
+    /// as [`phi`](System::phi): the solver checks each placement's residual.
+    /// The default: `None`.
+    fn linkage(&self) -> Option<&crate::Linkage> {
+        None
+    }
+
+    /// Writes the driven angles of [`linkage`](System::linkage) at time `t`
+    /// (length [`Linkage::angles`](crate::Linkage::angles)). The default
+    /// writes NaN.
+    fn linkage_angles(&self, scratch: &mut Self::Scratch, t: f64, angles: &mut [f64]) {
+        let _ = (scratch, t);
+        angles.fill(f64::NAN);
+    }
+
     /// Writes Φ(q, t) (length n).
     fn phi(&self, scratch: &mut Self::Scratch, q: &[f64], t: f64, phi: &mut [f64]);
 
@@ -218,6 +238,12 @@ macro_rules! forward {
                 t: f64,
             ) -> Option<crate::Kink> {
                 (**self).kink(scratch, q, uncertainty, t)
+            }
+            fn linkage(&self) -> Option<&crate::Linkage> {
+                (**self).linkage()
+            }
+            fn linkage_angles(&self, scratch: &mut S::Scratch, t: f64, angles: &mut [f64]) {
+                (**self).linkage_angles(scratch, t, angles);
             }
             fn phi(&self, scratch: &mut S::Scratch, q: &[f64], t: f64, phi: &mut [f64]) {
                 (**self).phi(scratch, q, t, phi);

@@ -146,6 +146,8 @@ struct Stats {
     steps: usize,
     iterations: usize,
     max_iterations: usize,
+    /// Steps placed in closed form (`Options::closed_form`).
+    closed_form: usize,
     worst_residual: f64,
     worst_residual_t: f64,
     events: usize,
@@ -161,6 +163,7 @@ impl Stats {
             self.steps += 1;
             self.iterations += s.iterations;
             self.max_iterations = self.max_iterations.max(s.iterations);
+            self.closed_form += usize::from(s.closed_form);
         }
         if first || s.residual > self.worst_residual {
             self.worst_residual = s.residual;
@@ -884,6 +887,13 @@ fn summary(s: &SummaryInput<'_>) -> String {
         "  Newton updates per step: mean {mean:.2}, max {} over {} steps (assembly: {})",
         st.max_iterations, st.steps, st.assembly_iterations
     );
+    if st.closed_form > 0 {
+        let _ = writeln!(
+            out,
+            "  placed in closed form (cranks and dyads, no iteration): {} of {} steps",
+            st.closed_form, st.steps
+        );
+    }
     let _ = writeln!(
         out,
         "  worst residual ‖Φ‖∞ = {:.2e} (at t = {})",

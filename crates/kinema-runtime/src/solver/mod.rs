@@ -14,6 +14,7 @@ use crate::system::System;
 use crate::trajectory::Trajectory;
 
 mod checked;
+mod closed;
 mod passage;
 
 use checked::{solve_checked, velocity_overflow};
@@ -165,6 +166,8 @@ pub struct Solver<S: System, L: LinearSolver = Auto> {
     /// An open run of near-singular states without a sign change: the
     /// worst one, as a toggle event in waiting.
     zone: Option<Zone>,
+    /// Closed-form placement (see [`Options::closed_form`]).
+    closed: closed::ClosedForm,
 }
 
 /// Construction: `L` must be a linear solver for `S` ([`LinearSolverFor`]),
@@ -223,6 +226,7 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             branch_sign: 0.0,
             events: Vec::new(),
             zone: None,
+            closed: closed::ClosedForm::default(),
         })
     }
 }
@@ -339,6 +343,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.branch_sign = 0.0;
         self.zone = None;
         self.events.clear();
+        self.closed.current = false;
         let solved = self.solve_inner(t0);
         if solved.is_err() {
             self.factorization = Factorization::None;
@@ -415,6 +420,10 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         // may jump: the converged step is taken as it is, unless it is near
         // singular.
         let changed = std::mem::take(&mut self.changed);
+        if !changed && self.place_closed_form(t) {
+            return self.commit(t);
+        }
+        self.closed.current = false;
         if self.attempt_from(t, self.options.predictor).is_ok()
             && !self.next.stats.near_singular
             && (changed || self.quiet() || self.acceptable())
@@ -792,9 +801,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         if quadratic {
             // q̈ = 2 (s₁ − s₀) / (h₀ + h), q̇ = s₁ + h/2 q̈, with the slopes
             // s₁ = (q − q₀)/h and s₀ = q̇₀ − h₀/2 q̈₀.
-            let (half_h0, c, half_h) = (0.5 * h0, 2.0 / (h0 + h), 0.5 * h);
+            let (half_h0, c, half_h, inv_h) = (0.5 * h0, 2.0 / (h0 + h), 0.5 * h, 1.0 / h);
             for i in 0..n {
-                let s1 = (q[i] - q0[i]) / h;
+                let s1 = (q[i] - q0[i]) * inv_h;
                 let s0 = qd0[i] - half_h0 * qdd0[i];
                 qdd[i] = c * (s1 - s0);
                 qd[i] = s1 + half_h * qdd[i];
@@ -803,8 +812,9 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         } else {
             qdd.fill(0.0);
             if assembled {
+                let inv_h = 1.0 / h;
                 for i in 0..n {
-                    qd[i] = (q[i] - q0[i]) / h;
+                    qd[i] = (q[i] - q0[i]) * inv_h;
                     sum += qd[i];
                 }
             }

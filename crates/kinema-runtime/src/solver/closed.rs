@@ -1,0 +1,109 @@
+//! [`Options::closed_form`](crate::Options::closed_form): a step whose
+//! positions are placed in closed form ([`Linkage`](crate::Linkage))
+//! instead of solved by Newton, where that is safe.
+
+use crate::linalg::LinearSolver;
+use crate::newton::inf_norm;
+use crate::state::StepStats;
+use crate::system::System;
+
+use super::Solver;
+
+/// The smallest dyad margin (sine of the angle between a dyad's links)
+/// placed in closed form: below it (about 0.57°) Newton and the monitor
+/// solve the step, so that every singular configuration is met by the one
+/// machinery that locates and classifies it. The dyad's condition there is
+/// about 100 times its best, far from the monitor's threshold (τ^−0.4 =
+/// 10⁴ at the default τ).
+const MARGIN: f64 = 1e-2;
+
+/// The closed-form placement's scratch and the dyads' branches.
+#[derive(Debug, Default)]
+pub(super) struct ClosedForm {
+    angles: Vec<f64>,
+    rot: Vec<[f64; 2]>,
+    branches: Vec<f64>,
+    /// `branches` are those of the current state (read from it, or kept
+    /// through the closed-form steps since): false after any other step.
+    pub(super) current: bool,
+}
+
+impl<S: System, L: LinearSolver> Solver<S, L> {
+    /// Places `self.next` at `t` in closed form, if the options ask for it,
+    /// the system has a linkage, the current state is regular, and the
+    /// placement is well clear of a singular configuration, satisfies
+    /// Φ = 0 to the residual tolerance and passes the branch test
+    /// ([`acceptable`](Self::acceptable)); `false` (and `self.next`
+    /// overwritten) otherwise, for Newton to solve the step.
+    #[inline]
+    pub(super) fn place_closed_form(&mut self, t: f64) -> bool {
+        if !(self.options.positions_only && self.options.closed_form) {
+            return false;
+        }
+        let Some(linkage) = self.system.linkage() else {
+            return false;
+        };
+        let base_regular = !self.state.stats.near_singular && self.zone.is_none();
+        if !base_regular || 3 * linkage.bodies() != self.next.q.len() {
+            return false;
+        }
+        let c = &mut self.closed;
+        if c.branches.len() != linkage.dyads() || c.rot.len() != linkage.bodies() {
+            size(c, linkage.bodies(), linkage.angles(), linkage.dyads());
+        }
+        if !c.current {
+            linkage.read_branches(&self.state.q, &mut c.rot, &mut c.branches);
+            c.current = true;
+        }
+        self.system
+            .linkage_angles(&mut self.scratch, t, &mut c.angles);
+        let margin = linkage.place(
+            &c.angles,
+            &self.state.q,
+            &c.branches,
+            &mut c.rot,
+            &mut self.next.q,
+        );
+        // NaN is never placed.
+        let clear = margin >= MARGIN;
+        if !clear {
+            return false;
+        }
+        // The motion predicted from the current state must not cross a
+        // dyad's singular configuration either: there the analytic
+        // continuation changes branch, which Newton follows (from the same
+        // prediction) and the monitor records; the placement would not.
+        super::predict_into(&self.state, t, &mut self.pred);
+        if !linkage.same_side(&self.next.q, &self.pred) {
+            return false;
+        }
+        self.system
+            .phi(&mut self.scratch, &self.next.q, t, &mut self.ws.phi);
+        let residual = inf_norm(&self.ws.phi);
+        let satisfied = residual <= self.options.residual_tolerance;
+        if !satisfied {
+            return false;
+        }
+        self.factored = 0;
+        self.next.t = t;
+        self.next.stats = StepStats {
+            residual,
+            pivot_ratio: 1.0,
+            closed_form: true,
+            ..StepStats::default()
+        };
+        self.next.det_sign = self.branch_sign;
+        self.difference_rates(t);
+        self.acceptable()
+    }
+}
+
+/// Sizes the scratch for a linkage (once per solver and linkage).
+#[cold]
+#[inline(never)]
+fn size(c: &mut ClosedForm, bodies: usize, angles: usize, dyads: usize) {
+    c.angles = vec![0.0; angles];
+    c.rot = vec![[0.0; 2]; bodies];
+    c.branches = vec![0.0; dyads];
+    c.current = false;
+}
