@@ -65,6 +65,8 @@ fn linkages_are_placed_in_closed_form_where_newton_puts_them() {
         // A driver written as an equation (from rest: the second step's
         // estimated rates miss the acceleration).
         ("swing", 100, 1.0),
+        // Pinned to ground by `abs_x` and `abs_y` of one point.
+        ("models/pendulum.kin", 100, 1.0),
         // A coarse grid: 36 steps a turn.
         ("models/jansen.kin", 36, 1.0),
     ] {
@@ -111,8 +113,6 @@ fn only_revolutes_and_driven_angles_have_a_closed_form() {
         "models/eccentric_cam.kin",
         "models/roller_cam.kin",
         "models/parabola_follower.kin",
-        // abs_x and abs_y on one point: a pin, but not a `revolute`.
-        "models/pendulum.kin",
     ] {
         assert!(system(path).linkage().is_none(), "{path}");
     }
@@ -128,6 +128,23 @@ fn only_revolutes_and_driven_angles_have_a_closed_form() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     assert!(model.system().linkage().is_none());
+    // abs_x alone, or with abs_y of another point, or driven: not a pin.
+    for constraints in [
+        "constraint px: abs_x(bar(-1, 0), 0); driver spin: abs_angle(bar, t);",
+        "constraint px: abs_x(bar(-1, 0), 0); constraint py: abs_y(bar(1, 0), 0);
+         driver spin: abs_angle(bar, t);",
+        "constraint px: abs_x(bar(-1, 0), t); constraint py: abs_y(bar(-1, 0), 0);
+         driver spin: abs_angle(bar, t);",
+    ] {
+        let source = format!("mechanism M {{ body bar {{ guess: (1, 0, 0) }} {constraints} }}");
+        let system = kinema::Model::from_source(&source, "m.kin")
+            .map(|m| m.system())
+            .ok();
+        assert!(
+            system.is_none_or(|s| s.linkage().is_none()),
+            "{constraints}"
+        );
+    }
 }
 
 /// The branch the guess assembles on is kept: the four-bar elbow-down.

@@ -29,10 +29,11 @@ pub struct LinkageAngle {
     pub angle: ExprId,
 }
 
-/// A model whose every equation is a `revolute` joint or a row that fixes
-/// one body's angle (or the difference of two bodies' angles) as a
-/// function of time: `abs_angle`, `rel_angle`, `B.phi == f(t)`, and the
-/// like. Whether it decomposes into cranks and dyads is the runtime's to
+/// A model whose every equation is a `revolute` joint, an `abs_x` and
+/// `abs_y` pair holding one body point at a fixed place (a pin to ground),
+/// or a row that fixes one body's angle (or the difference of two bodies'
+/// angles) as a function of time: `abs_angle`, `rel_angle`,
+/// `B.phi == f(t)`, and the like. Whether it decomposes into cranks and dyads is the runtime's to
 /// find.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LinkageDesc {
@@ -58,17 +59,62 @@ pub(crate) fn describe(
         return None;
     }
     let mut desc = LinkageDesc::default();
+    // `abs_x` and `abs_y` of one body point at fixed values, waiting for
+    // their partner: together a pin to ground.
+    let mut half: Vec<(LibKind, Option<u32>, [ExprId; 2], ExprId)> = Vec::new();
     for (eq, e) in model.equations.iter().enumerate() {
-        if let Form::Library(LibKind::Revolute, args) = &e.form {
-            desc.pins.push(pin(arena, lo, args)?);
-            continue;
+        match &e.form {
+            Form::Library(LibKind::Revolute, args) => {
+                desc.pins.push(pin(arena, lo, args)?);
+                continue;
+            }
+            Form::Library(kind @ (LibKind::AbsX | LibKind::AbsY), args) => {
+                if let Some((body, local, at)) = fixed_coordinate(arena, lo, args) {
+                    let partner = half
+                        .iter()
+                        .position(|h| h.0 != *kind && h.1 == body && h.2 == local);
+                    match partner {
+                        Some(k) => {
+                            let (other, _, _, other_at) = half.swap_remove(k);
+                            let ground = if other == LibKind::AbsX {
+                                [other_at, at]
+                            } else {
+                                [at, other_at]
+                            };
+                            desc.pins.push(LinkagePin {
+                                bodies: [body, None],
+                                local: [local, ground],
+                            });
+                        }
+                        None => half.push((*kind, body, local, at)),
+                    }
+                    continue;
+                }
+            }
+            _ => {}
         }
         for row in (0..phi.len()).filter(|&r| source[r] == eq) {
             desc.angles
                 .push(angle(arena, lo, phi[row], row_entries(phi_q, row))?);
         }
     }
-    Some(desc)
+    half.is_empty().then_some(desc)
+}
+
+/// `abs_x(P, f)` or `abs_y(P, f)` with f a function of the parameters:
+/// P's body, its local coordinates, and f.
+fn fixed_coordinate(
+    arena: &mut Arena,
+    lo: &Lowerer<'_>,
+    args: &[LibArg],
+) -> Option<(Option<u32>, [ExprId; 2], ExprId)> {
+    let [LibArg::Point(BodyRef::Body(b), local), LibArg::Scalar(f)] = args else {
+        return None;
+    };
+    let v = lo.vector(arena, local);
+    let f = lo.scalar(arena, f);
+    let fixed = [v.x, v.y, f].iter().all(|&e| params_only(arena, e, false));
+    fixed.then_some((Some(*b), [v.x, v.y], f))
 }
 
 /// The value of `e` if it is a number.
