@@ -259,3 +259,209 @@ fn a_changed_parameter_is_placed_at_its_new_value() {
         "{after} of 51 rows after the change"
     );
 }
+
+/// A small deterministic random source (xorshift64*), so that every run
+/// draws the same linkages.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
+        bits as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    fn below(&mut self, n: usize) -> usize {
+        ((self.next() * n as f64) as usize).min(n - 1)
+    }
+    fn point(&mut self, scale: f64) -> [f64; 2] {
+        [self.range(-scale, scale), self.range(-scale, scale)]
+    }
+}
+
+/// A random linkage assembled at t = 0 by construction: a crank about a
+/// ground point, then `dyads` dyads, each pinned to two bodies placed
+/// before it (or ground), every body's frame somewhere off its pins; the
+/// guesses are the configuration the joints were built from. Lengths
+/// scale with `scale`.
+fn random_linkage(rng: &mut Rng, dyads: usize, scale: f64) -> String {
+    struct Placed {
+        name: String,
+        r: [f64; 2],
+        phi: f64,
+    }
+    let local = |b: &Placed, p: [f64; 2]| {
+        let (s, c) = b.phi.sin_cos();
+        let d = [p[0] - b.r[0], p[1] - b.r[1]];
+        [c * d[0] + s * d[1], -s * d[0] + c * d[1]]
+    };
+    let at = |b: Option<&Placed>, p: [f64; 2]| match b {
+        None => format!("ground({:e}, {:e})", p[0], p[1]),
+        Some(b) => {
+            let l = local(b, p);
+            format!("{}({:e}, {:e})", b.name, l[0], l[1])
+        }
+    };
+    let mut text = String::from("mechanism Random {\n");
+    let mut joints = String::new();
+    let mut bodies: Vec<Placed> = Vec::new();
+    let new_body = |rng: &mut Rng, name: String, bodies: &mut Vec<Placed>, text: &mut String| {
+        let b = Placed {
+            name,
+            r: rng.point(scale),
+            phi: rng.range(-3.0, 3.0),
+        };
+        text.push_str(&format!(
+            "    body {} {{ guess: ({:e}, {:e}, {:e}) }}\n",
+            b.name, b.r[0], b.r[1], b.phi
+        ));
+        bodies.push(b);
+    };
+    // The crank: pinned to ground at O, driven from its angle at t = 0.
+    new_body(rng, "b0".into(), &mut bodies, &mut text);
+    let o = rng.point(scale);
+    joints.push_str(&format!(
+        "    joint j0: revolute({}, {});\n",
+        at(bodies.first(), o),
+        at(None, o)
+    ));
+    let omega = rng.range(-8.0, 8.0);
+    joints.push_str(&format!(
+        "    driver turn: abs_angle(b0, {:e} + {omega:e} * t);\n",
+        bodies[0].phi
+    ));
+    for k in 0..dyads {
+        let n = bodies.len();
+        // Anchors on placed bodies (or ground, index n), the pin between.
+        let anchors = [rng.below(n + 1), rng.below(n + 1)];
+        let q = rng.point(scale);
+        let names = [format!("b{}", n), format!("b{}", n + 1)];
+        for (side, name) in names.iter().enumerate() {
+            new_body(rng, name.clone(), &mut bodies, &mut text);
+            let p = rng.point(scale);
+            let anchor = bodies.get(anchors[side]).filter(|_| anchors[side] < n);
+            joints.push_str(&format!(
+                "    joint a{k}_{side}: revolute({}, {});\n",
+                at(bodies.last(), p),
+                at(anchor, p)
+            ));
+        }
+        joints.push_str(&format!(
+            "    joint q{k}: revolute({}, {});\n",
+            at(bodies.get(n), q),
+            at(bodies.get(n + 1), q)
+        ));
+    }
+    text.push_str(&joints);
+    text.push_str("}\n");
+    text
+}
+
+/// One run's rows: each row's q and whether it is flagged near singular,
+/// up to the first failure (its time).
+struct Rows {
+    rows: Vec<(Vec<f64>, bool, bool)>,
+    stopped: Option<f64>,
+}
+
+fn rows(system: &TapeSystem, options: Options, times: &[f64]) -> Rows {
+    let mut solver =
+        Solver::<_, Auto>::with_options(system.clone(), options).unwrap_or_else(|e| panic!("{e}"));
+    let mut out = Rows {
+        rows: Vec::new(),
+        stopped: None,
+    };
+    for &t in times {
+        match solver.step(t) {
+            Ok(s) => out
+                .rows
+                .push((s.q().to_vec(), s.near_singular(), s.stats().closed_form)),
+            Err(_) => {
+                out.stopped = Some(t);
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// Whether two runs give the same rows (to `1e-8` of the scale, `1e-4` on
+/// rows flagged near singular: interpolated with estimated slopes in a
+/// positions-only run), flag the same rows near singular and stop at the
+/// same time; the first difference.
+fn same_rows(a: &Rows, b: &Rows) -> Result<(), String> {
+    if a.stopped != b.stopped || a.rows.len() != b.rows.len() {
+        return Err(format!(
+            "stopped at {:?} against {:?}",
+            a.stopped, b.stopped
+        ));
+    }
+    for (k, ((qa, fa, _), (qb, fb, _))) in a.rows.iter().zip(&b.rows).enumerate() {
+        if fa != fb {
+            return Err(format!("row {k}: flagged {fa} against {fb}"));
+        }
+        let scale = 1.0 + qb.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let tolerance = if *fa { 1e-4 } else { 1e-8 };
+        if qa
+            .iter()
+            .zip(qb)
+            .any(|(u, v)| (u - v).abs() > tolerance * scale)
+        {
+            return Err(format!("row {k}: {qa:?} against {qb:?}"));
+        }
+    }
+    Ok(())
+}
+
+/// Random linkages, grids and speeds, each run three ways: positions in
+/// closed form, positions by Newton, and the full analysis. Wherever
+/// positions-only Newton gives the full analysis's rows, the closed form
+/// gives them too. (Positions-only Newton does not always: with estimated
+/// rates on coarse steps it can start on, or move to, another branch than
+/// the full analysis, or fail where that one does not — a limit of that
+/// mode, counted here, not the closed form's: on the cases tried the
+/// closed form then sided with the full analysis or with Newton.)
+#[test]
+fn random_linkages_agree_with_newton() {
+    // The same cases on every run; `KINEMA_CLOSED_FORM_SEED=N` draws others.
+    let seed = std::env::var("KINEMA_CLOSED_FORM_SEED")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+        .map_or(0x9e37_79b9_7f4a_7c15, |s| {
+            s.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1
+        });
+    let mut rng = Rng(seed);
+    let (mut compared, mut placed, mut total, mut differing) = (0, 0, 0, 0);
+    for case in 0..150 {
+        let dyads = 1 + rng.below(4);
+        let scale = [1e-3, 1.0, 1.0, 1.0, 1e3][rng.below(5)];
+        let source = random_linkage(&mut rng, dyads, scale);
+        let steps = [12, 50, 200][rng.below(3)];
+        let times = grid(steps, 1.0);
+        let what = format!("case {case}, {steps} steps:\n{source}");
+        let system = system_of(&source, "random.kin");
+        assert!(system.linkage().is_some(), "{what}");
+        let closed = rows(&system, positions(true), &times);
+        let newton = rows(&system, positions(false), &times);
+        let full = rows(&system, Options::default().with_closed_form(false), &times);
+        total += closed.rows.len();
+        placed += closed.rows.iter().filter(|r| r.2).count();
+        if same_rows(&newton, &full).is_err() {
+            differing += 1;
+            continue;
+        }
+        compared += 1;
+        if let Err(e) = same_rows(&closed, &newton) {
+            panic!("{what}{e}");
+        }
+    }
+    eprintln!(
+        "{compared} cases compared, {differing} where positions-only Newton differs from \
+         the full analysis; {placed} of {total} rows placed"
+    );
+    assert!(compared >= 100 && placed * 2 > total);
+}

@@ -32,7 +32,9 @@ pub struct StepStats {
     pub substeps: usize,
     /// The bodies were placed in closed form ([`Options::closed_form`]),
     /// not by Newton: `iterations` is 0, `residual` the placement's and
-    /// `pivot_ratio` 1 (no factorization was made).
+    /// `pivot_ratio` that of the last factorization (made at this
+    /// placement, or at an earlier state's: the solver reads the pivots
+    /// again whenever a dyad nears its singular configuration).
     ///
     /// [`Options::closed_form`]: crate::Options::closed_form
     pub closed_form: bool,
