@@ -70,12 +70,16 @@ pub struct Options {
     pub positions_only: bool,
     /// With [`positions_only`](Self::positions_only), place the bodies in
     /// closed form where the system has one ([`System::linkage`]: a linkage
-    /// of cranks and dyads) instead of iterating: no Φ_q, no factorization,
-    /// one evaluation of Φ to check the placement. Steps near a singular
-    /// configuration of a dyad (its links within about 0.6° of a line),
-    /// the first step after assembly or a change of the system, and any
-    /// placement whose residual or branch test fails are solved by Newton
-    /// as before (see [`Solver`](crate::Solver)). Off: Newton always.
+    /// of cranks and dyads) instead of iterating: no iteration, one
+    /// evaluation of Φ to check each placement, Φ_q factored only now and
+    /// then to read the monitor's pivots. Newton solves, as before, the
+    /// first step after assembly or a change of the system, any step whose
+    /// placement fails its residual or branch test, lies near a dyad's
+    /// singular configuration (its links within about 0.6° of a line) or
+    /// would cross one on the predicted motion, and any step whose pivots,
+    /// when read, are within ten times of what the monitor flags: singular
+    /// configurations are met, located and reported as without it (see
+    /// [`Solver`](crate::Solver)). Off: Newton always.
     ///
     /// [`System::linkage`]: crate::System::linkage
     pub closed_form: bool,

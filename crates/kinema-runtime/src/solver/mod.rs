@@ -88,6 +88,12 @@ const ROUNDOFF_RATIO: f64 = 1e-8;
 /// Newton from the system's initial guess; later steps start from the
 /// previous state, so times must increase.
 ///
+/// With [`Options::positions_only`] and a system that is a linkage of
+/// cranks and dyads ([`System::linkage`]), a step's positions are placed
+/// in closed form instead ([`Options::closed_form`]), on the branch of
+/// the previous state, and checked against Φ and the branch test; steps
+/// near a singular configuration stay Newton's and the monitor's.
+///
 /// # Singular configurations
 ///
 /// After every solve a monitor reads the LU's pivots ([`PivotReport`]): the
