@@ -450,7 +450,10 @@ fn random_linkages_agree_with_newton() {
         let full = rows(&system, Options::default().with_closed_form(false), &times);
         total += closed.rows.len();
         placed += closed.rows.iter().filter(|r| r.2).count();
-        if same_rows(&newton, &full).is_err() {
+        if let Err(e) = same_rows(&newton, &full) {
+            if std::env::var("KINEMA_CLOSED_FORM_SHOW").is_ok() {
+                eprintln!("case {case}, {steps} steps: {}", &e[..e.len().min(160)]);
+            }
             differing += 1;
             continue;
         }

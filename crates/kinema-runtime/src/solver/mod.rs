@@ -432,6 +432,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.closed.current = false;
         if self.attempt_from(t, self.options.predictor).is_ok()
             && !self.next.stats.near_singular
+            && !self.estimated_flip()
             && (changed || self.quiet() || self.acceptable())
         {
             return self.commit(t);
@@ -461,6 +462,18 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             self.factorization = Factorization::None;
         }
         result
+    }
+
+    /// With [`Options::positions_only`], whether `self.next` is on the
+    /// other side of det Φ_q = 0 from the current state: a bifurcation
+    /// passed, or a jump to another branch that the estimated rates'
+    /// prediction followed (they lag the motion where it speeds up: a
+    /// four-bar's coupler whipping round on 30° steps). The step is then
+    /// refined with solved rates, as the full analysis refines it, instead
+    /// of taken with the flip located as a bifurcation.
+    #[inline]
+    fn estimated_flip(&self) -> bool {
+        self.options.positions_only && self.branch_sign * self.next.det_sign < 0.0
     }
 
     /// [`Options::positions_only`]'s refinement: the sub-steps predict
