@@ -2,6 +2,8 @@
 //! driven angles ([`LinkageDesc`]): what a closed-form position solution
 //! (the runtime's `Linkage`) is planned from.
 
+use std::collections::HashMap;
+
 use kinema_expr::{Arena, ExprId, NodeRef, SparseMatrix, SymKind};
 
 use crate::check::{BodyRef, CheckedModel, Form, LibArg, LibKind};
@@ -60,8 +62,14 @@ pub(crate) fn describe(
     }
     let mut desc = LinkageDesc::default();
     // `abs_x` and `abs_y` of one body point at fixed values, waiting for
-    // their partner: together a pin to ground.
-    let mut half: Vec<(LibKind, Option<u32>, [ExprId; 2], ExprId)> = Vec::new();
+    // their partner (by kind, body and local coordinates): together a pin
+    // to ground.
+    let mut half: HashMap<(LibKind, Option<u32>, [ExprId; 2]), ExprId> = HashMap::new();
+    // Each equation's rows (contiguous, kinematic equations' first).
+    let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); model.equations.len()];
+    for (row, &eq) in source.iter().enumerate() {
+        rows_of.get_mut(eq)?.push(row);
+    }
     for (eq, e) in model.equations.iter().enumerate() {
         match &e.form {
             Form::Library(LibKind::Revolute, args) => {
@@ -70,12 +78,13 @@ pub(crate) fn describe(
             }
             Form::Library(kind @ (LibKind::AbsX | LibKind::AbsY), args) => {
                 if let Some((body, local, at)) = fixed_coordinate(arena, lo, args) {
-                    let partner = half
-                        .iter()
-                        .position(|h| h.0 != *kind && h.1 == body && h.2 == local);
-                    match partner {
-                        Some(k) => {
-                            let (other, _, _, other_at) = half.swap_remove(k);
+                    let other = if *kind == LibKind::AbsX {
+                        LibKind::AbsY
+                    } else {
+                        LibKind::AbsX
+                    };
+                    match half.remove(&(other, body, local)) {
+                        Some(other_at) => {
                             let ground = if other == LibKind::AbsX {
                                 [other_at, at]
                             } else {
@@ -86,14 +95,19 @@ pub(crate) fn describe(
                                 local: [local, ground],
                             });
                         }
-                        None => half.push((*kind, body, local, at)),
+                        // A second abs_x of the same point: not a pin.
+                        None => {
+                            if half.insert((*kind, body, local), at).is_some() {
+                                return None;
+                            }
+                        }
                     }
                     continue;
                 }
             }
             _ => {}
         }
-        for row in (0..phi.len()).filter(|&r| source[r] == eq) {
+        for &row in &rows_of[eq] {
             desc.angles
                 .push(angle(arena, lo, phi[row], row_entries(phi_q, row))?);
         }

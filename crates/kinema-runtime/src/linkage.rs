@@ -139,47 +139,66 @@ impl Linkage {
             placed: vec![false; bodies],
             used: vec![false; pins.len()],
         };
+        // A worklist: each body is examined again only when a body it is
+        // pinned to (or whose angle its own is measured from) is placed,
+        // so planning is linear in the joints whatever the declaration
+        // order.
+        let mut relatives: Vec<Vec<u32>> = vec![Vec::new(); bodies];
+        for a in angles {
+            if let Some(m) = a.relative_to {
+                relatives[m as usize].push(a.body);
+            }
+        }
+        let mut queue: std::collections::VecDeque<u32> = (0..bodies as u32).collect();
+        let mut queued = vec![true; bodies];
         let mut stages = Vec::new();
         let mut dyads = 0;
-        let mut progress = true;
-        while progress {
-            progress = false;
-            for b in 0..bodies as u32 {
-                if planner.placed[b as usize] {
+        while let Some(b) = queue.pop_front() {
+            queued[b as usize] = false;
+            if planner.placed[b as usize] {
+                continue;
+            }
+            let placed: [Option<u32>; 2] = if let Some(k) = driven[b as usize] {
+                let relative_to = angles[k as usize].relative_to;
+                let crank = planner
+                    .known(relative_to)
+                    .then(|| planner.pin_to_placed(b, None))
+                    .flatten();
+                let Some((pin, anchor, local)) = crank else {
                     continue;
-                }
-                if let Some(k) = driven[b as usize] {
-                    let relative_to = angles[k as usize].relative_to;
-                    if !planner.known(relative_to) {
-                        continue;
-                    }
-                    if let Some((pin, anchor, local)) = planner.pin_to_placed(b, None) {
-                        planner.used[pin as usize] = true;
-                        planner.placed[b as usize] = true;
-                        stages.push(Stage::Crank {
-                            body: b,
-                            angle: k,
-                            relative_to,
-                            anchor,
-                            local,
-                        });
-                        progress = true;
-                    }
+                };
+                planner.used[pin as usize] = true;
+                stages.push(Stage::Crank {
+                    body: b,
+                    angle: k,
+                    relative_to,
+                    anchor,
+                    local,
+                });
+                [Some(b), None]
+            } else {
+                let Some(sides) = planner.dyad(b, &driven)? else {
                     continue;
-                }
-                if let Some(sides) = planner.dyad(b, &driven)? {
-                    for s in &sides {
-                        planner.placed[s.body as usize] = true;
+                };
+                stages.push(Stage::Dyad {
+                    sides,
+                    branch: dyads,
+                    inv_lengths: 1.0 / (sides[0].length2 * sides[1].length2).sqrt(),
+                    offset: sides[1].u[1].atan2(sides[1].u[0]) - sides[0].u[1].atan2(sides[0].u[0]),
+                });
+                dyads += 1;
+                [Some(sides[0].body), Some(sides[1].body)]
+            };
+            for p in placed.into_iter().flatten() {
+                planner.placed[p as usize] = true;
+                let pinned = of_body[p as usize]
+                    .iter()
+                    .filter_map(|&k| planner.ends(k, p).0);
+                for next in pinned.chain(relatives[p as usize].iter().copied()) {
+                    if !planner.placed[next as usize] && !queued[next as usize] {
+                        queued[next as usize] = true;
+                        queue.push_back(next);
                     }
-                    stages.push(Stage::Dyad {
-                        sides,
-                        branch: dyads,
-                        inv_lengths: 1.0 / (sides[0].length2 * sides[1].length2).sqrt(),
-                        offset: sides[1].u[1].atan2(sides[1].u[0])
-                            - sides[0].u[1].atan2(sides[0].u[0]),
-                    });
-                    dyads += 1;
-                    progress = true;
                 }
             }
         }
@@ -691,6 +710,32 @@ mod tests {
         other[8] = flat[5] - 1e-9;
         assert!(!linkage.same_side(&flat, &other));
         assert!(!linkage.same_side(&up, &[0.0; 6]));
+    }
+
+    #[test]
+    fn a_chain_plans_whatever_the_order_of_its_bodies() {
+        // Body k pinned to body k + 1, the last to ground, each driven:
+        // body n − 1 is placed first, body 0 last.
+        let n = 500;
+        let pins: Vec<Pin> = (0..n)
+            .map(|k| Pin {
+                bodies: [Some(k), (k + 1 < n).then_some(k + 1)],
+                local: [[0.0, 0.0], [1.0, 0.0]],
+            })
+            .collect();
+        let angles: Vec<DrivenAngle> = (0..n)
+            .map(|k| DrivenAngle {
+                body: k,
+                relative_to: None,
+            })
+            .collect();
+        let linkage = Linkage::plan(n as usize, &pins, &angles).expect("decomposes");
+        let mut rot = vec![[1.0, 0.0]; n as usize];
+        let mut q = vec![0.0; 3 * n as usize];
+        let previous = q.clone();
+        let turns = vec![0.5; n as usize];
+        assert_eq!(linkage.place(&turns, &previous, &[], &mut rot, &mut q), 1.0);
+        assert!(gap(&pins, &q) < 1e-12);
     }
 
     #[test]
