@@ -72,12 +72,12 @@ pub struct Options {
     /// closed form where the system has one ([`System::linkage`]: a linkage
     /// of cranks and dyads) instead of iterating: no iteration, one
     /// evaluation of Φ to check each placement, Φ_q factored only now and
-    /// then to read the monitor's pivots. Newton solves, as before, the
-    /// first step after assembly or a change of the system, any step whose
-    /// placement fails its residual or branch test, lies near a dyad's
-    /// singular configuration (its links within about 0.6° of a line) or
-    /// would cross one on the predicted motion, and any step whose pivots,
-    /// when read, are within ten times of what the monitor flags: singular
+    /// then to read its pivots. Newton solves, as before, the first step
+    /// after assembly or a change of the system, any step whose placement
+    /// fails its residual or branch test, lies near a dyad's singular
+    /// configuration (its links within about 0.6° of a line) or would cross
+    /// one on the predicted motion, and any step whose pivot ratio, when
+    /// read, is below twice the monitor's gate: singular
     /// configurations are met, located and reported as without it (see
     /// [`Solver`](crate::Solver)). Off: Newton always.
     ///

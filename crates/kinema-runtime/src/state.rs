@@ -32,9 +32,9 @@ pub struct StepStats {
     pub substeps: usize,
     /// The bodies were placed in closed form ([`Options::closed_form`]),
     /// not by Newton: `iterations` is 0, `residual` the placement's and
-    /// `pivot_ratio` that of the last factorization (made at this
-    /// placement, or at an earlier state's: the solver reads the pivots
-    /// again whenever a dyad nears its singular configuration).
+    /// `pivot_ratio` that of the last factorization (at this placement or
+    /// an earlier state: the solver reads the pivots again whenever a dyad
+    /// nears its singular configuration, and now and then).
     ///
     /// [`Options::closed_form`]: crate::Options::closed_form
     pub closed_form: bool,

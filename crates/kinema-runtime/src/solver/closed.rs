@@ -17,6 +17,11 @@ use super::Solver;
 /// 10⁴ at the default τ).
 const MARGIN: f64 = 1e-2;
 
+/// The smallest pivot ratio at which a placement is kept: twice the
+/// monitor's gate ([`PIVOT_GATE`](super::PIVOT_GATE)), below which alone
+/// it checks the singular values and may flag the state.
+const HAND_OVER: f64 = 2.0 * super::PIVOT_GATE;
+
 /// Placements between two readings of the monitor's pivots at most.
 const WATCH_EVERY: u32 = 256;
 
@@ -105,15 +110,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let c = &mut self.closed;
         let watched = margin < c.watch_margin || c.unwatched >= WATCH_EVERY;
         if watched {
-            if !self.watch(t) {
+            let Some(ratio) = self.watch(t) else {
                 return false;
-            }
+            };
+            self.next.stats.pivot_ratio = ratio;
             // The pivot ratio falls about as the margin does: the next
             // reading where it would reach the hand-over ratio, or at half
-            // the margin (the ratio may fall faster; the flags are ten
-            // times lower still).
-            let ratio = self.next.stats.pivot_ratio;
-            self.closed.watch_margin = margin * (super::WATCH_RATIO / ratio).min(0.5);
+            // the margin (the ratio may fall faster; the flags are some
+            // hundred times lower still).
+            self.closed.watch_margin = margin * (HAND_OVER / ratio).min(0.5);
             self.closed.unwatched = 0;
         } else {
             c.unwatched += 1;
@@ -122,62 +127,27 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.acceptable()
     }
 
-    /// Reads the monitor's pivots of Φ_q at the placed q (as Newton's last
-    /// factorization gives them): `true` if the placement is well clear of
-    /// what the monitor flags (its pivot ratio at least [`WATCH_RATIO`],
-    /// ten times the gate of its singular-value check, or its equilibrated
-    /// condition a tenth of the threshold; on the branch's side of
-    /// det Φ_q = 0). A dyad's margin bounds its own condition, not the
-    /// whole system's (a tiny link beside long ones, a frame far from its
-    /// pins): this is what keeps every configuration the monitor would
-    /// flag, and its events, Newton's. Read at the first placement after
-    /// Newton; after that wherever the smallest margin has fallen to where
-    /// the ratio, falling with it, would reach the hand-over ratio (and at
-    /// least to half the margin of the last reading), and every
-    /// [`WATCH_EVERY`] placements.
-    ///
-    /// [`WATCH_RATIO`]: super::WATCH_RATIO
+    /// Reads the monitor's pivots of Φ_q at the placed q (factored as
+    /// Newton's last iterate is): their ratio if the placement is well
+    /// clear of what the monitor flags (the ratio at least [`HAND_OVER`],
+    /// twice the ratio below which the monitor looks closer at all, and
+    /// det Φ_q on the branch's side of 0), else `None`. A dyad's margin
+    /// bounds its own condition, not the whole system's (a tiny link beside
+    /// long ones, a frame far from its pins): this is what keeps every
+    /// configuration the monitor would flag, and its events, Newton's. Read
+    /// at the first placement after Newton; after that wherever the
+    /// smallest margin has fallen to where the ratio, falling with it,
+    /// would reach the hand-over ratio (and at least to half the margin of
+    /// the last reading), and every [`WATCH_EVERY`] placements.
     #[cold]
     #[inline(never)]
-    fn watch(&mut self, t: f64) -> bool {
+    fn watch(&mut self, t: f64) -> Option<f64> {
         self.system
             .jacobian(&mut self.scratch, &self.next.q, t, &mut self.ws.jac);
-        if self.factor_jacobian(t).is_err() {
-            return false;
-        }
-        let Some(report) = self.lu.pivot_report() else {
-            return true;
-        };
+        self.factor_jacobian(t).ok()?;
+        let report = self.lu.pivot_report()?;
         let same_side = self.branch_sign == 0.0 || report.det_sign == self.branch_sign;
-        self.next.stats.pivot_ratio = report.ratio;
-        same_side && (report.ratio >= super::WATCH_RATIO || self.well_conditioned())
-    }
-
-    /// A small pivot ratio that may come from the units (lengths of 50
-    /// beside unit entries): the equilibrated condition of Φ_q in
-    /// `ws.jac` at most a tenth of the monitor's threshold, as its SVD
-    /// gives it; then the factorizations are equilibrated from now on (as
-    /// the monitor does), so that the next readings are the ratio alone.
-    /// Beyond the SVD's size the ratio decides, as in the monitor.
-    #[cold]
-    #[inline(never)]
-    fn well_conditioned(&mut self) -> bool {
-        let tolerance = self.options.singular_tolerance;
-        let limit = crate::diagnose::near_singular_condition(tolerance);
-        let n = self.system.len();
-        if n > crate::diagnose::MAX_DENSE_DIAGNOSIS {
-            return false;
-        }
-        let pattern = self.system.jacobian_pattern();
-        match crate::diagnose::rank(n, pattern, &self.ws.jac, tolerance) {
-            Ok(r) if r.rank == n && r.condition <= 0.1 * limit => {
-                if !self.ws.scaling.active {
-                    self.ws.scaling.switch_on(pattern, &self.ws.jac);
-                }
-                true
-            }
-            _ => false,
-        }
+        (same_side && report.ratio >= HAND_OVER).then_some(report.ratio)
     }
 }
 
