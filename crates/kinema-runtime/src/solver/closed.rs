@@ -107,24 +107,31 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             ..StepStats::default()
         };
         self.next.det_sign = self.branch_sign;
+        self.difference_rates(t);
+        if !self.acceptable() {
+            return false;
+        }
+        // Last, so that only a placement that passed everything else
+        // leaves its factorization in the LU: the monitor of a Newton step
+        // after a rejected one reads the pivots Newton alone would have
+        // made, or this reading's smaller ratio (on the cautious side).
         let c = &mut self.closed;
         let watched = margin < c.watch_margin || c.unwatched >= WATCH_EVERY;
-        if watched {
-            let Some(ratio) = self.watch(t) else {
-                return false;
-            };
-            self.next.stats.pivot_ratio = ratio;
-            // The pivot ratio falls about as the margin does: the next
-            // reading where it would reach the hand-over ratio, or at half
-            // the margin (the ratio may fall faster; the flags are some
-            // hundred times lower still).
-            self.closed.watch_margin = margin * (HAND_OVER / ratio).min(0.5);
-            self.closed.unwatched = 0;
-        } else {
+        if !watched {
             c.unwatched += 1;
+            return true;
         }
-        self.difference_rates(t);
-        self.acceptable()
+        let Some(ratio) = self.watch(t) else {
+            return false;
+        };
+        self.next.stats.pivot_ratio = ratio;
+        // The pivot ratio falls about as the margin does: the next reading
+        // where it would reach the hand-over ratio, or at half the margin
+        // (the ratio may fall faster; the flags are some hundred times
+        // lower still).
+        self.closed.watch_margin = margin * (HAND_OVER / ratio).min(0.5);
+        self.closed.unwatched = 0;
+        true
     }
 
     /// Reads the monitor's pivots of Φ_q at the placed q (factored as
