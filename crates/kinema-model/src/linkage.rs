@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use kinema_expr::{Arena, ExprId, NodeRef, SparseMatrix, SymKind};
+use kinema_expr::{Arena, ExprId, SparseMatrix, SymKind};
 
 use crate::check::{BodyRef, CheckedModel, Form, LibArg, LibKind};
 use crate::lower::Lowerer;
@@ -131,14 +131,6 @@ fn fixed_coordinate(
     fixed.then_some((Some(*b), [v.x, v.y], f))
 }
 
-/// The value of `e` if it is a number.
-fn num(arena: &Arena, e: ExprId) -> Option<f64> {
-    match arena.node(e) {
-        NodeRef::Num(v) => Some(v),
-        _ => None,
-    }
-}
-
 /// The entries of Φ_q's row `row` (row-major).
 fn row_entries(m: &SparseMatrix, row: usize) -> &[kinema_expr::Entry] {
     let start = m.entries.partition_point(|e| (e.row as usize) < row);
@@ -193,9 +185,9 @@ fn angle(
 ) -> Option<LinkageAngle> {
     let angle_column = |col: u32| (col % 3 == 2).then_some(col / 3);
     let (body, relative_to, c) = match entries {
-        [e] => (angle_column(e.col)?, None, num(arena, e.expr)?),
+        [e] => (angle_column(e.col)?, None, arena.as_num(e.expr)?),
         [a, b] => {
-            let (ca, cb) = (num(arena, a.expr)?, num(arena, b.expr)?);
+            let (ca, cb) = (arena.as_num(a.expr)?, arena.as_num(b.expr)?);
             if ca != -cb {
                 return None;
             }
