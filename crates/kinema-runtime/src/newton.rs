@@ -30,10 +30,13 @@ pub(crate) struct Workspace {
     pub(crate) scaling: Scaling,
     /// Dense diagnoses left in this step (see [`DIAGNOSES_PER_STEP`]).
     pub(crate) diagnoses_left: u32,
+    /// The residual test's per-equation scale (see [`RowTolerance`]).
+    pub(crate) rows: RowTolerance,
 }
 
 impl Workspace {
-    pub(crate) fn new(n: usize, nnz: usize) -> Self {
+    pub(crate) fn new<S: System + ?Sized>(system: &S) -> Self {
+        let (n, nnz) = (system.len(), system.jacobian_pattern().len());
         Self {
             phi: vec![0.0; n].into_boxed_slice(),
             jac: vec![0.0; nnz].into_boxed_slice(),
@@ -42,7 +45,126 @@ impl Workspace {
                 active: false,
             },
             diagnoses_left: DIAGNOSES_PER_STEP,
+            rows: RowTolerance::new(system),
         }
+    }
+}
+
+/// The residual test scaled to the model's size, so that a model drawn in
+/// small units is solved as accurately as the same model in metres.
+///
+/// [`Options::residual_tolerance`] is absolute: on a slider-crank whose
+/// links are 10⁻¹² long, *every* configuration has ‖Φ‖∞ below 10⁻¹², and
+/// Newton took the initial guess as the solution — wrong positions and no
+/// word. So each equation i gets a natural size wᵢ, measured at assembly
+/// from Φ_q and the guess: with L the model's length scale (the largest
+/// |x|, |y| of the guess and the largest lever arm |∂Φᵢ/∂φ| / |∂Φᵢ/∂x|
+/// of an equation), wᵢ = maxⱼ |∂Φᵢ/∂qⱼ| sⱼ, sⱼ = 1 for a body's angle
+/// (a coordinate named `….phi`) and L for every other coordinate. This is
+/// Φᵢ's size by its units: L for a joint's position rows, 1 for an angle
+/// or a driver on φ, L² for a squared distance. Equation i then passes
+/// when |Φᵢ| ≤ tol · min(1, wᵢ): the test only ever tightens, so a model
+/// of unit size or larger (every benchmark mechanism) runs the absolute
+/// test unchanged. Where the tightened test is below what roundoff allows
+/// (a tiny model far from the origin), Newton ends on its update test
+/// instead ([`Options::update_tolerance`]).
+#[derive(Debug, Clone)]
+pub(crate) struct RowTolerance {
+    /// Whether coordinate j is a body's angle.
+    angle: Box<[bool]>,
+    /// min(1, wᵢ) per equation (1 where wᵢ is 0 or not finite).
+    weights: Box<[f64]>,
+    /// Per equation: the largest |∂Φᵢ/∂φ| (scratch of `measure`).
+    lever: Box<[f64]>,
+    /// Whether some weight is below 1; else the test is ‖Φ‖∞ ≤ tol alone.
+    active: bool,
+}
+
+impl RowTolerance {
+    fn new<S: System + ?Sized>(system: &S) -> Self {
+        let n = system.len();
+        Self {
+            angle: (0..n)
+                .map(|j| system.coordinate_name(j).ends_with(".phi"))
+                .collect(),
+            weights: vec![1.0; n].into_boxed_slice(),
+            lever: vec![0.0; n].into_boxed_slice(),
+            active: false,
+        }
+    }
+
+    /// Measures the weights from the guess `q` and Φ_q's nonzeros `jac`
+    /// there (pattern `pattern`); inactive if either is not finite.
+    pub(crate) fn measure(&mut self, pattern: &[(u32, u32)], q: &[f64], jac: &[f64]) {
+        self.active = false;
+        let finite = scale_and_finite(q).1 && scale_and_finite(jac).1;
+        if !finite || q.len() != self.angle.len() || pattern.len() != jac.len() {
+            self.weights.fill(1.0);
+            return;
+        }
+        // Per equation, the largest |∂Φᵢ/∂(position)| goes in `weights`
+        // for now, the largest |∂Φᵢ/∂φ| in `lever`.
+        self.weights.fill(0.0);
+        self.lever.fill(0.0);
+        for (&(i, j), &v) in pattern.iter().zip(jac) {
+            let (i, j) = (i as usize, j as usize);
+            let (Some(&angle), Some(w), Some(l)) = (
+                self.angle.get(j),
+                self.weights.get_mut(i),
+                self.lever.get_mut(i),
+            ) else {
+                self.weights.fill(1.0);
+                return;
+            };
+            let slot = if angle { l } else { w };
+            *slot = slot.max(v.abs());
+        }
+        let mut length = q
+            .iter()
+            .zip(&self.angle)
+            .filter(|&(_, &angle)| !angle)
+            .fold(0.0f64, |m, (x, _)| m.max(x.abs()));
+        for (&w, &l) in self.weights.iter().zip(&self.lever) {
+            if w > 0.0 {
+                length = length.max(l / w);
+            }
+        }
+        let measured = length > 0.0 && length.is_finite();
+        for (w, &l) in self.weights.iter_mut().zip(&self.lever) {
+            let size = (*w * length).max(l);
+            *w = if measured && size > 0.0 && size.is_finite() {
+                size.min(1.0)
+            } else {
+                1.0
+            };
+        }
+        self.active = self.weights.iter().any(|&w| w < 1.0);
+    }
+
+    /// Whether Φ passes the residual test at tolerance `tol`, `residual`
+    /// being ‖Φ‖∞ (the whole test when no weight is below 1).
+    #[inline]
+    pub(crate) fn satisfied(&self, phi: &[f64], residual: f64, tol: f64) -> bool {
+        residual <= tol && (!self.active || self.within(phi, tol))
+    }
+
+    #[cold]
+    fn within(&self, phi: &[f64], tol: f64) -> bool {
+        phi.iter()
+            .zip(&self.weights)
+            .all(|(p, &w)| p.abs() <= tol * w)
+    }
+
+    /// maxᵢ |Φᵢ| / min(1, wᵢ): ‖Φ‖∞ in the model's size, NaN if Φ is not
+    /// finite (for the tests that compare Φ with a multiple of the
+    /// tolerance).
+    pub(crate) fn scaled(&self, phi: &[f64]) -> f64 {
+        if !self.active || !scale_and_finite(phi).1 {
+            return inf_norm(phi);
+        }
+        phi.iter()
+            .zip(&self.weights)
+            .fold(0.0f64, |m, (p, &w)| m.max(p.abs() / w))
     }
 }
 
@@ -173,7 +295,11 @@ pub(crate) fn solve_position<S: System, L: LinearSolver>(
             check_equations(system, t, Quantity::Phi, &ws.phi)?;
         }
         stats.residual = residual;
-        if residual <= options.residual_tolerance || small_update {
+        if ws
+            .rows
+            .satisfied(&ws.phi, residual, options.residual_tolerance)
+            || small_update
+        {
             *stats_out = stats;
             *travel_out = travel;
             return Ok(full);

@@ -9,7 +9,9 @@
 ///   Taylor predictor q + h q̇ + h²/2 q̈ of the previous step (h the time
 ///   step). Assembly (the first step) starts from the system's initial guess.
 /// * Before each update the residual is checked: the iteration has converged
-///   when ‖Φ(qᵏ)‖∞ ≤ [`residual_tolerance`](Self::residual_tolerance), or
+///   when ‖Φ(qᵏ)‖∞ ≤ [`residual_tolerance`](Self::residual_tolerance) (each
+///   equation's bound scaled down to the model's size where that is below
+///   1, see the field), or
 ///   when the update just taken was ‖Δq‖∞ ≤
 ///   [`update_tolerance`](Self::update_tolerance) · (1 + ‖q‖∞) (the roundoff
 ///   floor of models whose residual cannot reach the absolute tolerance). A
@@ -25,7 +27,13 @@
 /// factorization of Φ_q at the converged q.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Options {
-    /// Absolute tolerance on ‖Φ(q, t)‖∞.
+    /// Tolerance on ‖Φ(q, t)‖∞: absolute for a model of unit size or
+    /// larger. For a smaller one each equation's bound is tightened to its
+    /// size, measured at assembly from Φ_q at the initial guess — L for a
+    /// joint's position rows, where L is the model's length scale, 1 for an
+    /// angle, L² for a squared distance — so that a mechanism drawn in
+    /// micrometres (or at 10⁻¹⁴) is solved to the same relative accuracy as
+    /// in metres, rather than passing at its initial guess.
     pub residual_tolerance: f64,
     /// Relative tolerance on the Newton update, ‖Δq‖∞ ≤ tol · (1 + ‖q‖∞);
     /// `0` disables the test.

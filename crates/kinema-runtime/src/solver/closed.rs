@@ -94,7 +94,10 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.system
             .phi(&mut self.scratch, &self.next.q, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
-        let satisfied = residual <= self.options.residual_tolerance;
+        let satisfied =
+            self.ws
+                .rows
+                .satisfied(&self.ws.phi, residual, self.options.residual_tolerance);
         if !satisfied {
             return false;
         }

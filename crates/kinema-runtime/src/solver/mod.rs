@@ -206,13 +206,12 @@ impl<S: System, L: LinearSolverFor<S>> Solver<S, L> {
             }
             .into());
         }
-        let nnz = system.jacobian_pattern().len();
         Ok(Self {
+            ws: Workspace::new(&system),
             scratch: system.scratch(),
             system,
             lu,
             options,
-            ws: Workspace::new(n, nnz),
             next: State::zeros(n),
             state: State::zeros(n),
             held: State::zeros(n),
@@ -343,6 +342,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
         self.system.initial_guess(&mut self.next.q);
         check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
+        // The residual test's scale, from Φ_q at the guess.
+        self.factored = 0;
+        self.system
+            .jacobian(&mut self.scratch, &self.next.q, t0, &mut self.ws.jac);
+        self.ws
+            .rows
+            .measure(self.system.jacobian_pattern(), &self.next.q, &self.ws.jac);
         // Assembly starts afresh: the steps after it follow its branch.
         self.changed = false;
         self.factorization = Factorization::None;

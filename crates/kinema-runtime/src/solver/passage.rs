@@ -136,8 +136,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.system
             .phi(&mut self.scratch, &self.next.q, t0, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
-        let close =
-            residual <= self.options.residual_tolerance.sqrt() * (1.0 + inf_norm(&self.next.q));
+        let close = self.ws.rows.scaled(&self.ws.phi)
+            <= self.options.residual_tolerance.sqrt() * (1.0 + inf_norm(&self.next.q));
         if !close {
             return Err(failure);
         }
@@ -372,7 +372,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.system
             .phi(&mut self.scratch, &self.pred, t, &mut self.ws.phi);
         let residual = inf_norm(&self.ws.phi);
-        let close = residual <= LIMIT_RESIDUAL * self.options.residual_tolerance;
+        let close =
+            self.ws.rows.scaled(&self.ws.phi) <= LIMIT_RESIDUAL * self.options.residual_tolerance;
         if !close {
             return false;
         }
