@@ -241,48 +241,46 @@ impl Jit {
 
     /// The folded LU's factorization compiled: at once if the tapes'
     /// compilation has finished (a solver built after
-    /// [`wait`](Self::wait)), else in the background, the interpreter
-    /// factoring until it is ready (the hook's `None`).
-    pub(crate) fn factor(&self, plan: &FoldedFactor<'_>) -> Box<dyn CompiledFactor> {
-        let slot = self.lazy(
-            || kinema_jit::compile_factor(plan).ok(),
-            || OwnedFactor::new(plan),
-            |owned| kinema_jit::compile_factor(&owned.view()).ok(),
-        );
-        Box::new(LazyFactor { slot })
+    /// [`wait`](Self::wait); `None` if that fails), else in the background,
+    /// the interpreter factoring until it is ready.
+    pub(crate) fn factor(&self, plan: &FoldedFactor<'_>) -> Option<Box<dyn CompiledFactor>> {
+        if self.settled() {
+            // Plugged in directly: no slot to look through at every call.
+            let compiled = kinema_jit::compile_factor(plan).ok()?;
+            return Some(Box::new(compiled));
+        }
+        let slot = self.later(OwnedFactor::new(plan), |owned| {
+            kinema_jit::compile_factor(&owned.view()).ok()
+        });
+        Some(Box::new(LazyFactor { slot }))
     }
 
     /// The folded LU's solves compiled, as [`factor`](Self::factor).
-    pub(crate) fn solves(&self, plan: &FoldedSolves<'_>) -> Box<dyn CompiledSolves> {
-        let slot = self.lazy(
-            || kinema_jit::compile_solves(plan).ok(),
-            || OwnedSolves::new(plan),
-            |owned| kinema_jit::compile_solves(&owned.view()).ok(),
-        );
-        Box::new(LazySolves { slot })
+    pub(crate) fn solves(&self, plan: &FoldedSolves<'_>) -> Option<Box<dyn CompiledSolves>> {
+        if self.settled() {
+            let compiled = kinema_jit::compile_solves(plan).ok()?;
+            return Some(Box::new(compiled));
+        }
+        let slot = self.later(OwnedSolves::new(plan), |owned| {
+            kinema_jit::compile_solves(&owned.view()).ok()
+        });
+        Some(Box::new(LazySolves { slot }))
     }
 
-    /// A slot filled by `now()` at once if the tapes' compilation has
-    /// finished, else by `later` on a copy `owned()` of the plan, queued on
-    /// the compiling thread (skipped if nobody holds the slot by then).
-    fn lazy<T: Send + Sync + 'static, O: Send + 'static>(
+    /// A slot filled by `compile` on `owned` (a copy of the plan), queued
+    /// on the compiling thread (skipped if nobody holds the slot by then).
+    fn later<T: Send + Sync + 'static, O: Send + 'static>(
         &self,
-        now: impl FnOnce() -> Option<T>,
-        owned: impl FnOnce() -> O,
-        later: fn(&O) -> Option<T>,
+        owned: O,
+        compile: fn(&O) -> Option<T>,
     ) -> Arc<OnceLock<Option<T>>> {
         let slot = Arc::new(OnceLock::new());
-        if self.settled() {
-            let _ = slot.set(now());
-        } else {
-            let owned = owned();
-            let target = Arc::downgrade(&slot);
-            self.submit(Box::new(move || {
-                if let Some(target) = target.upgrade() {
-                    let _ = target.set(later(&owned));
-                }
-            }));
-        }
+        let target = Arc::downgrade(&slot);
+        self.submit(Box::new(move || {
+            if let Some(target) = target.upgrade() {
+                let _ = target.set(compile(&owned));
+            }
+        }));
         slot
     }
 }

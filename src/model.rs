@@ -607,7 +607,10 @@ impl System for TapeSystem {
         solves: &kinema_runtime::linalg::FoldedSolves<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledSolves>> {
         let jit = self.jit.as_ref()?;
-        (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.solves(solves))
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
+        jit.solves(solves)
     }
 
     /// With the JIT asked for, the folded LU's factorization is compiled
@@ -619,7 +622,10 @@ impl System for TapeSystem {
         factor: &kinema_runtime::linalg::FoldedFactor<'_>,
     ) -> Option<Box<dyn kinema_runtime::linalg::CompiledFactor>> {
         let jit = self.jit.as_ref()?;
-        (self.len() <= kinema_jit::MAX_LU_DIMENSION).then(|| jit.factor(factor))
+        if self.len() > kinema_jit::MAX_LU_DIMENSION {
+            return None;
+        }
+        jit.factor(factor)
     }
 
     /// Φ's kink tape, with a bound on each value's error (see
