@@ -199,7 +199,7 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64,
         }
         Instr::Recip { a, .. } => {
             let q = 1.0 / v(a);
-            (q, q * q * err(a))
+            (q, power_error(-1.0, v(a), q, err(a)))
         }
         Instr::Square { a, .. } => {
             let x = v(a);
@@ -209,11 +209,14 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64,
             let s = v(a).sqrt();
             (s, err(a) / (2.0 * s))
         }
-        Instr::PowI { a, n, .. } => (
-            v(a).powi(n),
-            (f64::from(n) * v(a).powi(n.saturating_sub(1))).abs() * err(a),
-        ),
-        Instr::PowF { a, p, .. } => (v(a).powf(p), (p * v(a).powf(p - 1.0)).abs() * err(a)),
+        Instr::PowI { a, n, .. } => {
+            let p = v(a).powi(n);
+            (p, power_error(f64::from(n), v(a), p, err(a)))
+        }
+        Instr::PowF { a, p, .. } => {
+            let value = v(a).powf(p);
+            (value, power_error(p, v(a), value, err(a)))
+        }
         // One library call for both (the bound needs the other): the
         // values may differ from the tape's by an ulp, which decides no
         // kink. The coordinates' go through the cache.
@@ -244,6 +247,19 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64,
                 (xv.abs() * err(y) + yv.abs() * err(x)) / (xv * xv + yv * yv),
             )
         }
+    }
+}
+
+/// The error of p = xⁿ from x's error `e`: |n xⁿ⁻¹| e, computed as
+/// |n| |p| (e / |x|) — the relative error times n — so that it holds
+/// wherever p does: xⁿ⁻¹ itself underflows or overflows where p does not
+/// (1/y² of a y near 10¹⁴⁷, whose bound came out 0 and let a move of the
+/// coordinates exceed it). At x = 0 the slope's own form.
+fn power_error(n: f64, x: f64, p: f64, e: f64) -> f64 {
+    if x == 0.0 {
+        (n * x.powf(n - 1.0)).abs() * e
+    } else {
+        n.abs() * p.abs() * (e / x.abs())
     }
 }
 
@@ -392,6 +408,47 @@ mod tests {
         let mut r = vec![0.0; tape.registers()];
         let mut e = vec![0.0; tape.registers()];
         assert_eq!(tape.kink(&inputs, 1e-3, &mut r, &mut e, &mut []), Ok(None));
+    }
+
+    /// A power's bound holds where the power does though the slope's
+    /// xⁿ⁻¹ under- or overflows: 1/x² at x = 1e150 (x⁻³ is 0 in doubles),
+    /// 1/x at 1e-160 (1/x² is infinite), x^-2.5 at 1e120.
+    #[test]
+    fn power_bounds_hold_where_the_slope_underflows() {
+        let (x, u): (f64, f64) = (1e150, super::UNIT);
+        for (x, build, slope_times_x) in [
+            (x, 0, 2.0 * x.powi(-2)),
+            (1e-160, 1, 1e160),
+            (1e120, 2, 2.5 * 1e120f64.powf(-2.5)),
+        ] {
+            let mut a = Arena::new();
+            let c = a.coordinate("x", 0);
+            let out = match build {
+                0 => a.powi(c, -2),
+                1 => {
+                    let one = a.num(1.0);
+                    a.div(one, c)
+                }
+                _ => a.powf(c, -2.5),
+            };
+            let tape = Tape::compile(&a, &[out]);
+            let inputs = TapeInputs {
+                q: &[x],
+                qd: &[],
+                params: &[],
+                t: 0.0,
+            };
+            let mut r = vec![0.0; tape.registers()];
+            let mut e = vec![0.0; tape.registers()];
+            // x uncertain by its roundoff u (1 + |x|).
+            assert_eq!(tape.kink(&inputs, 0.0, &mut r, &mut e, &mut []), Ok(None));
+            let expected = slope_times_x * u * (1.0 + x) / x;
+            assert!(
+                e[0] >= 0.99 * expected && e[0] <= 8.0 * expected,
+                "x = {x:e}: bound {:e}, expected {expected:e}",
+                e[0]
+            );
+        }
     }
 
     #[test]
