@@ -66,13 +66,14 @@ impl KinkTape {
         &self,
         inputs: &TapeInputs<'_>,
         uncertainty: f64,
+        size: f64,
         registers: &mut [f64],
         errors: &mut [f64],
         trig: &mut [f64],
     ) -> Option<Found> {
         let kink = self
             .tape
-            .kink(inputs, uncertainty, registers, errors, trig)
+            .kink(inputs, uncertainty, size, registers, errors, trig)
             .ok()??;
         Some(Found {
             root: *self.roots.get(kink.output?)?,

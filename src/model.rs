@@ -636,11 +636,12 @@ impl System for TapeSystem {
         scratch: &mut Vec<f64>,
         q: &[f64],
         uncertainty: f64,
+        size: f64,
         t: f64,
     ) -> Option<kinema_runtime::Kink> {
         let kinks = self.kinks.as_ref()?;
         let inputs = self.inputs(q, &self.zeros, t);
-        let found = self.find_kink(kinks, scratch, &inputs, uncertainty)?;
+        let found = self.find_kink(kinks, scratch, &inputs, uncertainty, size)?;
         Some(kinema_runtime::Kink {
             equation: Some(found.root),
             function: found.function,
@@ -753,6 +754,7 @@ impl TapeSystem {
         scratch: &mut Vec<f64>,
         inputs: &TapeInputs<'_>,
         uncertainty: f64,
+        size: f64,
     ) -> Option<crate::kinks::Found> {
         let (base, len) = (self.kink_base(), kinks.registers());
         if scratch.len() < base + 2 * len {
@@ -761,7 +763,7 @@ impl TapeSystem {
         let (start, rest) = scratch.split_at_mut(base);
         let (registers, errors) = rest[..2 * len].split_at_mut(len);
         let trig = &mut start[..self.trig_len()];
-        kinks.find(inputs, uncertainty, registers, errors, trig)
+        kinks.find(inputs, uncertainty, size, registers, errors, trig)
     }
 
     /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.

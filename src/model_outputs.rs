@@ -83,6 +83,7 @@ impl TapeSystem {
         &self,
         scratch: &mut Vec<f64>,
         state: &kinema_runtime::State,
+        size: f64,
     ) -> Option<OutputKink> {
         let kinks = self.outputs.kinks.as_ref()?;
         let inputs = TapeInputs {
@@ -91,7 +92,7 @@ impl TapeSystem {
             params: &self.params,
             t: state.t(),
         };
-        let found = self.find_kink(kinks, scratch, &inputs, state.stats().residual)?;
+        let found = self.find_kink(kinks, scratch, &inputs, state.stats().residual, size)?;
         Some(OutputKink {
             column: found.root,
             function: found.function,

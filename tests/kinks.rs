@@ -120,7 +120,7 @@ fn a_result_column_through_its_kink_is_flagged_there_only() {
     let mut flagged = Vec::new();
     for (k, s) in states.iter().enumerate() {
         assert_eq!(s.kink(), None);
-        if let Some(kink) = system.output_kink(&mut scratch, s) {
+        if let Some(kink) = system.output_kink(&mut scratch, s, 1.0) {
             assert_eq!(kink.function, "sqrt");
             assert_eq!(kinema::Outputs::output_name(&system, kink.column), "gap");
             flagged.push(k);
@@ -134,6 +134,6 @@ fn a_result_column_through_its_kink_is_flagged_there_only() {
     assert!(
         states
             .iter()
-            .all(|s| system.output_kink(&mut scratch, s).is_none())
+            .all(|s| system.output_kink(&mut scratch, s, 1.0).is_none())
     );
 }

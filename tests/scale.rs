@@ -183,3 +183,39 @@ fn a_tiny_linkage_is_placed_alike() {
         assert_eq!(placed, unit_placed, "size 1e{k}");
     }
 }
+
+/// The kink checks' rounding floor follows the model's size: a norm that
+/// is 0.8e-12 long in a model 1e-12 long is no kink (it was flagged when
+/// every coordinate counted as uncertain by a unit roundoff of 1), and a
+/// norm that is zero but for roundoff still is one at that size.
+#[test]
+fn kinks_are_judged_at_the_model_size() {
+    let model = kinema::Model::from_file("tests/scale/tiny_slider_crank.kin")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut solver = Solver::<_, Auto>::with_options(model.system(), Options::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut scratch = solver.system().scratch();
+    for t in grid() {
+        let state = solver.step(t).unwrap_or_else(|e| panic!("{e}")).clone();
+        assert!(state.kink().is_none(), "t = {t}");
+        let size = solver.model_size();
+        assert!((1e-12..=2e-12).contains(&size), "size {size:e}");
+        let kink = solver.system().output_kink(&mut scratch, &state, size);
+        assert!(kink.is_none(), "t = {t}: {kink:?}");
+    }
+    // tests/kinks/at_origin.kin at 1e-12: the tip held at the origin.
+    let source = "mechanism AtOrigin {
+        body bar { guess: (0.3e-12, -0.2e-12, 0) }
+        joint tip: bar(0.5e-12, 0) == norm(bar(0.5e-12, 0)) * (2, 5);
+        driver turn: bar.phi == t;
+    }";
+    let system = kinema::Model::from_source(source, "at_origin.kin")
+        .unwrap_or_else(|e| panic!("{e}"))
+        .system();
+    let mut solver = Solver::<_, Auto>::with_options(system, Options::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let state = solver.step(0.0).unwrap_or_else(|e| panic!("{e}"));
+    assert!(state.q()[0].abs() > 0.49e-12, "{:?}", state.q());
+    let kink = state.kink().expect("the tip at the origin is flagged");
+    assert_eq!(kink.function, "sqrt");
+}

@@ -440,7 +440,7 @@ proptest! {
         let delta = 1e-9;
         let mut regs = vec![0.0; tape.registers()];
         let mut errors = vec![0.0; tape.registers()];
-        let found = tape.kink(&inputs, delta, &mut regs, &mut errors, &mut []);
+        let found = tape.kink(&inputs, delta, 1.0, &mut regs, &mut errors, &mut []);
         prop_assert!(found.is_ok());
         let bound = errors[0];
         let mut out = [0.0];

@@ -78,6 +78,8 @@ pub(crate) struct RowTolerance {
     lever: Box<[f64]>,
     /// Whether some weight is below 1; else the test is ‖Φ‖∞ ≤ tol alone.
     active: bool,
+    /// The model's length scale L capped at 1 (1 until measured).
+    size: f64,
 }
 
 impl RowTolerance {
@@ -90,6 +92,7 @@ impl RowTolerance {
             weights: vec![1.0; n].into_boxed_slice(),
             lever: vec![0.0; n].into_boxed_slice(),
             active: false,
+            size: 1.0,
         }
     }
 
@@ -97,6 +100,7 @@ impl RowTolerance {
     /// there (pattern `pattern`); inactive if either is not finite.
     pub(crate) fn measure(&mut self, pattern: &[(u32, u32)], q: &[f64], jac: &[f64]) {
         self.active = false;
+        self.size = 1.0;
         let finite = scale_and_finite(q).1 && scale_and_finite(jac).1;
         if !finite || q.len() != self.angle.len() || pattern.len() != jac.len() {
             self.weights.fill(1.0);
@@ -130,6 +134,9 @@ impl RowTolerance {
             }
         }
         let measured = length > 0.0 && length.is_finite();
+        if measured {
+            self.size = length.min(1.0);
+        }
         for (w, &l) in self.weights.iter_mut().zip(&self.lever) {
             let size = (*w * length).max(l);
             *w = if measured && size > 0.0 && size.is_finite() {
@@ -139,6 +146,12 @@ impl RowTolerance {
             };
         }
         self.active = self.weights.iter().any(|&w| w < 1.0);
+    }
+
+    /// The model's length scale as measured, capped at 1 (1 before, or if
+    /// it could not be measured).
+    pub(crate) fn size(&self) -> f64 {
+        self.size
     }
 
     /// Whether Φ passes the residual test at tolerance `tol`, `residual`

@@ -121,7 +121,10 @@ pub trait System {
     /// norm of zero, `abs` of zero, `atan2` of (0, 0), `acos` of ±1 …),
     /// within a bound on its argument's error: each coordinate uncertain
     /// by `uncertainty` (the solution's residual ‖Φ‖∞, as a stand-in for
-    /// Newton's error in q) and by roundoff. There Φ_q, ν and γ are the
+    /// Newton's error in q) and by roundoff of `size` + |q_k| (`size` the
+    /// model's, [`Solver::model_size`](crate::Solver::model_size): a
+    /// coordinate at 0 is 0 within the rounding of the model's other
+    /// numbers). There Φ_q, ν and γ are the
     /// roundoff's, and so are q̇ and q̈: the runtime flags the state
     /// ([`State::kink`](crate::State::kink)). Called once per
     /// state kept; may allocate the first time (its scratch), not after.
@@ -131,9 +134,10 @@ pub trait System {
         scratch: &mut Self::Scratch,
         q: &[f64],
         uncertainty: f64,
+        size: f64,
         t: f64,
     ) -> Option<crate::Kink> {
-        let _ = (scratch, q, uncertainty, t);
+        let _ = (scratch, q, uncertainty, size, t);
         None
     }
 
@@ -235,9 +239,10 @@ macro_rules! forward {
                 scratch: &mut S::Scratch,
                 q: &[f64],
                 uncertainty: f64,
+                size: f64,
                 t: f64,
             ) -> Option<crate::Kink> {
-                (**self).kink(scratch, q, uncertainty, t)
+                (**self).kink(scratch, q, uncertainty, size, t)
             }
             fn linkage(&self) -> Option<&crate::Linkage> {
                 (**self).linkage()

@@ -586,7 +586,10 @@ impl Rows {
             );
             // With positions only, no rate is written.
             if !solver.options().positions_only
-                && let Some(kink) = solver.system().output_kink(&mut self.scratch, state)
+                && let Some(kink) =
+                    solver
+                        .system()
+                        .output_kink(&mut self.scratch, state, solver.model_size())
             {
                 self.output_kinks.push((t, kink));
             }

@@ -288,6 +288,7 @@ impl Flags {
         system: &kinema::TapeSystem,
         scratch: &mut Vec<f64>,
         state: &kinema::State,
+        size: f64,
         rates: bool,
     ) {
         if state.near_singular() {
@@ -296,7 +297,7 @@ impl Flags {
         if state.kink().is_some() {
             self.kinks.push(state.t());
         }
-        if rates && system.output_kink(scratch, state).is_some() {
+        if rates && system.output_kink(scratch, state, size).is_some() {
             self.output_kinks.push(state.t());
         }
     }
@@ -355,7 +356,13 @@ fn sweep_chunk(
             }
             let Some(state) = solver.state() else { break };
             kinema::Outputs::outputs_of(solver.system(), &mut scratch, state, &mut results);
-            flags.note(solver.system(), &mut scratch, state, orders > 1);
+            flags.note(
+                solver.system(),
+                &mut scratch,
+                state,
+                solver.model_size(),
+                orders > 1,
+            );
             line.clear();
             line.fields_of(&prefix);
             line.number(state.t());

@@ -47,8 +47,10 @@ impl Tape {
 
     /// The first instruction whose argument, at `inputs`, is at its kink
     /// within a bound on its absolute error: each coordinate q_k uncertain
-    /// by `q_error` + one unit roundoff of 1 + |q_k| (a solution's q is
-    /// never exact: a coordinate at 0 is 0 within rounding), q̇, the
+    /// by `q_error` + one unit roundoff of `q_size` + |q_k| (a solution's q
+    /// is never exact: a coordinate at 0 is 0 within the rounding of the
+    /// model's other numbers, whose size `q_size` is — 1 for a model in
+    /// metres, 10⁻⁶ for one of micrometres drawn in metres), q̇, the
     /// parameters, `t` and the constants exact, one unit roundoff added by
     /// each operation, propagated to first order. An argument that reads
     /// no coordinate (its bound 0) is never at a kink: its derivative with
@@ -70,6 +72,7 @@ impl Tape {
         &self,
         inputs: &TapeInputs<'_>,
         q_error: f64,
+        q_size: f64,
         registers: &mut [f64],
         errors: &mut [f64],
         trig: &mut [f64],
@@ -82,7 +85,7 @@ impl Tape {
         // register's by the instruction that writes it.
         e[..self.registers].fill(0.0);
         for (k, &x) in inputs.q[..self.need_q].iter().enumerate() {
-            e[self.outputs + k] = q_error.abs() + UNIT * (1.0 + x.abs());
+            e[self.outputs + k] = q_error.abs() + UNIT * (q_size.abs() + x.abs());
         }
         for (i, ins) in self.instrs.iter().enumerate() {
             if let Some(function) = kink_kind(ins)
@@ -320,7 +323,7 @@ mod tests {
         };
         let mut r = vec![0.0; tape.registers()];
         let mut e = vec![0.0; tape.registers()];
-        tape.kink(&inputs, q_error, &mut r, &mut e, &mut [])
+        tape.kink(&inputs, q_error, 1.0, &mut r, &mut e, &mut [])
             .expect("slices of the tape's lengths")
     }
 
@@ -407,7 +410,10 @@ mod tests {
         };
         let mut r = vec![0.0; tape.registers()];
         let mut e = vec![0.0; tape.registers()];
-        assert_eq!(tape.kink(&inputs, 1e-3, &mut r, &mut e, &mut []), Ok(None));
+        assert_eq!(
+            tape.kink(&inputs, 1e-3, 1.0, &mut r, &mut e, &mut []),
+            Ok(None)
+        );
     }
 
     /// A power's bound holds where the power does though the slope's
@@ -440,9 +446,12 @@ mod tests {
             };
             let mut r = vec![0.0; tape.registers()];
             let mut e = vec![0.0; tape.registers()];
-            // x uncertain by its roundoff u (1 + |x|).
-            assert_eq!(tape.kink(&inputs, 0.0, &mut r, &mut e, &mut []), Ok(None));
-            let expected = slope_times_x * u * (1.0 + x) / x;
+            // Size 0: x uncertain by its own roundoff u |x| alone.
+            assert_eq!(
+                tape.kink(&inputs, 0.0, 0.0, &mut r, &mut e, &mut []),
+                Ok(None)
+            );
+            let expected = slope_times_x * u;
             assert!(
                 e[0] >= 0.99 * expected && e[0] <= 8.0 * expected,
                 "x = {x:e}: bound {:e}, expected {expected:e}",

@@ -278,6 +278,17 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         &self.lu
     }
 
+    /// The model's size as assembly measured it for the residual test (see
+    /// [`Options::residual_tolerance`]): its length scale — the largest
+    /// |x|, |y| of the initial guess and the equations' lever arms —
+    /// capped at 1; 1 before assembly. A coordinate at 0 is 0 within a
+    /// unit roundoff of it: what [`System::kink`] and the outputs' kink
+    /// checks take as the rounding floor.
+    #[must_use]
+    pub fn model_size(&self) -> f64 {
+        self.ws.rows.size()
+    }
+
     /// The options.
     #[must_use]
     pub fn options(&self) -> &Options {
@@ -705,8 +716,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             None
         } else {
             let uncertainty = self.next.stats.residual;
-            self.system
-                .kink(&mut self.scratch, &self.next.q, uncertainty, t)
+            self.system.kink(
+                &mut self.scratch,
+                &self.next.q,
+                uncertainty,
+                self.ws.rows.size(),
+                t,
+            )
         };
         // Written only when it changes (rarely): a store just before the
         // swap below would be read back by its wider loads, which cannot
