@@ -33,7 +33,10 @@ pub struct Options {
     /// joint's position rows, where L is the model's length scale, 1 for an
     /// angle, L² for a squared distance — so that a mechanism drawn in
     /// micrometres (or at 10⁻¹⁴) is solved to the same relative accuracy as
-    /// in metres, rather than passing at its initial guess.
+    /// in metres, rather than passing at its initial guess. Parameters
+    /// changed between steps keep the size assembly measured: after a
+    /// change of scale, [`Solver::reset`](crate::Solver::reset) and
+    /// assemble again (a sweep does, at every row).
     pub residual_tolerance: f64,
     /// Relative tolerance on the Newton update, ‖Δq‖∞ ≤ tol · (1 + ‖q‖∞);
     /// `0` disables the test.
