@@ -997,9 +997,33 @@ impl FoldedLu {
             self.current = Current::Folded;
             return Ok(());
         }
+        self.factor_fallback(values, singular_tolerance)
+    }
+
+    /// A factorization the fixed order refused, by the general solver. Out
+    /// of line: inlined, its code made every factorization save and
+    /// restore the registers it uses.
+    #[cold]
+    #[inline(never)]
+    fn factor_fallback(
+        &mut self,
+        values: &[f64],
+        singular_tolerance: f64,
+    ) -> Result<(), LinalgError> {
         self.fallback.factor(values, singular_tolerance)?;
         self.current = Current::Fallback;
         Ok(())
+    }
+
+    /// A solve with the general solver's factorization (out of line, as
+    /// [`factor_fallback`](Self::factor_fallback)).
+    #[inline(never)]
+    fn solve_fallback(&mut self, rhs: &mut [f64], transpose: bool) -> Result<(), LinalgError> {
+        if transpose {
+            self.fallback.solve_transpose_in_place(rhs)
+        } else {
+            self.fallback.solve_in_place(rhs)
+        }
     }
 }
 
@@ -1046,7 +1070,7 @@ impl LinearSolver for FoldedLu {
                 folded.solve(rhs, false);
                 Ok(())
             }
-            (Current::Fallback, _) => self.fallback.solve_in_place(rhs),
+            (Current::Fallback, _) => self.solve_fallback(rhs, false),
             _ => Err(LinalgError::NotFactored),
         }
     }
@@ -1059,7 +1083,7 @@ impl LinearSolver for FoldedLu {
                 folded.solve(rhs, true);
                 Ok(())
             }
-            (Current::Fallback, _) => self.fallback.solve_transpose_in_place(rhs),
+            (Current::Fallback, _) => self.solve_fallback(rhs, true),
             _ => Err(LinalgError::NotFactored),
         }
     }
