@@ -172,8 +172,11 @@ impl RowTolerance {
     /// finite (for the tests that compare Φ with a multiple of the
     /// tolerance).
     pub(crate) fn scaled(&self, phi: &[f64]) -> f64 {
-        if !self.active || !scale_and_finite(phi).1 {
+        if !self.active {
             return inf_norm(phi);
+        }
+        if !scale_and_finite(phi).1 {
+            return f64::NAN;
         }
         phi.iter()
             .zip(&self.weights)

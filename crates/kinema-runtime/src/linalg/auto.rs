@@ -176,7 +176,11 @@ impl LinearSolver for Auto {
 }
 
 /// [`Auto`]'s dense and sparse arms, out of line (see the note in
-/// `impl LinearSolver for Auto`).
+/// `impl LinearSolver for Auto`). They take the whole `Auto`, so that its
+/// methods pass it on in one catch-all arm; measured, that is 41
+/// instructions a step lighter on the chain N = 2 than a generic helper
+/// per arm. The folded arms are never taken from there and answer as
+/// `Auto` would.
 mod general {
     use super::{Auto, LinalgError, LinearSolver};
 
