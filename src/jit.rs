@@ -17,7 +17,7 @@ use std::sync::{Arc, Condvar, Mutex, OnceLock, PoisonError};
 use kinema_expr::{Tape, TapeInputs};
 use kinema_jit::{JitError, JitTape};
 use kinema_runtime::linalg::{
-    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, Op, SolveOp,
+    CompiledFactor, CompiledSolves, FoldedFactor, FoldedSolves, Op, RawScan, SolveOp,
 };
 
 /// The tapes of the runtime's hot path, compiled.
@@ -302,7 +302,7 @@ struct LazyFactor {
 
 impl CompiledFactor for LazyFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut FactorScan) -> bool {
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut RawScan) -> bool {
         match self.slot.get() {
             Some(Some(f)) => f.factor(values, v, check, scan),
             _ => false,

@@ -16,6 +16,7 @@ use cranelift_jit::JITModule;
 use cranelift_module::FuncId;
 
 use kinema_expr::TapeInputs;
+use kinema_runtime::linalg::{FactorScan, RawScan};
 
 use crate::JitError;
 
@@ -273,9 +274,9 @@ pub(crate) struct FactorNeeds {
     pub(crate) v: usize,
 }
 
-/// Entries of the scan a compiled factorization writes: scale, finite,
-/// same, negative, smallest pivot, largest multiplier.
-pub(crate) const SCAN: usize = 6;
+/// Entries of the scan a compiled factorization writes, at
+/// [`FactorScan`]'s indices.
+pub(crate) const SCAN: usize = FactorScan::LEN;
 
 type RawFactor = unsafe extern "C" fn(*const f64, *mut f64, *mut f64, u64);
 
@@ -321,30 +322,26 @@ impl FactorFn {
         values.len() >= self.needs.values && v.len() >= self.needs.v
     }
 
-    /// Runs the factorization, checking the constants if `check`; `None`
-    /// (nothing done) on short slices.
+    /// Runs the factorization, checking the constants if `check`,
+    /// writing every entry of `scan`; `false` (nothing done) on short
+    /// slices. With a prologue, `scan` holds the running folds it left,
+    /// which the function starts from.
     #[inline]
-    pub(crate) fn call(&self, values: &[f64], v: &mut [f64], check: bool) -> Option<[f64; SCAN]> {
-        self.call_from(values, v, [0.0; SCAN], check)
-    }
-
-    /// Runs the factorization from the scan `scan` (the running folds a
-    /// prologue left); `None` (nothing done) on short slices.
-    #[inline]
-    pub(crate) fn call_from(
+    pub(crate) fn call(
         &self,
         values: &[f64],
         v: &mut [f64],
-        mut scan: [f64; SCAN],
+        scan: &mut RawScan,
         check: bool,
-    ) -> Option<[f64; SCAN]> {
+    ) -> bool {
         if !self.fits(values, v) {
-            return None;
+            return false;
         }
         // SAFETY: the function reads only values[..needs.values], writes
-        // and reads only v[..needs.v] and writes only scan[..SCAN] (checked
-        // when it was compiled); the lengths were just checked. The code is
-        // alive (`_code`).
+        // and reads only v[..needs.v] and writes and reads only
+        // scan[..SCAN] (checked when it was compiled; `scan` is SCAN long,
+        // and distinct from `v`: `&mut` borrows); the other lengths were
+        // just checked. The code is alive (`_code`).
         unsafe {
             (self.f)(
                 values.as_ptr(),
@@ -353,15 +350,6 @@ impl FactorFn {
                 u64::from(check),
             );
         };
-        // Each entry read as the function wrote it, one 8-byte store each:
-        // a wider load spanning two of them (what the optimizer makes of
-        // copying the array) cannot take its value from the stores in
-        // flight and waits for them to reach the cache (measured: the
-        // chain N = 2's factorization wrapper was 9 % of a step's time,
-        // half of it on that one load).
-        Some(std::array::from_fn(|k| {
-            // SAFETY: `k < SCAN`, an element of the local array `scan`.
-            unsafe { std::ptr::read_volatile(scan.as_ptr().add(k)) }
-        }))
+        true
     }
 }

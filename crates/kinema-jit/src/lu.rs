@@ -14,7 +14,7 @@ use cranelift_jit::JITModule;
 use cranelift_module::{FuncId, Linkage, Module};
 use kinema_runtime::linalg::{
     CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedSolves, INFINITY_BITS,
-    MAGNITUDE_MASK, MASK_ALL, Op, SolveOp, scale_and_masked_max,
+    MAGNITUDE_MASK, MASK_ALL, Op, RawScan, SolveOp, scale_and_masked_max,
 };
 
 use crate::JitError;
@@ -568,13 +568,14 @@ fn apply(
     })
 }
 
-/// The scan's entries: where the compiled factorization writes each.
-const SCAN_SCALE: usize = 0;
-const SCAN_FINITE: usize = 1;
-const SCAN_SAME: usize = 2;
-const SCAN_NEGATIVE: usize = 3;
-const SCAN_MIN_PIVOT: usize = 4;
-const SCAN_MAX_MULTIPLIER: usize = 5;
+/// The scan's entries: where the compiled factorization writes each (the
+/// runtime's [`RawScan`] layout).
+const SCAN_SCALE: usize = FactorScan::SCALE;
+const SCAN_FINITE: usize = FactorScan::FINITE;
+const SCAN_SAME: usize = FactorScan::SAME;
+const SCAN_NEGATIVE: usize = FactorScan::NEGATIVE;
+const SCAN_MIN_PIVOT: usize = FactorScan::MIN_PIVOT;
+const SCAN_MAX_MULTIPLIER: usize = FactorScan::MAX_MULTIPLIER;
 
 /// The bits of `x` as Cranelift's signed immediate.
 fn bits_of(x: f64) -> i64 {
@@ -677,14 +678,15 @@ impl Prologue {
     }
 
     /// Checks the constants (if `check`), copies the run-time entries into
-    /// `v` and folds them; the scan the compiled part starts from (final
+    /// `v` and folds them; writes into `scan` the scan the compiled part
+    /// starts from (final
     /// scale, finiteness and constants' check; the pivots' and
     /// multipliers' folds as running state, raw bits). The caller has
     /// checked `values` and `v` against the needs the indices were checked
     /// with. Out of line: the small systems' factorization, which has no
     /// prologue, stays lean.
     #[inline(never)]
-    fn run(&self, values: &[f64], v: &mut [f64], check: bool) -> [f64; SCAN] {
+    fn run(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut RawScan) {
         let bits = |x: f64| x.to_bits();
         let mut diff = 0;
         for &(k, c) in if check { &self.constants[..] } else { &[] } {
@@ -717,14 +719,12 @@ impl Prologue {
             signs ^= bits(v[p as usize]);
             pivot(p)
         });
-        let mut scan = [0.0; SCAN];
         scan[SCAN_SAME] = if diff == 0 { 1.0 } else { 0.0 };
         scan[SCAN_SCALE] = f64::from_bits(scale);
         scan[SCAN_FINITE] = if finite { 1.0 } else { 0.0 };
         scan[SCAN_NEGATIVE] = f64::from_bits(signs);
         scan[SCAN_MIN_PIVOT] = f64::from_bits(min_pivot);
         scan[SCAN_MAX_MULTIPLIER] = f64::from_bits(max_multiplier);
-        scan
     }
 }
 
@@ -765,27 +765,15 @@ impl std::fmt::Debug for JitFactor {
 
 impl CompiledFactor for JitFactor {
     #[inline]
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, out: &mut FactorScan) -> bool {
-        let scan = match &self.prologue {
-            None => self.f.call(values, v, check),
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut RawScan) -> bool {
+        match &self.prologue {
+            None => self.f.call(values, v, scan, check),
             Some(p) if self.f.fits(values, v) => {
-                let start = p.run(values, v, check);
-                self.f.call_from(values, v, start, check)
+                p.run(values, v, check, scan);
+                self.f.call(values, v, scan, check)
             }
-            Some(_) => None,
-        };
-        let Some(scan) = scan else {
-            return false;
-        };
-        *out = FactorScan {
-            scale: scan[SCAN_SCALE],
-            finite: scan[SCAN_FINITE] != 0.0,
-            same: scan[SCAN_SAME] != 0.0,
-            negative: scan[SCAN_NEGATIVE] != 0.0,
-            min_pivot: scan[SCAN_MIN_PIVOT],
-            max_multiplier: scan[SCAN_MAX_MULTIPLIER],
-        };
-        true
+            Some(_) => false,
+        }
     }
 }
 

@@ -138,19 +138,71 @@ pub struct FactorScan {
     pub max_multiplier: f64,
 }
 
+/// A [`FactorScan`] as a factorization writes it: six `f64` at the
+/// indices [`FactorScan::SCALE`] … [`FactorScan::MAX_MULTIPLIER`], each
+/// flag 1 or 0 (anything but 0 reads as set). The folded LU keeps its scan
+/// in this form, so that a compiled factorization writes it in place, one
+/// 8-byte store per entry, and the acceptance test reads it back one 8-byte
+/// load per entry: no copy, no conversion, and no load spanning two
+/// stores (which waits for them to reach the cache).
+pub type RawScan = [f64; FactorScan::LEN];
+
+impl FactorScan {
+    /// Entries of a [`RawScan`].
+    pub const LEN: usize = 6;
+    /// Index of [`scale`](Self::scale) in a [`RawScan`].
+    pub const SCALE: usize = 0;
+    /// Index of [`finite`](Self::finite) (1 or 0).
+    pub const FINITE: usize = 1;
+    /// Index of [`same`](Self::same) (1 or 0).
+    pub const SAME: usize = 2;
+    /// Index of [`negative`](Self::negative) (1 or 0).
+    pub const NEGATIVE: usize = 3;
+    /// Index of [`min_pivot`](Self::min_pivot).
+    pub const MIN_PIVOT: usize = 4;
+    /// Index of [`max_multiplier`](Self::max_multiplier).
+    pub const MAX_MULTIPLIER: usize = 5;
+
+    /// The scan a [`RawScan`] holds.
+    #[must_use]
+    pub fn from_raw(raw: &RawScan) -> FactorScan {
+        FactorScan {
+            scale: raw[Self::SCALE],
+            finite: raw[Self::FINITE] != 0.0,
+            same: raw[Self::SAME] != 0.0,
+            negative: raw[Self::NEGATIVE] != 0.0,
+            min_pivot: raw[Self::MIN_PIVOT],
+            max_multiplier: raw[Self::MAX_MULTIPLIER],
+        }
+    }
+
+    /// The scan as a [`RawScan`].
+    #[must_use]
+    pub fn to_raw(self) -> RawScan {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let mut raw = [0.0; Self::LEN];
+        raw[Self::SCALE] = self.scale;
+        raw[Self::FINITE] = flag(self.finite);
+        raw[Self::SAME] = flag(self.same);
+        raw[Self::NEGATIVE] = flag(self.negative);
+        raw[Self::MIN_PIVOT] = self.min_pivot;
+        raw[Self::MAX_MULTIPLIER] = self.max_multiplier;
+        raw
+    }
+}
+
 /// A [`FoldedLu`]'s factorization compiled elsewhere (kinema-jit), plugged
 /// in with [`FoldedLu::set_compiled_factor`]: it must write the value array
 /// and find the scan exactly as the interpreter does.
 pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
-    /// Factors `values` into `v` and writes the scan into `scan`; `false`
-    /// (nothing written) if it cannot, for instance on slices of unexpected
-    /// lengths: the interpreter then factors. With `check` false the
-    /// constant entries may be taken as planned, unchecked (`same` then
-    /// `true`); checking them anyway is never wrong. (The scan is written
-    /// in place, not returned: a returned one is stored and read back in
-    /// pieces of other sizes, which stalls the processor's forwarding of
-    /// stores to loads.)
-    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut FactorScan) -> bool;
+    /// Factors `values` into `v` and writes every entry of the scan into
+    /// `scan`; `false` (nothing written) if it cannot, for instance on
+    /// slices of unexpected lengths: the interpreter then factors. With
+    /// `check` false the constant entries may be taken as planned,
+    /// unchecked (`same` then set); checking them anyway is never wrong.
+    /// (The scan is written in place in its raw form, not returned: see
+    /// [`RawScan`].)
+    fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut RawScan) -> bool;
 }
 
 /// One operation of a triangular solve on y, reading the factors' values v
@@ -341,7 +393,7 @@ struct Folded {
     /// but for the run-time pivots'.
     fixed_sign: f64,
     /// The last factorization's scan (the pivot report's numbers).
-    scan: FactorScan,
+    scan: RawScan,
     work: Vec<f64>,
     /// The solves compiled to native code, if they were.
     compiled: Option<Box<dyn CompiledSolves>>,
@@ -519,7 +571,8 @@ impl Folded {
                 negative: false,
                 min_pivot: 0.0,
                 max_multiplier: f64::INFINITY,
-            },
+            }
+            .to_raw(),
             work: vec![0.0; n],
             compiled: None,
             compiled_factor: None,
@@ -630,15 +683,15 @@ impl Folded {
             .as_ref()
             .is_some_and(|c| c.factor(values, &mut self.v, check, &mut self.scan));
         if !compiled {
-            self.scan = self.interpret(values, check);
+            self.scan = self.interpret(values, check).to_raw();
         }
         let scan = &self.scan;
         order_accepted(
-            scan.finite && scan.same,
-            scan.max_multiplier,
-            scan.min_pivot,
+            scan[FactorScan::FINITE] != 0.0 && scan[FactorScan::SAME] != 0.0,
+            scan[FactorScan::MAX_MULTIPLIER],
+            scan[FactorScan::MIN_PIVOT],
             singular_tolerance,
-            scan.scale,
+            scan[FactorScan::SCALE],
         )
     }
 
@@ -1092,9 +1145,9 @@ impl LinearSolver for FoldedLu {
     fn pivot_report(&self) -> Option<PivotReport> {
         match (self.current, &self.folded) {
             (Current::Folded, Some(f)) => Some(PivotReport::from_smallest_pivot(
-                f.scan.min_pivot,
-                f.scan.scale,
-                if f.scan.negative {
+                f.scan[FactorScan::MIN_PIVOT],
+                f.scan[FactorScan::SCALE],
+                if f.scan[FactorScan::NEGATIVE] != 0.0 {
                     -f.fixed_sign
                 } else {
                     f.fixed_sign
@@ -1110,6 +1163,30 @@ impl LinearSolver for FoldedLu {
 mod tests {
     use super::*;
     use crate::linalg::DynDenseLu;
+
+    /// A scan survives its raw form, each flag on its own index (a
+    /// swapped index would swap two flags here).
+    #[test]
+    fn raw_scan_round_trips() {
+        for bits in 0..8u8 {
+            let scan = FactorScan {
+                scale: 2.5,
+                finite: bits & 1 != 0,
+                same: bits & 2 != 0,
+                negative: bits & 4 != 0,
+                min_pivot: 0.125,
+                max_multiplier: f64::INFINITY,
+            };
+            assert_eq!(FactorScan::from_raw(&scan.to_raw()), scan);
+        }
+        let raw = [1.0, 1.0, 0.0, 1.0, 3.0, 4.0];
+        let scan = FactorScan::from_raw(&raw);
+        assert!(scan.finite && !scan.same && scan.negative);
+        assert_eq!(
+            (scan.scale, scan.min_pivot, scan.max_multiplier),
+            (1.0, 3.0, 4.0)
+        );
+    }
 
     /// A slider-crank-like Jacobian: unit entries (constant) on the x and y
     /// coordinates of two joints, run-time entries on the angle columns,
@@ -1204,7 +1281,8 @@ mod tests {
                 Val::Const(c) => c,
                 Val::Var(s) => f.v[s as usize],
             });
-            let from_inverse = PivotReport::from_inverse_pivot_values(inverse, f.scan.scale, 1.0);
+            let from_inverse =
+                PivotReport::from_inverse_pivot_values(inverse, f.scan[FactorScan::SCALE], 1.0);
             assert_eq!(
                 mine.map(|p| p.ratio.to_bits()),
                 Some(from_inverse.ratio.to_bits()),

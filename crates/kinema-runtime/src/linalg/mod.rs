@@ -56,7 +56,8 @@ mod sparse;
 pub use auto::Auto;
 pub use dense::{DenseLu, DynDenseLu};
 pub use folded::{
-    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedLu, FoldedSolves, Op, SolveOp,
+    CompiledFactor, CompiledSolves, FactorScan, FoldedFactor, FoldedLu, FoldedSolves, Op, RawScan,
+    SolveOp,
 };
 pub use sparse::SparseLu;
 
