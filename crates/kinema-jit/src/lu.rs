@@ -768,12 +768,29 @@ impl CompiledFactor for JitFactor {
     fn factor(&self, values: &[f64], v: &mut [f64], check: bool, scan: &mut RawScan) -> bool {
         match &self.prologue {
             None => self.f.call(values, v, scan, check),
-            Some(p) if self.f.fits(values, v) => {
-                p.run(values, v, check, scan);
-                self.f.call(values, v, scan, check)
-            }
-            Some(_) => false,
+            Some(p) => self.factor_after(p, values, v, check, scan),
         }
+    }
+}
+
+impl JitFactor {
+    /// [`CompiledFactor::factor`] of a large factorization: the prologue,
+    /// then the compiled part. Out of line: the small systems' call, which
+    /// has no prologue, then needs no saved registers.
+    #[inline(never)]
+    fn factor_after(
+        &self,
+        prologue: &Prologue,
+        values: &[f64],
+        v: &mut [f64],
+        check: bool,
+        scan: &mut RawScan,
+    ) -> bool {
+        if !self.f.fits(values, v) {
+            return false;
+        }
+        prologue.run(values, v, check, scan);
+        self.f.call(values, v, scan, check)
     }
 }
 

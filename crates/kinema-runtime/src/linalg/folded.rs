@@ -683,7 +683,7 @@ impl Folded {
             .as_ref()
             .is_some_and(|c| c.factor(values, &mut self.v, check, &mut self.scan));
         if !compiled {
-            self.scan = self.interpret(values, check).to_raw();
+            self.interpret(values, check);
         }
         let scan = &self.scan;
         order_accepted(
@@ -696,9 +696,10 @@ impl Folded {
     }
 
     /// The interpreted factorization: the value array and the scan. Out of
-    /// line: the compiled factorization's call stays a light frame.
+    /// line, and writing the scan itself: the compiled factorization's
+    /// call stays a light frame.
     #[inline(never)]
-    fn interpret(&mut self, values: &[f64], check: bool) -> FactorScan {
+    fn interpret(&mut self, values: &[f64], check: bool) {
         let mut max_bits = self.const_scale.to_bits();
         for &k in &self.inputs {
             max_bits = max_bits.max(values[k as usize].to_bits() & MAGNITUDE_MASK);
@@ -754,7 +755,7 @@ impl Folded {
                 a
             };
         }
-        FactorScan {
+        self.scan = FactorScan {
             scale,
             finite,
             same,
@@ -762,6 +763,7 @@ impl Folded {
             min_pivot,
             max_multiplier,
         }
+        .to_raw();
     }
 
     /// Runs the folded solve: gather by `gather`, two sweeps, scatter by `scatter`.
