@@ -680,6 +680,7 @@ impl System for TapeSystem {
         self.run(&self.jacobian, registers, &inputs, values);
     }
 
+    #[inline]
     fn phi_and_jacobian(
         &self,
         registers: &mut Vec<f64>,
@@ -701,6 +702,7 @@ impl System for TapeSystem {
         self.interpret_both(registers, q, t, phi, values);
     }
 
+    #[inline]
     fn nu(&self, registers: &mut Vec<f64>, q: &[f64], t: f64, nu: &mut [f64]) {
         let inputs = self.inputs(q, &self.zeros, t);
         #[cfg(feature = "jit")]
@@ -710,6 +712,7 @@ impl System for TapeSystem {
         self.run(&self.nu, registers, &inputs, nu);
     }
 
+    #[inline]
     fn gamma(&self, registers: &mut Vec<f64>, q: &[f64], qd: &[f64], t: f64, gamma: &mut [f64]) {
         let inputs = self.inputs(q, qd, t);
         #[cfg(feature = "jit")]

@@ -210,6 +210,17 @@ impl Scaling {
         if !self.active {
             return lu.solve_in_place(rhs);
         }
+        self.solve_scaled(lu, rhs)
+    }
+
+    /// [`solve`](Self::solve) in the equilibrated form. Out of line: the
+    /// plain solve, nearly every one, stays small enough to inline.
+    #[inline(never)]
+    fn solve_scaled<L: LinearSolver>(
+        &self,
+        lu: &mut L,
+        rhs: &mut [f64],
+    ) -> Result<(), LinalgError> {
         for (x, &r) in rhs.iter_mut().zip(self.eq.row.iter()) {
             *x *= r;
         }
