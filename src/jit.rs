@@ -140,7 +140,10 @@ fn queue() -> Option<&'static Mutex<Sender<Queued>>> {
 #[derive(Debug)]
 pub(crate) struct Jit {
     /// The compiled tapes, or why they could not be; empty while compiling.
-    tapes: Arc<OnceLock<Result<Compiled, String>>>,
+    /// Inline, not behind an `Arc` of its own: every compiled evaluation
+    /// reads it, and each pointer on the way is a load the call waits for
+    /// (the compiling thread holds a weak reference to the whole `Jit`).
+    tapes: OnceLock<Result<Compiled, String>>,
     /// The scratch the compiled tapes may use, known before they are: the
     /// coordinates' sin/cos cache and the memo after the interpreter's
     /// registers.
@@ -163,19 +166,19 @@ impl Jit {
         let cache_len = kinema_jit::cache_len_bound_iterated(&splits, memo_base, &ITERATED)
             .map_err(|e| e.to_string())?;
         let jit = Arc::new(Jit {
-            tapes: Arc::new(OnceLock::new()),
+            tapes: OnceLock::new(),
             cache_len,
             progress: Arc::new(Progress::default()),
         });
         let owned: Vec<(Tape, usize)> = splits.iter().map(|&(t, s)| (t.clone(), s)).collect();
-        let target = Arc::downgrade(&jit.tapes);
+        let target = Arc::downgrade(&jit);
         jit.submit(Box::new(move || {
             let Some(target) = target.upgrade() else {
                 return;
             };
             let splits: Vec<(&Tape, usize)> = owned.iter().map(|(t, s)| (t, *s)).collect();
             let result = Compiled::new(&splits, memo_base).map_err(|e| e.to_string());
-            let _ = target.set(result);
+            let _ = target.tapes.set(result);
         }));
         Ok(jit)
     }
