@@ -679,9 +679,8 @@ impl Prologue {
 
     /// Checks the constants (if `check`), copies the run-time entries into
     /// `v` and folds them; writes into `scan` the scan the compiled part
-    /// starts from (final
-    /// scale, finiteness and constants' check; the pivots' and
-    /// multipliers' folds as running state, raw bits). The caller has
+    /// starts from (final scale, finiteness and constants' check; the
+    /// pivots' and multipliers' folds as running state, raw bits). The caller has
     /// checked `values` and `v` against the needs the indices were checked
     /// with. Out of line: the small systems' factorization, which has no
     /// prologue, stays lean.

@@ -85,7 +85,7 @@ pub enum Op {
 /// A read-only view of a [`FoldedLu`]'s factorization, for a compiler of
 /// it (kinema-jit). From the Jacobian's values (`nnz` of them): value i <
 /// `inputs.len()` is `values[inputs[i]]`; op k writes value
-/// `inputs.len() + k`; the scan is [`FactorScan`]'s.
+/// `inputs.len() + k`; the scan is a [`RawScan`].
 #[derive(Clone, Copy, Debug)]
 pub struct FoldedFactor<'a> {
     /// Number of Jacobian values.
