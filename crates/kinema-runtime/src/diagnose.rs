@@ -118,6 +118,10 @@ impl Decomposition {
     }
 }
 
+/// Equilibrated entries below this magnitude are dropped before the SVD
+/// (see [`equilibrated_svd`]).
+const NEGLIGIBLE: f64 = 1e-100;
+
 fn equilibrated_svd(
     n: usize,
     pattern: &[(u32, u32)],
@@ -132,10 +136,23 @@ fn equilibrated_svd(
     }
     let mut eq = Equilibration::new(n, values.len());
     eq.compute(pattern, values);
+    // Factors near the ends of the exponent range can overflow in rᵢ cⱼ,
+    // making an equilibrated entry infinite or NaN: refused, as above.
+    if eq.values.iter().any(|v| !v.is_finite()) {
+        return Err(RankError::NonFinite);
+    }
     let mut a = DMatrix::<f64>::zeros(n, n);
     for (&(r, c), &v) in pattern.iter().zip(eq.values.iter()) {
         if let Some(slot) = a.get_mut((r as usize, c as usize)) {
-            *slot = v;
+            // Negligible entries are dropped: nalgebra's SVD turns columns
+            // of entries near 1e-154 (whose squares underflow) into a NaN
+            // singular value and panics (fuzz seed 2828: one entry of
+            // 1.8e308 equilibrated the others of its column to 1e-154).
+            // The perturbation, at most n · NEGLIGIBLE in a matrix whose
+            // rows and columns have maxima near 1, is far below the SVD's
+            // own error (ε ‖A‖), so no rank or condition the rule reads
+            // changes.
+            *slot = if v.abs() < NEGLIGIBLE { 0.0 } else { v };
         }
     }
     // Entries are now at most 2 in magnitude: nothing the SVD squares can
@@ -255,4 +272,76 @@ fn names<S: System + ?Sized>(
         .filter(|&(_, &m)| m)
         .map(|(i, _)| name(system, i).to_owned())
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fuzz seed 2828: a Φ_q with one entry of f64::MAX (a point drawn at
+    /// y = −1.8e308) equilibrates the rest of its column to about 1e-154,
+    /// on which nalgebra's SVD made a NaN singular value and panicked. The
+    /// diagnosis must run (or refuse), never panic.
+    #[test]
+    fn extreme_entries_do_not_panic_the_svd() {
+        let pattern: [(u32, u32); 26] = [
+            (0, 2),
+            (1, 2),
+            (2, 3),
+            (2, 5),
+            (3, 4),
+            (3, 5),
+            (4, 3),
+            (4, 5),
+            (4, 6),
+            (4, 8),
+            (5, 4),
+            (5, 5),
+            (5, 7),
+            (5, 8),
+            (6, 8),
+            (7, 3),
+            (7, 5),
+            (7, 9),
+            (7, 11),
+            (8, 4),
+            (8, 5),
+            (8, 10),
+            (8, 11),
+            (9, 11),
+            (10, 2),
+            (11, 5),
+        ];
+        let values = [
+            1.0,
+            1.0,
+            1.0,
+            f64::MAX,
+            1.0,
+            -5.0,
+            1.0,
+            -4.0,
+            -1.0,
+            0.993_346_653_975_306_1,
+            1.0,
+            121.267,
+            -1.0,
+            -4.900_332_889_206_208,
+            1.0,
+            1.0,
+            4.0,
+            -1.0,
+            11.575,
+            1.0,
+            12.626,
+            -1.0,
+            -700.0,
+            1.0,
+            1.0,
+            1.0,
+        ];
+        let decomposition = equilibrated_svd(12, &pattern, &values, true).expect("a diagnosis");
+        // Rows 0, 1 and 10 have their only entry in column 2: dependent.
+        assert!(decomposition.rank(1e-10).rank < 12);
+    }
 }
