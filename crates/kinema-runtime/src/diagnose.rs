@@ -137,9 +137,10 @@ fn equilibrated_svd(
     let mut eq = Equilibration::new(n, values.len());
     eq.compute(pattern, values);
     // Factors near the ends of the exponent range can overflow in rᵢ cⱼ,
-    // making an equilibrated entry infinite or NaN: refused, as above.
+    // making an equilibrated entry infinite or NaN: the decomposition is
+    // refused (Φ_q's own entries are finite, checked above).
     if eq.values.iter().any(|v| !v.is_finite()) {
-        return Err(RankError::NonFinite);
+        return Err(RankError::Decomposition);
     }
     let mut a = DMatrix::<f64>::zeros(n, n);
     for (&(r, c), &v) in pattern.iter().zip(eq.values.iter()) {
