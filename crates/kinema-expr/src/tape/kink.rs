@@ -77,6 +77,50 @@ impl Tape {
         errors: &mut [f64],
         trig: &mut [f64],
     ) -> Result<Option<TapeKink>, TapeError> {
+        self.propagate::<true>(inputs, q_error, q_size, registers, errors, trig)
+    }
+
+    /// Bounds on the outputs' absolute errors at `inputs`, into
+    /// `errors[..outputs]`: the coordinates uncertain by `q_error` and
+    /// roundoff of `q_size` + |q_k|, one unit roundoff added by each
+    /// operation, propagated to first order, as [`kink`](Self::kink)
+    /// propagates them (without stopping at a kink). Where the first-order
+    /// bound overstates a function's change, the change's own bound is
+    /// taken (a sine moves by at most 2, √x by at most √e, acos by at most
+    /// π/√2 · √e). A bound far above an output's roundoff says that its
+    /// value is lost to the rounding of its operations: `sin(1e30 * t)`,
+    /// whose argument is uncertain by 10¹⁴ radians, or a difference of two
+    /// large numbers.
+    ///
+    /// `registers`, `errors` and `trig` as in [`kink`](Self::kink).
+    /// Does not allocate.
+    ///
+    /// # Errors
+    /// [`TapeError::ShortSlice`] as [`eval`](Self::eval), for `errors` too.
+    pub fn error_bounds(
+        &self,
+        inputs: &TapeInputs<'_>,
+        q_error: f64,
+        q_size: f64,
+        registers: &mut [f64],
+        errors: &mut [f64],
+        trig: &mut [f64],
+    ) -> Result<(), TapeError> {
+        self.propagate::<false>(inputs, q_error, q_size, registers, errors, trig)
+            .map(|_| ())
+    }
+
+    /// The values and error bounds of the tape's registers at `inputs`,
+    /// stopping at the first kink if `KINKS` (see [`kink`](Self::kink)).
+    fn propagate<const KINKS: bool>(
+        &self,
+        inputs: &TapeInputs<'_>,
+        q_error: f64,
+        q_size: f64,
+        registers: &mut [f64],
+        errors: &mut [f64],
+        trig: &mut [f64],
+    ) -> Result<Option<TapeKink>, TapeError> {
         self.check_inputs(inputs, registers)?;
         check("errors", self.registers, errors.len())?;
         let (r, e) = (registers, errors);
@@ -88,7 +132,8 @@ impl Tape {
             e[self.outputs + k] = q_error.abs() + UNIT * (q_size.abs() + x.abs());
         }
         for (i, ins) in self.instrs.iter().enumerate() {
-            if let Some(function) = kink_kind(ins)
+            if KINKS
+                && let Some(function) = kink_kind(ins)
                 && at_kink(ins, r, e)
             {
                 return Ok(Some(TapeKink {
@@ -208,9 +253,11 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64,
             let x = v(a);
             (x * x, 2.0 * x.abs() * err(a))
         }
+        // |√(x + e) − √x| ≤ √e: the first-order e / 2√x overstates the
+        // change near 0 (and is infinite at 0).
         Instr::Sqrt { a, .. } => {
             let s = v(a).sqrt();
-            (s, err(a) / (2.0 * s))
+            (s, first_order_or(err(a) / (2.0 * s), err(a).sqrt()))
         }
         Instr::PowI { a, n, .. } => {
             let p = v(a).powi(n);
@@ -233,7 +280,17 @@ fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64,
         }
         Instr::Unary { op, a, .. } => {
             let x = v(a);
-            (op.apply(x), slope(op, x).abs() * err(a))
+            let first = slope(op, x).abs() * err(a);
+            let error = match op {
+                // Near ±1, where the slope is infinite, the change is at
+                // most π/√2 · √e (the 1/2-Hölder bound of acos).
+                UnaryOp::Asin | UnaryOp::Acos => {
+                    first_order_or(first, std::f64::consts::FRAC_PI_2 * (2.0 * err(a)).sqrt())
+                }
+                UnaryOp::Sin | UnaryOp::Cos => first_order_or(first, 2.0),
+                _ => first,
+            };
+            (op.apply(x), error)
         }
         Instr::Pow { a, b, .. } => {
             let (x, y) = (v(a), v(b));
@@ -269,11 +326,17 @@ fn power_error(n: f64, x: f64, p: f64, e: f64) -> f64 {
 /// sin x (`sine`) or cos x from (sin x, cos x), with the bound from x's
 /// error `error` (the slope is the other one).
 fn sine_or_cosine((sin, cos): (f64, f64), sine: bool, error: f64) -> (f64, f64) {
-    if sine {
-        (sin, cos.abs() * error)
-    } else {
-        (cos, sin.abs() * error)
-    }
+    let (value, slope) = if sine { (sin, cos) } else { (cos, sin) };
+    // Second order: the slope itself may be near 0 where the argument is
+    // far from exact. A sine moves by 2 at most.
+    let bound = slope.abs() * error + 0.5 * error * error;
+    (value, first_order_or(bound, 2.0))
+}
+
+/// The smaller of a first-order bound and a bound on the function's whole
+/// change (the latter where the first is not a number: 0/0 at √0).
+fn first_order_or(first: f64, cap: f64) -> f64 {
+    if first <= cap { first } else { cap }
 }
 
 /// The derivative of a unary function at x.
@@ -458,6 +521,67 @@ mod tests {
                 e[0]
             );
         }
+    }
+
+    /// The error bound of each of `outputs` (built on coordinate x and
+    /// time t) at x, t.
+    fn bounds_at(
+        outputs: impl Fn(&mut Arena, crate::ExprId, crate::ExprId) -> Vec<crate::ExprId>,
+        x: f64,
+        t: f64,
+    ) -> Vec<f64> {
+        let mut a = Arena::new();
+        let (xs, ts) = (a.coordinate("x", 0), a.time());
+        let roots = outputs(&mut a, xs, ts);
+        let tape = Tape::compile(&a, &roots);
+        let inputs = TapeInputs {
+            q: &[x],
+            qd: &[],
+            params: &[],
+            t,
+        };
+        let mut r = vec![0.0; tape.registers()];
+        let mut e = vec![0.0; tape.registers()];
+        tape.error_bounds(&inputs, 0.0, 1.0, &mut r, &mut e, &mut [])
+            .expect("slices of the tape's lengths");
+        e.truncate(roots.len());
+        e
+    }
+
+    #[test]
+    fn error_bounds_see_arguments_and_differences_lost_to_rounding() {
+        let bounds = bounds_at(
+            |a, x, t| {
+                // x − sin(ω t) for ω = 1e30 and 1; a difference of large
+                // numbers; √x and acos(1 − x) at their kinks.
+                let fast = a.scale(1e30, t);
+                let fast = a.sin(fast);
+                let slow = a.sin(t);
+                let big = a.num(1e10);
+                let shifted = a.add(x, big);
+                let squared = a.powi(shifted, 2);
+                let big2 = a.num(1e20);
+                let cancelled = a.sub(squared, big2);
+                let root = a.sqrt(x);
+                let one = a.num(1.0);
+                let near_one = a.sub(one, x);
+                let arc = a.acos(near_one);
+                vec![a.sub(x, fast), a.sub(x, slow), cancelled, root, arc]
+            },
+            0.0,
+            0.7,
+        );
+        // sin(7e29): its argument is uncertain by 4e13 radians, the sine
+        // by its whole range.
+        assert!(bounds[0] >= 1.0 && bounds[0] <= 4.0, "{bounds:?}");
+        assert!(bounds[1] < 1e-15, "{bounds:?}");
+        // (x + 1e10)² − 1e20 at x = 0: 0, within the rounding of 1e20
+        // (1.1e4) and of 1e10 + x (1.1e-6, times 2e10).
+        assert!(bounds[2] > 3e4 && bounds[2] < 4e4, "{bounds:?}");
+        // √x and acos(1 − x) at x = 0 ± 1.1e-16: at most √e and π/√2 · √2e,
+        // not the first-order bounds (infinite).
+        assert!(bounds[3] > 1e-9 && bounds[3] < 2e-8, "{bounds:?}");
+        assert!(bounds[4] > 1e-9 && bounds[4] < 4e-8, "{bounds:?}");
     }
 
     #[test]
