@@ -62,6 +62,10 @@ mod kinks;
 mod model_outputs;
 #[cfg(feature = "model")]
 pub use model_outputs::OutputKink;
+#[cfg(feature = "model")]
+mod precision;
+#[cfg(feature = "model")]
+pub use precision::Imprecision;
 #[cfg(feature = "parallel")]
 pub mod sweep;
 

@@ -249,13 +249,13 @@ pub struct TapeSystem {
     equation_names: Vec<String>,
     param_names: Vec<String>,
     pub(crate) params: Vec<f64>,
-    pattern: Vec<(u32, u32)>,
+    pub(crate) pattern: Vec<(u32, u32)>,
     /// The value of each Φ_q entry that is a number (see
     /// [`System::jacobian_constant`]).
     constants: Vec<Option<f64>>,
     guess: Tape,
-    phi: Tape,
-    jacobian: Tape,
+    pub(crate) phi: Tape,
+    pub(crate) jacobian: Tape,
     both: Tape,
     nu: Tape,
     gamma: Tape,
@@ -268,13 +268,16 @@ pub struct TapeSystem {
     /// Φ's subexpressions with a function that can be at a kink (see
     /// [`System::kink`]).
     kinks: Option<crate::kinks::KinkTape>,
-    zeros: Vec<f64>,
+    pub(crate) zeros: Vec<f64>,
     /// The tapes of the closed-form position solution, if the model is a
     /// linkage of revolute joints and driven angles (shared by clones).
     linkage_tapes: Option<std::sync::Arc<crate::linkage::LinkageTapes>>,
     /// That solution planned at the current parameters (see
     /// [`System::linkage`]).
     linkage: Option<kinema_runtime::Linkage>,
+    /// The equations that read t, compiled apart for
+    /// [`timed_imprecision`](Self::timed_imprecision) (shared by clones).
+    pub(crate) timed: Option<std::sync::Arc<crate::precision::TimedTapes>>,
     /// The JIT compiling (or having compiled) the hot path, shared by
     /// clones.
     #[cfg(feature = "jit")]
@@ -375,6 +378,7 @@ impl TapeSystem {
             dynamics,
             registers,
             kinks: crate::kinks::KinkTape::new(a, &d.phi),
+            timed: crate::precision::TimedTapes::new(d).map(std::sync::Arc::new),
             linkage_tapes: linkage_tapes.map(std::sync::Arc::new),
             linkage,
             #[cfg(feature = "jit")]
@@ -509,7 +513,7 @@ impl TapeSystem {
     }
 
     /// Length of the sin/cos cache at the start of the scratch.
-    fn trig_len(&self) -> usize {
+    pub(crate) fn trig_len(&self) -> usize {
         3 * self.coordinate_names.len()
     }
 }
@@ -530,7 +534,7 @@ fn cache(scratch: &mut Vec<f64>, n: usize) -> &mut [f64] {
 /// Grows a scratch to `n` entries, the new ones NaN (nothing cached).
 #[cold]
 #[inline(never)]
-fn grow(scratch: &mut Vec<f64>, n: usize) {
+pub(crate) fn grow(scratch: &mut Vec<f64>, n: usize) {
     scratch.resize(n, f64::NAN);
 }
 
@@ -727,7 +731,7 @@ impl TapeSystem {
     /// Where the kink check's registers and error bounds start in the
     /// scratch: after everything the evaluations use (the interpreter's
     /// cache and registers, the compiled tapes' memo).
-    fn kink_base(&self) -> usize {
+    pub(crate) fn kink_base(&self) -> usize {
         let interpreter = self.trig_len() + self.registers;
         #[cfg(feature = "jit")]
         let interpreter = interpreter.max(self.jit.as_ref().map_or(0, |j| j.cache_len()));
@@ -737,7 +741,7 @@ impl TapeSystem {
     /// Length of the kink checks' part of the scratch: the registers of
     /// Φ's kink tape or the results' (the larger) and their error bounds
     /// (none without a function that can be at a kink).
-    fn kink_len(&self) -> usize {
+    pub(crate) fn kink_len(&self) -> usize {
         let phi = self
             .kinks
             .as_ref()
@@ -770,7 +774,7 @@ impl TapeSystem {
     }
 
     /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.
-    fn inputs<'a>(&'a self, q: &'a [f64], qd: &'a [f64], t: f64) -> TapeInputs<'a> {
+    pub(crate) fn inputs<'a>(&'a self, q: &'a [f64], qd: &'a [f64], t: f64) -> TapeInputs<'a> {
         TapeInputs {
             q,
             qd,

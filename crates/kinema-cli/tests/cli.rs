@@ -910,6 +910,12 @@ fn real_simengine2d_models() -> TestResult {
             continue;
         }
         assert_status(&o, 0);
+        // The course's models, evaluated as written, keep their digits.
+        assert!(
+            !stderr(&o).contains("its own arithmetic"),
+            "{stem}: {}",
+            stderr(&o)
+        );
         let csv = Csv::read(&out)?;
         assert_eq!(csv.rows.len(), analysis.output_steps + 1, "{stem}");
         assert_eq!(

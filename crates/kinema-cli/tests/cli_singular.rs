@@ -333,6 +333,86 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
     assert!(!text(&o.stderr).contains("warning"), "{}", text(&o.stderr));
 }
 
+/// A drive whose argument is beyond f64's precision: every row is named
+/// in one warning with its equation, the run goes on (q solves the
+/// equations as evaluated); a step that then fails says why more steps
+/// will not help; a sweep names the rows per variant.
+#[test]
+fn run_warns_of_equations_lost_to_rounding() {
+    let dir = TempDir::new("precision");
+    let out = dir.path("rounded.csv");
+    let o = kinema(&[
+        "run",
+        "tests/precision/rounded_drive.kin",
+        "--steps",
+        "4",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].starts_with(
+            "warning: 5 rows at t = 0 … 1: equation `swing` is not determined by its own \
+             arithmetic: its rounding error, up to 1.0e0, moves the coordinates by up to 1.0e0"
+        ),
+        "{stderr}"
+    );
+    assert!(
+        warnings[0].ends_with("their q, q̇ and q̈ are the rounding errors' as much as the model's"),
+        "{stderr}"
+    );
+
+    let o = kinema(&[
+        "run",
+        "tests/precision/fast_drive.kin",
+        "--steps",
+        "10",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("warning: 1 row at t = 0.1: equation `swing` is not determined"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(
+            "= note: at t = 0.1, where the step started, equation `swing` was not determined by \
+             its own arithmetic (the warning above): no step size follows rounding errors"
+        ),
+        "{stderr}"
+    );
+
+    let params = dir.path("params.csv");
+    std::fs::write(&params, "L\n1\n2\n").expect("a parameter table");
+    let o = kinema(&[
+        "sweep",
+        "tests/precision/rounded_drive.kin",
+        "--params",
+        &params,
+        "--steps",
+        "4",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: variant 2 (L = 2): 5 rows at t = 0 … 1 with an equation that its own \
+             arithmetic does not determine"
+        ),
+        "{stderr}"
+    );
+}
+
 /// A run whose step fails after a state at a kink (the F16 model, solved
 /// only at the origin, where `norm` has its kink): the error's note names
 /// the kink as the likely cause, whatever the failure's own message.

@@ -437,6 +437,9 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
             if let Some(kink) = state.kink() {
                 rows.kinks.push((state.t(), kink));
             }
+            if let Some(imprecision) = rows.imprecision(&solver, state) {
+                rows.imprecise.push((state.t(), imprecision));
+            }
             if let Err(failure) = rows.write(&mut solver, loaded, t) {
                 progress.finish();
                 return Err(rows.stop(failure));
@@ -448,6 +451,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     let events = solver.close_events().to_vec();
     print_singular_warnings(&events, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
+    print_imprecision_warning(solver.system(), &rows);
     stats.events = events.len();
     let w = Instant::now();
     let sink = &rows.sink;
@@ -509,6 +513,11 @@ struct Rows {
     /// equation, of a result column.
     kinks: Vec<(f64, kinema::Kink)>,
     output_kinks: Vec<(f64, kinema::OutputKink)>,
+    /// Output times whose equations their own roundoff does not determine,
+    /// and the worst of each.
+    imprecise: Vec<(f64, kinema::Imprecision)>,
+    /// Whether a row has had the check of every equation.
+    checked_all: bool,
     /// Output times in the grid, every how many one is kept, how many are
     /// written.
     outputs: usize,
@@ -545,10 +554,29 @@ impl Rows {
             flagged: Vec::new(),
             kinks: Vec::new(),
             output_kinks: Vec::new(),
+            imprecise: Vec::new(),
+            checked_all: false,
             outputs,
             stride: outputs.div_ceil(MAX_PLOT_STATES).max(1),
             written: 0,
             write_time: Duration::ZERO,
+        }
+    }
+
+    /// The equation of `state` (an output row's) that its own arithmetic
+    /// does not determine, if any: every equation on the first row, the
+    /// equations that read t on the others (see
+    /// [`TapeSystem::timed_imprecision`]).
+    fn imprecision(
+        &mut self,
+        solver: &Solver<TapeSystem, Auto>,
+        state: &State,
+    ) -> Option<kinema::Imprecision> {
+        let (system, size) = (solver.system(), solver.model_size());
+        if std::mem::replace(&mut self.checked_all, true) {
+            system.timed_imprecision(&mut self.scratch, state, size)
+        } else {
+            system.imprecision(&mut self.scratch, state, size)
         }
     }
 
@@ -639,12 +667,14 @@ fn step_failure(
         .collect();
     print_singular_warnings(&passed, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
+    print_imprecision_warning(solver.system(), &rows);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
     let rows_note = rows.sink.finish_after_failure();
     let failure = run_error(loaded, e);
     let mut message = format!("error: {failure}");
     message.push_str(&kink_note(solver));
+    message.push_str(&imprecision_note(solver, &rows.imprecise));
     if let (Some(target), Some(samples)) = (page_target, &mut rows.samples) {
         let note = failed_page(
             target,
@@ -659,6 +689,24 @@ fn step_failure(
     }
     message.push_str(&rows_note);
     Failure::Analysis(message)
+}
+
+/// A note for the error of a step that started from a state whose
+/// equations their own arithmetic does not determine (an output row, the
+/// last one written): the failure is more likely theirs than the step's.
+fn imprecision_note(
+    solver: &Solver<TapeSystem, Auto>,
+    imprecise: &[(f64, kinema::Imprecision)],
+) -> String {
+    match (imprecise.last(), solver.state()) {
+        (Some((t, i)), Some(state)) if *t == state.t() => format!(
+            "\n  = note: at t = {}, where the step started, equation `{}` was not determined by \
+             its own arithmetic (the warning above): no step size follows rounding errors",
+            time(*t),
+            kinema::System::equation_name(solver.system(), i.equation),
+        ),
+        _ => String::new(),
+    }
 }
 
 /// A note for the error of a step that started from a state at a kink:
@@ -796,6 +844,38 @@ fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
             ),
         );
     }
+}
+
+/// One `warning:` line for the output rows with an equation that its own
+/// arithmetic does not determine (named by the worst row).
+fn print_imprecision_warning(system: &TapeSystem, rows: &Rows) {
+    let times: Vec<f64> = rows.imprecise.iter().map(|r| r.0).collect();
+    let (Some(at), Some((_, worst))) = (
+        rows_at(&times),
+        rows.imprecise
+            .iter()
+            .max_by(|a, b| a.1.shift.total_cmp(&b.1.shift)),
+    ) else {
+        return;
+    };
+    let their = if times.len() == 1 { "its" } else { "their" };
+    eprintln!(
+        "warning: {at}: {}; {their} q, q̇ and q̈ are the rounding errors' as much as the model's",
+        imprecision_clause(system, worst)
+    );
+}
+
+/// What an [`kinema::Imprecision`] is, in words.
+pub(super) fn imprecision_clause(system: &TapeSystem, i: &kinema::Imprecision) -> String {
+    format!(
+        "equation `{}` is not determined by its own arithmetic: its rounding error, up to \
+         {:.1e}, moves the coordinates by up to {:.1e} against their scale {:.1e} (an argument \
+         beyond f64's precision, as in sin(1e30 * t), or large numbers that cancel)",
+        kinema::System::equation_name(system, i.equation),
+        i.error,
+        i.shift,
+        i.scale,
+    )
 }
 
 /// "equation `NAME`" for the equation of a kink ("an equation" when the

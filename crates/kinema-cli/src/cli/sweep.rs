@@ -271,12 +271,16 @@ type VariantText = (Vec<u8>, Option<Error>, Flags);
 /// A variant's rows that `kinema run` would warn of: near a singular
 /// configuration (q̇ and q̈ the branch's limits, not solves), at a kink
 /// of an equation (q̇ and q̈ not determined) or of a result (its rates not
-/// determined), and the singular configurations passed.
+/// determined), with an equation its own arithmetic does not determine
+/// (see [`kinema::Imprecision`]), and the singular configurations passed.
 #[derive(Debug, Default)]
 struct Flags {
     near: Vec<f64>,
     kinks: Vec<f64>,
     output_kinks: Vec<f64>,
+    imprecise: Vec<f64>,
+    /// Whether a row has had the check of every equation.
+    checked_all: bool,
     events: Vec<(kinema::SingularKind, f64)>,
 }
 
@@ -300,6 +304,15 @@ impl Flags {
         if rates && system.output_kink(scratch, state, size).is_some() {
             self.output_kinks.push(state.t());
         }
+        // Every equation on the first row, those that read t after it.
+        let imprecision = if std::mem::replace(&mut self.checked_all, true) {
+            system.timed_imprecision(scratch, state, size)
+        } else {
+            system.imprecision(scratch, state, size)
+        };
+        if imprecision.is_some() {
+            self.imprecise.push(state.t());
+        }
     }
 
     /// One clause per kind of flag, `None` without any.
@@ -322,6 +335,11 @@ impl Flags {
             .chain(rows(
                 &self.output_kinks,
                 "at a kink of a result (its rates are not determined)",
+            ))
+            .chain(rows(
+                &self.imprecise,
+                "with an equation that its own arithmetic does not determine (q, q̇ and q̈ are \
+                 the rounding errors' as much as the model's)",
             ))
             .collect();
         (!clauses.is_empty()).then(|| clauses.join("; "))

@@ -1,0 +1,204 @@
+//! Precision lost to rounding: an equation of Φ whose value, at a
+//! solution, its own roundoff does not determine (see
+//! [`TapeSystem::imprecision`]).
+
+use kinema_expr::{ExprId, Tape};
+use kinema_model::Derivation;
+
+use crate::model::{TapeSystem, grow};
+
+/// An equation of Φ whose value at a state is not determined to
+/// [`Imprecision::THRESHOLD`] of the coordinates' scale by its own
+/// arithmetic (see [`TapeSystem::imprecision`]): the solution q, and q̇ and
+/// q̈ with it, are then the rounding errors' as much as the model's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Imprecision {
+    /// The equation (its index in Φ).
+    pub equation: usize,
+    /// The bound on the equation's error: its operations' roundoff and the
+    /// coordinates' uncertainty, propagated to first order.
+    pub error: f64,
+    /// That error as a move of the coordinates, error / maxⱼ |∂Φᵢ/∂qⱼ|.
+    pub shift: f64,
+    /// The coordinates' scale it is measured against: the model's size plus
+    /// ‖q‖∞.
+    pub scale: f64,
+}
+
+impl Imprecision {
+    /// How much of the coordinates' scale an equation's error may move
+    /// them before the state counts as imprecise: fewer than six
+    /// significant digits left. A model evaluated as written stays below
+    /// 10⁻¹⁰ of it (every model of the repository, the kink cases among
+    /// them, `tests/precision.rs`).
+    pub const THRESHOLD: f64 = 1e-6;
+}
+
+/// The equations of Φ that read t, and their rows of Φ_q, compiled apart:
+/// the equations whose precision can change along a run at a given scale
+/// of the coordinates (a drive's argument grows with t; the others read
+/// only q, whose scale the test follows, the parameters and constants).
+#[derive(Clone, Debug)]
+pub(crate) struct TimedTapes {
+    /// The equation of each output of `phi`.
+    equations: Vec<usize>,
+    phi: Tape,
+    jacobian: Tape,
+    /// The output of `phi` (its position in `equations`) of each output of
+    /// `jacobian`.
+    entry_rows: Vec<u32>,
+}
+
+impl TimedTapes {
+    /// `None` if no equation reads t.
+    pub(crate) fn new(d: &Derivation) -> Option<TimedTapes> {
+        let equations: Vec<usize> = (0..d.phi.len())
+            .filter(|&i| d.arena.depends_on(d.phi[i], d.time))
+            .collect();
+        if equations.is_empty() {
+            return None;
+        }
+        let mut local = vec![u32::MAX; d.phi.len()];
+        for (k, &i) in equations.iter().enumerate() {
+            local[i] = u32::try_from(k).ok()?;
+        }
+        let (mut entries, mut entry_rows): (Vec<ExprId>, Vec<u32>) = (Vec::new(), Vec::new());
+        for e in &d.phi_q.entries {
+            let row = local[e.row as usize];
+            if row != u32::MAX {
+                entries.push(e.expr);
+                entry_rows.push(row);
+            }
+        }
+        let phi: Vec<ExprId> = equations.iter().map(|&i| d.phi[i]).collect();
+        Some(TimedTapes {
+            phi: Tape::compile(&d.arena, &phi),
+            jacobian: Tape::compile(&d.arena, &entries),
+            equations,
+            entry_rows,
+        })
+    }
+}
+
+/// Equations to check: their Φ tape, their Φ_q entries' tape, the output
+/// of the former that each entry of the latter belongs to, and the
+/// equation of each output of the former.
+struct Equations<'a> {
+    phi: &'a Tape,
+    jacobian: &'a Tape,
+    entry_row: &'a dyn Fn(usize) -> usize,
+    equation: &'a dyn Fn(usize) -> usize,
+}
+
+impl TapeSystem {
+    /// The equation of Φ that, at `state`, its own arithmetic determines
+    /// least, if it moves the coordinates by more than
+    /// [`Imprecision::THRESHOLD`] of their scale (`size`, the model's, plus
+    /// ‖q‖∞): an argument beyond f64's precision (`sin(1e30 * t)`,
+    /// uncertain by 10¹⁴ radians; `sin(1e20 + t)`, which does not move with
+    /// t at all), a difference of two large numbers that cancel. Each
+    /// equation's error is bounded as
+    /// [`Tape::error_bounds`](kinema_expr::Tape::error_bounds) does (the
+    /// coordinates uncertain by the state's residual and their roundoff),
+    /// and divided by its largest partial derivative, the equation's lever
+    /// on q. `None` if every equation is determined, or the bound could not
+    /// be computed. Only q is judged: a term too small to move q whose
+    /// derivative in t is large (`1e-20 * sin(1e30 * t)`) leaves q̇ and q̈
+    /// to the rounding unflagged.
+    ///
+    /// Costs an evaluation of Φ and Φ_q; not part of a step (call it on the
+    /// states you keep). Allocates only the first time (the scratch). See
+    /// [`timed_imprecision`](Self::timed_imprecision) for the check on
+    /// each state after the first.
+    pub fn imprecision(
+        &self,
+        scratch: &mut Vec<f64>,
+        state: &kinema_runtime::State,
+        size: f64,
+    ) -> Option<Imprecision> {
+        let equations = Equations {
+            phi: &self.phi,
+            jacobian: &self.jacobian,
+            entry_row: &|k| self.pattern[k].0 as usize,
+            equation: &|i| i,
+        };
+        self.worst(&equations, scratch, state, size)
+    }
+
+    /// [`imprecision`](Self::imprecision) of the equations that read t
+    /// alone: the equations whose precision can change along a run at a
+    /// given scale of the coordinates (the others read q, the parameters
+    /// and constants only). What `kinema run` checks on each output row
+    /// after the first, whose check is the full one: it costs a fraction
+    /// of a step (the drives' rows), where the full check costs more than
+    /// a step.
+    pub fn timed_imprecision(
+        &self,
+        scratch: &mut Vec<f64>,
+        state: &kinema_runtime::State,
+        size: f64,
+    ) -> Option<Imprecision> {
+        let timed = self.timed.as_deref()?;
+        let equations = Equations {
+            phi: &timed.phi,
+            jacobian: &timed.jacobian,
+            entry_row: &|k| timed.entry_rows[k] as usize,
+            equation: &|k| timed.equations[k],
+        };
+        self.worst(&equations, scratch, state, size)
+    }
+
+    /// The check of [`imprecision`](Self::imprecision) over `equations`,
+    /// in the scratch after the kink checks' part.
+    fn worst(
+        &self,
+        equations: &Equations<'_>,
+        scratch: &mut Vec<f64>,
+        state: &kinema_runtime::State,
+        size: f64,
+    ) -> Option<Imprecision> {
+        let Equations { phi, jacobian, .. } = *equations;
+        let (m, nnz) = (phi.outputs(), jacobian.outputs());
+        let registers = phi.registers().max(jacobian.registers());
+        let base = self.kink_base() + self.kink_len();
+        let need = base + 2 * registers + nnz + m;
+        if scratch.len() < need {
+            grow(scratch, need);
+        }
+        let (start, rest) = scratch.split_at_mut(base);
+        let trig = &mut start[..self.trig_len()];
+        let (r, rest) = rest.split_at_mut(registers);
+        let (e, rest) = rest.split_at_mut(registers);
+        let (jac, lever) = rest[..nnz + m].split_at_mut(nnz);
+        let inputs = self.inputs(state.q(), &self.zeros, state.t());
+        jacobian.eval_with_cache(&inputs, r, trig, jac).ok()?;
+        let residual = state.stats().residual;
+        phi.error_bounds(&inputs, residual, size, r, e, trig).ok()?;
+        lever.fill(0.0);
+        for (k, &v) in jac.iter().enumerate() {
+            let l = &mut lever[(equations.entry_row)(k)];
+            *l = l.max(v.abs());
+        }
+        let q_max = state.q().iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let scale = size.abs() + q_max;
+        let mut worst: Option<Imprecision> = None;
+        for (k, (&error, &l)) in e[..m].iter().zip(lever.iter()).enumerate() {
+            // A row without a finite lever is singular, and an error that
+            // is not a number a function at its kink: neither is this
+            // check's to report.
+            let shift = error / l;
+            if !(shift.is_finite() && shift > Imprecision::THRESHOLD * scale) {
+                continue;
+            }
+            if worst.is_none_or(|w| shift > w.shift) {
+                worst = Some(Imprecision {
+                    equation: (equations.equation)(k),
+                    error,
+                    shift,
+                    scale,
+                });
+            }
+        }
+        worst
+    }
+}
