@@ -390,6 +390,24 @@ fn run_warns_of_equations_lost_to_rounding() {
         "{stderr}"
     );
 
+    // `check` warns instead of "ok".
+    let o = kinema(&["check", "tests/precision/rounded_drive.kin"]);
+    assert_eq!(o.status.code(), Some(0));
+    let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+    assert!(
+        stdout.trim_end().ends_with(
+            "warning: `RoundedDrive` assembles with equation `swing` not determined by its own \
+             arithmetic; `kinema run` will flag the rows there"
+        ),
+        "{stdout}"
+    );
+    assert!(
+        stderr.starts_with(
+            "warning: at the assembled configuration (t = 0), equation `swing` is not determined"
+        ),
+        "{stderr}"
+    );
+
     let params = dir.path("params.csv");
     std::fs::write(&params, "L\n1\n2\n").expect("a parameter table");
     let o = kinema(&[

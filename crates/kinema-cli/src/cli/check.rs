@@ -92,6 +92,28 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                     );
                     return print_stdout(&report);
                 }
+                if let Some(state) = solver.state()
+                    && let Some(imprecision) = solver.system().imprecision(
+                        &mut solver.system().scratch(),
+                        state,
+                        solver.model_size(),
+                    )
+                {
+                    let system = solver.system();
+                    let _ = write!(
+                        report,
+                        "warning: `{}` assembles with equation `{}` not determined by its own \
+                         arithmetic; `kinema run` will flag the rows there",
+                        loaded.name(),
+                        system.equation_name(imprecision.equation),
+                    );
+                    eprintln!(
+                        "warning: at the assembled configuration (t = 0), {}: q, q̇ and q̈ \
+                         there are the rounding errors' as much as the model's",
+                        super::run::imprecision_clause(system, &imprecision)
+                    );
+                    return print_stdout(&report);
+                }
                 let _ = write!(
                     report,
                     "ok: `{}` assembles and is ready to run",
