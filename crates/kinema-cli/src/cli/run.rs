@@ -865,7 +865,7 @@ fn print_imprecision_warning(system: &TapeSystem, rows: &Rows) {
     );
 }
 
-/// What an [`kinema::Imprecision`] is, in words.
+/// What a [`kinema::Imprecision`] is, in words.
 pub(super) fn imprecision_clause(system: &TapeSystem, i: &kinema::Imprecision) -> String {
     format!(
         "equation `{}` is not determined by its own arithmetic: its rounding error, up to \
