@@ -422,7 +422,8 @@ proptest! {
     }
 
     /// The kink check's error bound (`Tape::kink`, which leaves each
-    /// output's bound in `errors` when it finds no kink) covers what moving
+    /// output's bound in `errors` when it finds no kink, as
+    /// `Tape::error_bounds` computes it) covers what moving
     /// the coordinates by up to their uncertainty does to the value: the
     /// first-order propagation through every operation is right. Moves
     /// are small (10⁻⁹ relative) so that second-order terms stay below it.
@@ -443,6 +444,15 @@ proptest! {
         let found = tape.kink(&inputs, delta, 1.0, &mut regs, &mut errors, &mut []);
         prop_assert!(found.is_ok());
         let bound = errors[0];
+        // `error_bounds` is the same pass without the stop: where no kink
+        // stopped it, the same bound (NaN included).
+        let mut bounds = vec![0.0; tape.registers()];
+        prop_assert!(tape
+            .error_bounds(&inputs, delta, 1.0, &mut regs, &mut bounds, &mut [])
+            .is_ok());
+        if found == Ok(None) {
+            prop_assert_eq!(bounds[0].to_bits(), bound.to_bits());
+        }
         let mut out = [0.0];
         prop_assert!(tape.eval(&inputs, &mut regs, &mut out).is_ok());
         let value = out[0];
