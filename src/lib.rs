@@ -65,7 +65,7 @@ pub use model_outputs::OutputKink;
 #[cfg(feature = "model")]
 mod precision;
 #[cfg(feature = "model")]
-pub use precision::Imprecision;
+pub use precision::{Imprecision, PrecisionScope};
 #[cfg(feature = "parallel")]
 pub mod sweep;
 

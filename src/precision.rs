@@ -80,6 +80,16 @@ impl TimedTapes {
     }
 }
 
+/// Which equations [`TapeSystem::imprecision_at`] checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrecisionScope {
+    /// Every equation of Φ (costs an evaluation of Φ and Φ_q).
+    All,
+    /// The equations that read t (see
+    /// [`TapeSystem::timed_imprecision`]).
+    Timed,
+}
+
 /// Equations to check: their Φ tape, their Φ_q entries' tape, the output
 /// of the former that each entry of the latter belongs to, and the
 /// equation of each output of the former.
@@ -116,13 +126,8 @@ impl TapeSystem {
         state: &kinema_runtime::State,
         size: f64,
     ) -> Option<Imprecision> {
-        let equations = Equations {
-            phi: &self.phi,
-            jacobian: &self.jacobian,
-            entry_row: &|k| self.pattern[k].0 as usize,
-            equation: &|i| i,
-        };
-        self.worst(&equations, scratch, state, size)
+        let (q, t, residual) = (state.q(), state.t(), state.stats().residual);
+        self.imprecision_at(scratch, q, t, residual, size, PrecisionScope::All)
     }
 
     /// [`imprecision`](Self::imprecision) of the equations that read t
@@ -138,23 +143,54 @@ impl TapeSystem {
         state: &kinema_runtime::State,
         size: f64,
     ) -> Option<Imprecision> {
-        let timed = self.timed.as_deref()?;
-        let equations = Equations {
-            phi: &timed.phi,
-            jacobian: &timed.jacobian,
-            entry_row: &|k| timed.entry_rows[k] as usize,
-            equation: &|k| timed.equations[k],
-        };
-        self.worst(&equations, scratch, state, size)
+        let (q, t, residual) = (state.q(), state.t(), state.stats().residual);
+        self.imprecision_at(scratch, q, t, residual, size, PrecisionScope::Timed)
     }
 
-    /// The check of [`imprecision`](Self::imprecision) over `equations`,
-    /// in the scratch after the kink checks' part.
+    /// [`imprecision`](Self::imprecision) or
+    /// [`timed_imprecision`](Self::timed_imprecision) (by `scope`) at
+    /// coordinates `q` (all of them, also for a system with degrees of
+    /// freedom, as forward dynamics integrates) and time `t`, each
+    /// coordinate uncertain by `uncertainty` besides its roundoff at
+    /// `size`.
+    pub fn imprecision_at(
+        &self,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        uncertainty: f64,
+        size: f64,
+        scope: PrecisionScope,
+    ) -> Option<Imprecision> {
+        let all = |k: usize| self.pattern[k].0 as usize;
+        let equations = match scope {
+            PrecisionScope::All => Equations {
+                phi: &self.phi,
+                jacobian: &self.jacobian,
+                entry_row: &all,
+                equation: &|i| i,
+            },
+            PrecisionScope::Timed => {
+                let timed = self.timed.as_deref()?;
+                Equations {
+                    phi: &timed.phi,
+                    jacobian: &timed.jacobian,
+                    entry_row: &|k| timed.entry_rows[k] as usize,
+                    equation: &|k| timed.equations[k],
+                }
+            }
+        };
+        self.worst(&equations, scratch, (q, t, uncertainty), size)
+    }
+
+    /// The check of [`imprecision`](Self::imprecision) over `equations` at
+    /// (q, t) with the coordinates' uncertainty, in the scratch after the
+    /// kink checks' part.
     fn worst(
         &self,
         equations: &Equations<'_>,
         scratch: &mut Vec<f64>,
-        state: &kinema_runtime::State,
+        (q, t, uncertainty): (&[f64], f64, f64),
         size: f64,
     ) -> Option<Imprecision> {
         let Equations { phi, jacobian, .. } = *equations;
@@ -170,16 +206,16 @@ impl TapeSystem {
         let (r, rest) = rest.split_at_mut(registers);
         let (e, rest) = rest.split_at_mut(registers);
         let (jac, lever) = rest[..nnz + m].split_at_mut(nnz);
-        let inputs = self.inputs(state.q(), &self.zeros, state.t());
+        let inputs = self.inputs(q, &self.zeros, t);
         jacobian.eval_with_cache(&inputs, r, trig, jac).ok()?;
-        let residual = state.stats().residual;
-        phi.error_bounds(&inputs, residual, size, r, e, trig).ok()?;
+        phi.error_bounds(&inputs, uncertainty, size, r, e, trig)
+            .ok()?;
         lever.fill(0.0);
         for (k, &v) in jac.iter().enumerate() {
             let l = &mut lever[(equations.entry_row)(k)];
             *l = l.max(v.abs());
         }
-        let q_max = state.q().iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let q_max = q.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         let scale = size.abs() + q_max;
         let mut worst: Option<Imprecision> = None;
         for (k, (&error, &l)) in e[..m].iter().zip(lever.iter()).enumerate() {

@@ -881,6 +881,11 @@ fn real_simengine2d_models() -> TestResult {
             // every body has inertia and no force comes from an m-file,
             // else refused with status 2. Either way, said.
             if o.status.code() == Some(0) {
+                assert!(
+                    !stderr(&o).contains("its own arithmetic"),
+                    "{stem}: {}",
+                    stderr(&o)
+                );
                 let csv = Csv::read(&out)?;
                 assert_eq!(csv.rows.len(), analysis.output_steps + 1, "{stem}");
                 assert_eq!(

@@ -336,7 +336,8 @@ fn run_warns_of_the_rows_at_a_kink_with_their_equation() {
 /// A drive whose argument is beyond f64's precision: every row is named
 /// in one warning with its equation, the run goes on (q solves the
 /// equations as evaluated); a step that then fails says why more steps
-/// will not help; a sweep names the rows per variant.
+/// will not help; `check` warns instead of "ok"; forward dynamics warns
+/// alike; a sweep names the rows per variant.
 #[test]
 fn run_warns_of_equations_lost_to_rounding() {
     let dir = TempDir::new("precision");
@@ -404,6 +405,25 @@ fn run_warns_of_equations_lost_to_rounding() {
     assert!(
         stderr.starts_with(
             "warning: at the assembled configuration (t = 0), equation `swing` is not determined"
+        ),
+        "{stderr}"
+    );
+
+    // Forward dynamics: the same check, the same warning.
+    let o = kinema(&[
+        "run",
+        "tests/precision/forward_drive.kin",
+        "--steps",
+        "4",
+        "--out",
+        &out,
+    ]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: 5 rows at t = 0 … 1: equation `swing` is not determined by its own \
+             arithmetic"
         ),
         "{stderr}"
     );

@@ -11,7 +11,9 @@ use std::time::Instant;
 
 use kinema::forward::TapeForward;
 use kinema::integrate::Consistency;
-use kinema::{Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, System};
+use kinema::{
+    Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
+};
 
 use super::args::{Integrator, RunArgs};
 use super::files::RunFiles;
@@ -374,13 +376,30 @@ impl Motion {
         let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
         // The row's extra columns with the energies appended (`--energy`).
         let mut extra = Vec::new();
+        // Rows with an equation its own arithmetic does not determine (every
+        // equation checked on the first, those that read t after it).
+        let mut imprecise = Vec::new();
         for (k, &t) in outputs_t.iter().enumerate() {
             if k > 0
                 && let Err(e) = self.engine.advance_to(t, h)
             {
+                super::run::print_imprecision_warning(system, &imprecise);
                 return Err(step_failure(sink, &e, loaded));
             }
             row.fill(system, &mut self.engine)?;
+            let scope = if k == 0 {
+                PrecisionScope::All
+            } else {
+                PrecisionScope::Timed
+            };
+            // The integrator's q satisfies Φ to its own tolerance; its
+            // roundoff at the unit size is the floor (as a kinematic run
+            // of a model of size 1 or more).
+            if let Some(i) =
+                system.imprecision_at(&mut row.scratch, self.engine.q(), t, 0.0, 1.0, scope)
+            {
+                imprecise.push((t, i));
+            }
             extra.clear();
             extra.extend_from_slice(&row.extra);
             let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
@@ -403,6 +422,7 @@ impl Motion {
                 }
             }
         }
+        super::run::print_imprecision_warning(system, &imprecise);
         Ok(sink)
     }
 }

@@ -451,7 +451,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     let events = solver.close_events().to_vec();
     print_singular_warnings(&events, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
-    print_imprecision_warning(solver.system(), &rows);
+    print_imprecision_warning(solver.system(), &rows.imprecise);
     stats.events = events.len();
     let w = Instant::now();
     let sink = &rows.sink;
@@ -667,7 +667,7 @@ fn step_failure(
         .collect();
     print_singular_warnings(&passed, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
-    print_imprecision_warning(solver.system(), &rows);
+    print_imprecision_warning(solver.system(), &rows.imprecise);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
     let rows_note = rows.sink.finish_after_failure();
@@ -848,11 +848,14 @@ fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
 
 /// One `warning:` line for the output rows with an equation that its own
 /// arithmetic does not determine (named by the worst row).
-fn print_imprecision_warning(system: &TapeSystem, rows: &Rows) {
-    let times: Vec<f64> = rows.imprecise.iter().map(|r| r.0).collect();
+pub(super) fn print_imprecision_warning(
+    system: &TapeSystem,
+    imprecise: &[(f64, kinema::Imprecision)],
+) {
+    let times: Vec<f64> = imprecise.iter().map(|r| r.0).collect();
     let (Some(at), Some((_, worst))) = (
         rows_at(&times),
-        rows.imprecise
+        imprecise
             .iter()
             .max_by(|a, b| a.1.shift.total_cmp(&b.1.shift)),
     ) else {
