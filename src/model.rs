@@ -276,7 +276,8 @@ pub struct TapeSystem {
     /// [`System::linkage`]).
     linkage: Option<kinema_runtime::Linkage>,
     /// The equations that read t, compiled apart for
-    /// [`timed_imprecision`](Self::timed_imprecision) (shared by clones).
+    /// [`PrecisionScope::Timed`](crate::PrecisionScope::Timed) (shared by
+    /// clones).
     pub(crate) timed: Option<std::sync::Arc<crate::precision::TimedTapes>>,
     /// The JIT compiling (or having compiled) the hot path, shared by
     /// clones.

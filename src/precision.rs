@@ -34,10 +34,8 @@ impl Imprecision {
     pub const THRESHOLD: f64 = 1e-6;
 }
 
-/// The equations of Φ that read t, and their rows of Φ_q, compiled apart:
-/// the equations whose precision can change along a run at a given scale
-/// of the coordinates (a drive's argument grows with t; the others read
-/// only q, whose scale the test follows, the parameters and constants).
+/// The equations of Φ that read t, and their rows of Φ_q, compiled apart
+/// for [`PrecisionScope::Timed`].
 #[derive(Clone, Debug)]
 pub(crate) struct TimedTapes {
     /// The equation of each output of `phi`.
@@ -85,8 +83,10 @@ impl TimedTapes {
 pub enum PrecisionScope {
     /// Every equation of Φ (costs an evaluation of Φ and Φ_q).
     All,
-    /// The equations that read t (see
-    /// [`TapeSystem::timed_imprecision`]).
+    /// The equations that read t alone: the equations whose precision can
+    /// change along a run at a given scale of the coordinates (the others
+    /// read q, whose scale the test follows, the parameters and
+    /// constants).
     Timed,
 }
 
@@ -111,45 +111,29 @@ impl TapeSystem {
     /// [`Tape::error_bounds`](kinema_expr::Tape::error_bounds) does (the
     /// coordinates uncertain by the state's residual and their roundoff),
     /// and divided by its largest partial derivative, the equation's lever
-    /// on q. `None` if every equation is determined, or the bound could not
-    /// be computed. Only q is judged: a term too small to move q whose
-    /// derivative in t is large (`1e-20 * sin(1e30 * t)`) leaves q̇ and q̈
-    /// to the rounding unflagged.
+    /// on q. `None` if every equation in `scope` is determined, or the
+    /// bound could not be computed. Only q is judged: a term too small to
+    /// move q whose derivative in t is large (`1e-20 * sin(1e30 * t)`)
+    /// leaves q̇ and q̈ to the rounding unflagged.
     ///
-    /// Costs an evaluation of Φ and Φ_q; not part of a step (call it on the
-    /// states you keep). Allocates only the first time (the scratch). See
-    /// [`timed_imprecision`](Self::timed_imprecision) for the check on
-    /// each state after the first.
+    /// Not part of a step: call it on the states you keep. With
+    /// [`PrecisionScope::All`] it costs an evaluation of Φ with its bounds
+    /// and one of Φ_q on the tape, about a step; with
+    /// [`PrecisionScope::Timed`] the drives' rows alone. `kinema run`
+    /// checks every equation on the first output row and the timed ones on
+    /// each row after it. Allocates only the first time (the scratch).
     pub fn imprecision(
         &self,
         scratch: &mut Vec<f64>,
         state: &kinema_runtime::State,
         size: f64,
+        scope: PrecisionScope,
     ) -> Option<Imprecision> {
         let (q, t, residual) = (state.q(), state.t(), state.stats().residual);
-        self.imprecision_at(scratch, q, t, residual, size, PrecisionScope::All)
+        self.imprecision_at(scratch, q, t, residual, size, scope)
     }
 
-    /// [`imprecision`](Self::imprecision) of the equations that read t
-    /// alone: the equations whose precision can change along a run at a
-    /// given scale of the coordinates (the others read q, the parameters
-    /// and constants only). What `kinema run` checks on each output row
-    /// after the first, whose check is the full one: it costs a fraction
-    /// of a step (the drives' rows), where the full check costs more than
-    /// a step.
-    pub fn timed_imprecision(
-        &self,
-        scratch: &mut Vec<f64>,
-        state: &kinema_runtime::State,
-        size: f64,
-    ) -> Option<Imprecision> {
-        let (q, t, residual) = (state.q(), state.t(), state.stats().residual);
-        self.imprecision_at(scratch, q, t, residual, size, PrecisionScope::Timed)
-    }
-
-    /// [`imprecision`](Self::imprecision) or
-    /// [`timed_imprecision`](Self::timed_imprecision) (by `scope`) at
-    /// coordinates `q` (all of them, also for a system with degrees of
+    /// [`imprecision`](Self::imprecision) at coordinates `q` (all of them, also for a system with degrees of
     /// freedom, as forward dynamics integrates) and time `t`, each
     /// coordinate uncertain by `uncertainty` besides its roundoff at
     /// `size`.

@@ -3,7 +3,7 @@
 //! precision is flagged at every state where it costs six digits, and no
 //! model of the repository, evaluated as written, ever is.
 
-use kinema::{Imprecision, Model, ModelSolver, Options, State};
+use kinema::{Imprecision, Model, ModelSolver, Options, PrecisionScope, State};
 
 /// A bar pinned at its end, its angle driven by `drive` (of t).
 fn pendulum(drive: &str) -> Model {
@@ -33,7 +33,10 @@ fn run(model: &Model, times: &[f64]) -> Vec<(State, Option<Imprecision>)> {
             .unwrap_or_else(|e| panic!("t = {t}: {e}"))
             .clone();
         let size = solver.model_size();
-        let imprecision = solver.system().imprecision(&mut scratch, &state, size);
+        let imprecision =
+            solver
+                .system()
+                .imprecision(&mut scratch, &state, size, PrecisionScope::All);
         out.push((state, imprecision));
     }
     out
@@ -63,6 +66,35 @@ fn an_argument_beyond_precision_is_flagged_with_its_equation() {
         assert!(
             i.shift == i.error && i.scale > 1.0 && i.scale < 3.0,
             "{i:?}"
+        );
+    }
+}
+
+/// The timed scope checks the equations that read t alone: an equation
+/// lost to rounding that does not read t is the full check's.
+#[test]
+fn the_timed_scope_reads_the_equations_that_read_t() {
+    for (drive, timed) in [
+        ("0.5 * sin(1e20 + t)", true),
+        ("0.5 * sin(1e20 + L)", false),
+    ] {
+        let model = pendulum(drive);
+        let mut solver: ModelSolver = model
+            .solver(Options::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let state = solver.step(0.5).unwrap_or_else(|e| panic!("{e}")).clone();
+        let size = solver.model_size();
+        let mut scratch = Vec::new();
+        let mut check = |scope| {
+            solver
+                .system()
+                .imprecision(&mut scratch, &state, size, scope)
+        };
+        let all = check(PrecisionScope::All).expect("flagged");
+        assert_eq!(
+            check(PrecisionScope::Timed),
+            timed.then_some(all),
+            "{drive}"
         );
     }
 }
@@ -124,7 +156,10 @@ fn no_model_evaluated_as_written_is_flagged() {
             };
             let state = state.clone();
             let size = solver.model_size();
-            let imprecision = solver.system().imprecision(&mut scratch, &state, size);
+            let imprecision =
+                solver
+                    .system()
+                    .imprecision(&mut scratch, &state, size, PrecisionScope::All);
             assert_eq!(imprecision, None, "{} at t = {t}", path.display());
             checked += 1;
         }

@@ -829,7 +829,12 @@ fn check_derivatives(system: &TapeSystem, state: &State, size: f64) -> Result<()
     }
     if state.kink().is_some()
         || system
-            .imprecision(&mut system.scratch(), state, size)
+            .imprecision(
+                &mut system.scratch(),
+                state,
+                size,
+                kinema::PrecisionScope::All,
+            )
             .is_some()
     {
         return Ok(());

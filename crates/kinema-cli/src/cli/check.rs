@@ -97,6 +97,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                         &mut solver.system().scratch(),
                         state,
                         solver.model_size(),
+                        kinema::PrecisionScope::All,
                     )
                 {
                     let system = solver.system();

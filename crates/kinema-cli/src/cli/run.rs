@@ -566,18 +566,19 @@ impl Rows {
     /// The equation of `state` (an output row's) that its own arithmetic
     /// does not determine, if any: every equation on the first row, the
     /// equations that read t on the others (see
-    /// [`TapeSystem::timed_imprecision`]).
+    /// [`kinema::PrecisionScope`]).
     fn imprecision(
         &mut self,
         solver: &Solver<TapeSystem, Auto>,
         state: &State,
     ) -> Option<kinema::Imprecision> {
         let (system, size) = (solver.system(), solver.model_size());
-        if std::mem::replace(&mut self.checked_all, true) {
-            system.timed_imprecision(&mut self.scratch, state, size)
+        let scope = if std::mem::replace(&mut self.checked_all, true) {
+            kinema::PrecisionScope::Timed
         } else {
-            system.imprecision(&mut self.scratch, state, size)
-        }
+            kinema::PrecisionScope::All
+        };
+        system.imprecision(&mut self.scratch, state, size, scope)
     }
 
     /// Writes the row of the solver's state at output time `t` (inverse

@@ -305,12 +305,12 @@ impl Flags {
             self.output_kinks.push(state.t());
         }
         // Every equation on the first row, those that read t after it.
-        let imprecision = if std::mem::replace(&mut self.checked_all, true) {
-            system.timed_imprecision(scratch, state, size)
+        let scope = if std::mem::replace(&mut self.checked_all, true) {
+            kinema::PrecisionScope::Timed
         } else {
-            system.imprecision(scratch, state, size)
+            kinema::PrecisionScope::All
         };
-        if imprecision.is_some() {
+        if system.imprecision(scratch, state, size, scope).is_some() {
             self.imprecise.push(state.t());
         }
     }
