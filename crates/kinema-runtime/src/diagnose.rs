@@ -222,10 +222,24 @@ pub fn dependency<S: System + ?Sized>(
     // largest remaining one, the last-written equation; it is called
     // redundant (the others of its combination can replace it), and is
     // eliminated from the remaining null vectors.
-    let mut w: Vec<Vec<f64>> = null
+    let w: Vec<Vec<f64>> = null
         .iter()
         .map(|&k| (0..n).map(|i| u[(i, k)]).collect())
         .collect();
+    let picked = redundant_set(w);
+    dep.redundant = picked
+        .iter()
+        .map(|&i| system.equation_name(i).to_owned())
+        .collect();
+    dep
+}
+
+/// Redundant equations from the left null vectors `w` (each of length m):
+/// Gaussian elimination on them. Each step picks, among the entries at
+/// least 1e-3 of the largest remaining one, the last-written equation; it
+/// is called redundant (the others of its combination can replace it), and
+/// is eliminated from the remaining null vectors. Sorted indices.
+pub(crate) fn redundant_set(mut w: Vec<Vec<f64>>) -> Vec<usize> {
     let mut picked = Vec::with_capacity(w.len());
     for r in 0..w.len() {
         let largest = w[r..].iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
@@ -256,11 +270,7 @@ pub fn dependency<S: System + ?Sized>(
         picked.push(i);
     }
     picked.sort_unstable();
-    dep.redundant = picked
-        .iter()
-        .map(|&i| system.equation_name(i).to_owned())
-        .collect();
-    dep
+    picked
 }
 
 fn names<S: System + ?Sized>(

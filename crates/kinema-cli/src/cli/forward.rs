@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use kinema::forward::TapeForward;
-use kinema::integrate::Consistency;
+use kinema::integrate::{Consistency, Monitor};
 use kinema::{
     Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
 };
@@ -73,6 +73,12 @@ impl Engine {
         match self {
             Engine::Hht(e) => e.work(),
             Engine::Accurate(e) => e.work(),
+        }
+    }
+    fn monitor(&self) -> &Monitor {
+        match self {
+            Engine::Hht(e) => e.monitor(),
+            Engine::Accurate(e) => e.monitor(),
         }
     }
     fn kinetic_energy(&mut self) -> f64 {
@@ -151,6 +157,10 @@ pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+/// Most singular configurations warned about one by one; the summary
+/// counts them all.
+const MAX_PASSAGE_WARNINGS: usize = 20;
 
 /// The columns `--energy` adds after the dynamics columns.
 const ENERGY_COLUMNS: [&str; 3] = ["energy.kinetic", "energy.potential", "energy.work"];
@@ -296,6 +306,8 @@ fn initial_velocities(loaded: &Loaded, n: usize) -> Vec<f64> {
 /// forces and the balance).
 struct Motion {
     engine: Engine,
+    /// Passages warned about so far.
+    warned: usize,
     gravity_of: TapeForward,
     v0: f64,
     ke0: f64,
@@ -335,15 +347,39 @@ impl Motion {
                 consistency.dq, consistency.phi, consistency.dqd, consistency.velocity
             ));
         }
+        if let Some(dependency) = engine.monitor().redundancy() {
+            print_stderr(&format!(
+                "warning: redundant constraints at the start: {dependency}; the motion is \
+                 determined, but the constraint forces of these equations are not: their λ, \
+                 reactions and driver efforts are the ones of least weighted norm that the \
+                 formulation gives"
+            ));
+        }
         let v0 = gravity_of.gravity_potential(engine.q()) + 0.0;
         let ke0 = engine.kinetic_energy();
         let motion = Motion {
             engine,
+            warned: 0,
             gravity_of,
             v0,
             ke0,
         };
         Ok((motion, consistency))
+    }
+
+    /// One `warning:` line for each singular configuration passed since
+    /// the last call (at most [`MAX_PASSAGE_WARNINGS`], then one count at
+    /// the end of the run: [`summary`]).
+    fn warn_passages(&mut self) {
+        let passages = self.engine.monitor().passages();
+        for p in passages
+            .iter()
+            .take(MAX_PASSAGE_WARNINGS)
+            .skip(self.warned)
+        {
+            print_stderr(&format!("warning: {p}"));
+        }
+        self.warned = passages.len().min(MAX_PASSAGE_WARNINGS);
     }
 
     /// [kinetic T, potential V (gravity), work W of the other forces and
@@ -380,11 +416,13 @@ impl Motion {
         // equation checked on the first, those that read t after it).
         let mut imprecise = Vec::new();
         for (k, &t) in outputs_t.iter().enumerate() {
-            if k > 0
-                && let Err(e) = self.engine.advance_to(t, h)
-            {
-                super::run::print_imprecision_warning(system, &imprecise);
-                return Err(step_failure(sink, &e, loaded));
+            if k > 0 {
+                let result = self.engine.advance_to(t, h);
+                self.warn_passages();
+                if let Err(e) = result {
+                    super::run::print_imprecision_warning(system, &imprecise);
+                    return Err(step_failure(sink, &e, loaded, self.engine.monitor()));
+                }
             }
             row.fill(system, &mut self.engine)?;
             let scope = if k == 0 {
@@ -486,6 +524,34 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
         "  work of the other forces and drivers {other:.9e}; balance error {balance:.3e}"
     );
     warn_balance(args, balance, [ke, v, ke0, v0, other]);
+    let monitor = motion.engine.monitor();
+    let passages = monitor.passages();
+    if !passages.is_empty() {
+        let times: Vec<String> = passages.iter().map(|p| time(p.t)).collect();
+        let _ = writeln!(
+            out,
+            "  singular configurations passed: {} (t = {})",
+            passages.len(),
+            times.join(", ")
+        );
+        if passages.len() > MAX_PASSAGE_WARNINGS {
+            print_stderr(&format!(
+                "warning: … and {} more singular configurations passed, up to t = {} (not \
+                 listed one by one)",
+                passages.len() - MAX_PASSAGE_WARNINGS,
+                time(passages[passages.len() - 1].t)
+            ));
+        }
+    }
+    if let Some(d) = monitor.redundancy() {
+        let _ = writeln!(
+            out,
+            "  redundant constraints: {} (rank {} of {})",
+            d.redundant.join(", "),
+            d.rank.unwrap_or(0),
+            d.dim
+        );
+    }
     let _ = writeln!(
         out,
         "  time: {} (model {}, analysis {})",
@@ -525,9 +591,22 @@ fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
     }
 }
 
-fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded) -> Failure {
+fn step_failure(
+    sink: CsvSink,
+    e: &IntegrateError,
+    loaded: &Loaded,
+    monitor: &Monitor,
+) -> Failure {
     let note = sink.finish_after_failure();
     let mut message = format!("error: forward dynamics of `{}`: {e}", loaded.file);
+    if monitor.near_singular() {
+        let _ = write!(
+            message,
+            "\n  = note: the last state computed is at a singular configuration or next to one \
+             (smallest scaled singular value of Φ_q {:.1e}): the step failed there",
+            monitor.last_s()
+        );
+    }
     if let Some(adm) = &loaded.adm
         && let IntegrateError::NoConvergence { equation, .. } = e
         && let Some(name) = equation

@@ -25,6 +25,8 @@
 
 use super::dense::Lu;
 use super::kkt::{Scratch, SparseKkt};
+use super::monitor::Monitor;
+use super::saddle::{self, Saddle};
 use super::{ForwardSystem, IntegrateError};
 use crate::linalg::{LinalgError, LinearSolver};
 
@@ -34,8 +36,11 @@ pub struct HhtOptions {
     /// α ∈ [−1/3, 0] (default −0.1: β = 0.3025, γ = 0.6, simEngine2D's).
     pub alpha: f64,
     /// Newton stops when the position change it makes, β h² ‖Δq̈‖∞, is at
-    /// most `tolerance` (1 + ‖q‖∞) and ‖Δλ‖∞ ≤ √tolerance (1 + ‖λ‖∞) (λ
-    /// enters the next step only through the α-weighted forces).
+    /// most `tolerance` (1 + ‖q‖∞) and the change of the constraint forces
+    /// it makes, ‖Φ_qᵀΔλ‖∞, is at most √tolerance (1 + ‖Φ_qᵀλ − Q_A‖∞)
+    /// (λ enters the next step only through the α-weighted forces, and at
+    /// a singular configuration or with redundant constraints λ itself is
+    /// not determined: only Φ_qᵀλ is).
     pub tolerance: f64,
     /// Newton iterations per step before the step fails.
     pub max_iterations: usize,
@@ -155,9 +160,28 @@ pub struct Hht<S> {
     kkt: Option<SparseKkt>,
     /// Whether the last factorization of Newton's matrix is the dense one.
     dense_active: bool,
-    small: Lu,
+    /// The start's index-1 system and the projections (regularized).
+    saddle: Saddle,
+    /// Ones: the Euclidean metric of the minimum-norm projections.
+    ones: Vec<f64>,
+    /// The regularization of the rows in Newton's matrix (dense path).
+    eps: Vec<f64>,
+    /// The largest |Φ_q| entry of each row at the iterate.
+    row_max: Vec<f64>,
+    /// Φ_qᵀ Δλ of the last Newton correction (its convergence test).
+    force: Vec<f64>,
     ys: Vec<f64>,
+    /// Redundant rows at the start, singular configurations passed.
+    monitor: Monitor,
 }
+
+/// The scaled singular value at or below which a located minimum along
+/// the motion is a singular configuration ([`Monitor::new`]).
+const MONITOR_THRESHOLD: f64 = 1e-5;
+
+/// |Φᵣ| ≤ this · ε · (1 + ‖q‖∞) · maxⱼ |∂Φᵣ/∂qⱼ| is Φ's roundoff: the row
+/// counts as met.
+const ROUNDOFF_ROWS: f64 = 64.0;
 
 /// Which vector a minimum-norm correction changes.
 #[derive(Clone, Copy, Debug)]
@@ -200,7 +224,7 @@ impl<S: ForwardSystem> Hht<S> {
             )));
         }
         let (n, m) = (system.coords(), system.rows());
-        if q0.len() != n || qd0.len() != n || m > n {
+        if q0.len() != n || qd0.len() != n {
             return Err(IntegrateError::Setup(format!(
                 "{n} coordinates and {m} equations, given {} positions and {} velocities",
                 q0.len(),
@@ -241,13 +265,19 @@ impl<S: ForwardSystem> Hht<S> {
             lu: Lu::new(n + m),
             kkt: None,
             dense_active: true,
-            small: Lu::new(m),
-            ys: vec![0.0; m],
+            saddle: Saddle::new(n, m),
+            ones: vec![1.0; n],
+            eps: vec![0.0; m],
+            row_max: vec![0.0; m],
+            force: vec![0.0; n],
+            ys: vec![0.0; n + m],
+            monitor: Monitor::inactive(),
         };
         if n + m >= options.sparse_from {
             hht.kkt = hht.system.structure().and_then(|s| SparseKkt::new(s, n, m));
         }
         let consistency = hht.make_consistent()?;
+        hht.monitor = Monitor::new(&mut hht.system, &hht.q, t0, MONITOR_THRESHOLD);
         hht.qd_out.copy_from_slice(&hht.qd);
         hht.index1()?;
         hht.prepare_sparse();
@@ -270,6 +300,7 @@ impl<S: ForwardSystem> Hht<S> {
         }
         if let Some(kkt) = &mut self.kkt {
             kkt.assemble(&self.mass, (1.0 + self.alpha, 0.0, 0.0));
+            kkt.regularize(&self.mass, 1.0 + self.alpha);
             if finite(&kkt.values) {
                 // An error here is met again, and reported, by the step.
                 let _ = kkt.lu.factor(&kkt.values, 1e-14);
@@ -277,49 +308,50 @@ impl<S: ForwardSystem> Hht<S> {
         }
     }
 
-    /// Factors Φ_q Φ_qᵀ (the jacobian in `self.jac`) into `small`.
-    fn factor_gram(&mut self, what: &'static str) -> Result<(), IntegrateError> {
-        let (n, m) = (self.n, self.m);
-        let a = self.small.matrix_mut();
-        for i in 0..m {
-            for j in 0..m {
-                let (ri, rj) = (&self.jac[i * n..(i + 1) * n], &self.jac[j * n..(j + 1) * n]);
-                a[i * m + j] = ri.iter().zip(rj).map(|(x, y)| x * y).sum();
-            }
-        }
-        self.small.factor().map_err(|k| IntegrateError::Singular {
-            t: self.t,
-            what,
-            at: self.system.equation_name(k).to_owned(),
-        })
+    /// Factors the projections' matrix [I Φ_qᵀ; Φ_q −E] (regularized
+    /// where Φ_q loses rank; the jacobian in `self.jac`).
+    fn factor_projection(&mut self, what: &'static str) -> Result<(), IntegrateError> {
+        let n = self.n;
+        self.saddle
+            .factor(&self.ones, &self.jac)
+            .map_err(|k| IntegrateError::Singular {
+                t: self.t,
+                what,
+                at: if k < n {
+                    self.system.coordinate_name(k).to_owned()
+                } else {
+                    self.system.equation_name(k - n).to_owned()
+                },
+            })
     }
 
-    /// `ys` ← Φ_q q̇ − ν, from `jac` (dense m × n) and `nu`.
+    /// `ys[n..]` ← ν − Φ_q q̇, from `jac` (dense m × n) and `nu`; `ys[..n]`
+    /// ← 0: the right-hand side of the velocity projection.
     fn velocity_residual(&mut self) {
         let n = self.n;
-        for (i, y) in self.ys.iter_mut().enumerate().take(self.m) {
+        self.ys[..n].fill(0.0);
+        for i in 0..self.m {
             let r: f64 = self.jac[i * n..(i + 1) * n]
                 .iter()
                 .zip(&self.qd)
                 .map(|(a, v)| a * v)
                 .sum();
-            *y = r - self.nu[i];
+            self.ys[n + i] = self.nu[i] - r;
         }
     }
 
-    /// x ← x − Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ r with r in `ys` (the Gram matrix factored).
+    /// x ← x + Δx, the minimum-norm correction Φ_q Δx = `ys[n..]`
+    /// (the projections' matrix factored).
     fn correct(&mut self, which: Correct) {
         let n = self.n;
-        self.small.solve(&mut self.ys);
+        self.saddle.solve(&self.jac, &mut self.ys);
         let x = match which {
             Correct::Positions => &mut self.q,
             Correct::Velocities => &mut self.qd,
             Correct::Reported => &mut self.qd_out,
         };
-        for (i, &y) in self.ys.iter().enumerate() {
-            for (xj, &a) in x.iter_mut().zip(&self.jac[i * n..(i + 1) * n]) {
-                *xj -= a * y;
-            }
+        for (xj, d) in x.iter_mut().zip(&self.ys[..n]) {
+            *xj += d;
         }
     }
 
@@ -347,8 +379,12 @@ impl<S: ForwardSystem> Hht<S> {
             if !finite(&self.jac) {
                 return Err(self.non_finite("Φ_q at the start"));
             }
-            self.factor_gram("Φ_q Φ_qᵀ (projecting the initial positions)")?;
-            self.ys.copy_from_slice(&self.phi);
+            self.factor_projection("the projection of the initial positions")?;
+            let n = self.n;
+            self.ys[..n].fill(0.0);
+            for (y, &p) in self.ys[n..].iter_mut().zip(&self.phi) {
+                *y = -p;
+            }
             self.correct(Correct::Positions);
         }
         if !done && residual > 1e-10 * scale {
@@ -371,7 +407,7 @@ impl<S: ForwardSystem> Hht<S> {
         self.velocity_residual();
         c.velocity = amax(&self.ys);
         if self.m > 0 {
-            self.factor_gram("Φ_q Φ_qᵀ (projecting the initial velocities)")?;
+            self.factor_projection("the projection of the initial velocities")?;
             let qd0 = self.qd.clone();
             self.correct(Correct::Velocities);
             c.dqd = self
@@ -392,7 +428,7 @@ impl<S: ForwardSystem> Hht<S> {
 
     /// q̈, λ at the current state from [M Φ_qᵀ; Φ_q 0][q̈; λ] = [Q_A; γ].
     fn index1(&mut self) -> Result<(), IntegrateError> {
-        let (n, m, t) = (self.n, self.m, self.t);
+        let (n, t) = (self.n, self.t);
         let s = &mut self.system;
         s.mass(&self.q, &mut self.mass);
         s.applied(&self.q, &self.qd, t, &mut self.qa);
@@ -401,27 +437,20 @@ impl<S: ForwardSystem> Hht<S> {
         if !finite(&self.mass) || !finite(&self.qa) || !finite(&self.jac) || !finite(&self.phi) {
             return Err(self.non_finite("M, Q_A, Φ_q or γ at the start"));
         }
-        let w = n + m;
-        let a = self.lu.matrix_mut();
-        a.fill(0.0);
-        for i in 0..n {
-            a[i * w + i] = self.mass[i];
-        }
-        for r in 0..m {
-            for c in 0..n {
-                let v = self.jac[r * n + c];
-                a[(n + r) * w + c] = v;
-                a[c * w + n + r] = v;
-            }
-        }
         self.rhs[..n].copy_from_slice(&self.qa);
         self.rhs[n..].copy_from_slice(&self.phi);
-        self.lu.factor().map_err(|k| IntegrateError::Singular {
-            t,
-            what: "the index-1 matrix [M Φ_qᵀ; Φ_q 0]",
-            at: self.unknown_name(k),
-        })?;
-        self.lu.solve(&mut self.rhs);
+        self.saddle
+            .factor(&self.mass, &self.jac)
+            .map_err(|k| IntegrateError::Singular {
+                t,
+                what: "the index-1 matrix [M Φ_qᵀ; Φ_q 0]",
+                at: if k < n {
+                    format!("q̈ of {}", self.system.coordinate_name(k))
+                } else {
+                    format!("λ of {}", self.system.equation_name(k - n))
+                },
+            })?;
+        self.saddle.solve(&self.jac, &mut self.rhs);
         self.qdd.copy_from_slice(&self.rhs[..n]);
         self.lambda.copy_from_slice(&self.rhs[n..]);
         if !finite(&self.rhs) {
@@ -565,14 +594,14 @@ impl<S: ForwardSystem> Hht<S> {
                     None => self.non_finite("a Newton correction"),
                 });
             }
-            let (dq, dl) = self.rhs.split_at(n);
-            let correction = amax(dq);
+            let correction = amax(&self.rhs[..n]);
+            let force = self.multiplier_force();
             // Modified Newton keeps the factors while they halve the
             // correction; full Newton refactors every iteration.
             refactor = !self.options.modified || correction > 0.5 * last_correction;
             last_correction = correction;
             if bh2 * correction <= tol * (1.0 + amax(&self.q))
-                && amax(dl) <= tol.sqrt() * (1.0 + amax(&self.lambdan))
+                && force <= tol.sqrt() * (1.0 + amax(&self.f))
             {
                 break;
             }
@@ -583,6 +612,27 @@ impl<S: ForwardSystem> Hht<S> {
         self.stats.factorizations += factorizations;
         self.stats.max_iterations = self.stats.max_iterations.max(iterations);
         Ok(())
+    }
+
+    /// ‖Φ_qᵀ Δλ‖∞ of the Newton correction in `rhs`: the change of the
+    /// constraint forces, which is what λ contributes to the motion (at a
+    /// singular configuration or with redundant constraints Δλ itself
+    /// has a component in the null space of Φ_qᵀ that moves nothing).
+    fn multiplier_force(&mut self) -> f64 {
+        let n = self.n;
+        self.force.fill(0.0);
+        let dl = &self.rhs[n..];
+        match &self.kkt {
+            Some(kkt) => kkt.add_transposed_product(dl, 1.0, &mut self.force),
+            None => {
+                for (r, &l) in dl.iter().enumerate() {
+                    for (fc, &a) in self.force.iter_mut().zip(&self.jac[r * n..(r + 1) * n]) {
+                        *fc += a * l;
+                    }
+                }
+            }
+        }
+        amax(&self.force)
     }
 
     /// q₊ and q̇₊ (in `qn`, `qdn`) from the state and the iterate q̈₊.
@@ -654,8 +704,15 @@ impl<S: ForwardSystem> Hht<S> {
                 }
             }
         }
-        for (x, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
-            *x = p / bh2;
+        // A row of Φ within its own roundoff is zero: near a singular
+        // configuration Newton's matrix turns that noise into corrections
+        // of ε/σ_min along the weakly constrained direction, step after
+        // step, and the iteration could never meet its tolerance.
+        self.row_scale();
+        let q_scale = 1.0 + amax(&self.qn);
+        for ((x, &p), &g) in self.rhs[n..].iter_mut().zip(&self.phi).zip(&self.row_max) {
+            let floor = ROUNDOFF_ROWS * f64::EPSILON * q_scale * g;
+            *x = if p.abs() <= floor { 0.0 } else { p / bh2 };
         }
         self.rhs.iter().enumerate().fold(
             (0, 0.0),
@@ -665,12 +722,27 @@ impl<S: ForwardSystem> Hht<S> {
         )
     }
 
+    /// `row_max` ← the largest |Φ_q| entry of each row at the iterate
+    /// (the scale of Φ's roundoff).
+    fn row_scale(&mut self) {
+        let n = self.n;
+        match &self.kkt {
+            Some(kkt) => kkt.row_maxima(&mut self.row_max),
+            None => {
+                for (r, e) in self.row_max.iter_mut().enumerate() {
+                    *e = amax(&self.jac[r * n..(r + 1) * n]);
+                }
+            }
+        }
+    }
+
     /// Assembles and factors Newton's matrix (module documentation).
     fn factor_newton(&mut self, h: f64) -> Result<(), IntegrateError> {
         let (n, m, alpha) = (self.n, self.m, self.alpha);
         let (bh2, gh) = (self.beta * h * h, self.gamma * h);
         if let Some(kkt) = &mut self.kkt {
             kkt.assemble(&self.mass, (1.0 + alpha, bh2, gh));
+            kkt.regularize(&self.mass, 1.0 + alpha);
             if !finite(&kkt.values) {
                 let what = self
                     .first_non_finite()
@@ -709,6 +781,7 @@ impl<S: ForwardSystem> Hht<S> {
                     d + (1.0 + alpha) * ((self.hess[k] - self.kq[k]) * bh2 - self.cqd[k] * gh);
             }
         }
+        saddle::regularization(&self.jac, &self.mass, 1.0 + alpha, &mut self.eps);
         for r in 0..m {
             for c in 0..n {
                 let v = self.jac[r * n + c];
@@ -718,6 +791,7 @@ impl<S: ForwardSystem> Hht<S> {
             for c in 0..m {
                 a[(n + r) * w + n + c] = 0.0;
             }
+            a[(n + r) * w + n + r] = -self.eps[r];
         }
         self.lu.factor().map_err(|k| IntegrateError::Singular {
             t: self.t,
@@ -771,14 +845,49 @@ impl<S: ForwardSystem> Hht<S> {
             }
             self.system.nu(&self.q, t1, &mut self.nu);
             self.velocity_residual();
-            self.factor_gram("Φ_q Φ_qᵀ (velocity projection)")?;
+            self.factor_projection("the velocity projection")?;
             self.qd_out.copy_from_slice(&self.qd);
             self.correct(Correct::Reported);
         }
         self.system.applied(&self.q, &self.qd, t1, &mut self.qa);
         self.store_force_and_power();
         self.work += 0.5 * h * (p0 + self.power);
+        self.watch();
         Ok(())
+    }
+
+    /// The monitor's step at the accepted state, with the step's last
+    /// factorization of Newton's matrix.
+    fn watch(&mut self) {
+        let scale = 1.0 + self.alpha;
+        let state = (self.t, &self.q[..], &self.qd[..]);
+        match &mut self.kkt {
+            Some(kkt) if !self.dense_active => {
+                let (values, lu) = kkt.regularized_factors();
+                let mut solve = |v: &mut [f64]| {
+                    if lu.solve_in_place(v).is_err() {
+                        v.fill(f64::NAN);
+                    }
+                };
+                self.monitor
+                    .step(&mut self.system, state, values, scale, &mut solve);
+            }
+            Some(kkt) => {
+                // The sparse path fell back to the dense LU this step: its
+                // E is the sparse assembly's.
+                let (values, _) = kkt.regularized_factors();
+                let lu = &self.lu;
+                let mut solve = |v: &mut [f64]| lu.solve(v);
+                self.monitor
+                    .step(&mut self.system, state, values, scale, &mut solve);
+            }
+            None => {
+                let lu = &self.lu;
+                let mut solve = |v: &mut [f64]| lu.solve(v);
+                self.monitor
+                    .step(&mut self.system, state, &self.eps, scale, &mut solve);
+            }
+        }
     }
 
     /// Steps to `t_end` exactly in the fewest equal steps no longer than
@@ -860,6 +969,12 @@ impl<S: ForwardSystem> Hht<S> {
             &self.qd
         };
         super::kinetic_energy(&self.mass, qd)
+    }
+    /// Redundant constraints found at the start and the singular
+    /// configurations passed so far (see [`Monitor`]).
+    #[must_use]
+    pub fn monitor(&self) -> &Monitor {
+        &self.monitor
     }
     /// Counters.
     #[must_use]

@@ -14,6 +14,7 @@
 //! them, so the two paths build the same matrix to the last bit.
 
 use super::{DenseScratch, ForwardStructure, ForwardSystem};
+use super::saddle::REGULARIZATION;
 use crate::linalg::{LinearSolver, SparseLu};
 
 /// The dense scratch buffers of the default `*_values` methods (untouched
@@ -113,6 +114,11 @@ impl SparseKkt {
             pattern.push((row, c));
             pattern.push((c, row));
         }
+        // The regularization's diagonal of the lower block (saddle.rs).
+        for r in 0..u32::try_from(m).ok()? {
+            let row = n32.checked_add(r)?;
+            pattern.push((row, row));
+        }
         let lu = SparseLu::analyze(n + m, &pattern).ok()?;
         Some(SparseKkt {
             n,
@@ -193,7 +199,8 @@ impl SparseKkt {
             }
         }
         let [kq, cqd, hess] = &self.sums;
-        let (block, jac) = self.values.split_at_mut(self.blocks);
+        let (block, rest) = self.values.split_at_mut(self.blocks);
+        let (jac, _) = rest.split_at_mut(2 * self.jacobian.len());
         for (((v, &h), &k), &c) in block.iter_mut().zip(hess).zip(kq).zip(cqd) {
             *v = alpha1 * ((h - k) * bh2 - c * gh);
         }
@@ -204,6 +211,54 @@ impl SparseKkt {
             pair[0] = v;
             pair[1] = alpha1 * v;
         }
+    }
+
+    /// The lower block's diagonal −εᵣ, εᵣ = `REGULARIZATION` · `scale` ·
+    /// Σⱼ Φ_q[r, j]² / Mⱼⱼ from the last Φ_q values (as the dense path's
+    /// `saddle::regularization`; a row of zero gradient gets the largest
+    /// of the others).
+    pub fn regularize(&mut self, mass: &[f64], scale: f64) {
+        let tail = self.values.len() - self.m;
+        let (_, eps) = self.values.split_at_mut(tail);
+        eps.fill(0.0);
+        for (&(r, c), &v) in self.structure.jacobian.iter().zip(&self.jacobian) {
+            let w = mass.get(c as usize).copied().unwrap_or(0.0);
+            if let Some(e) = eps.get_mut(r as usize)
+                && w != 0.0
+            {
+                *e += v * v / w.abs();
+            }
+        }
+        let mut largest = 0.0_f64;
+        for e in eps.iter_mut() {
+            *e *= REGULARIZATION * scale;
+            largest = largest.max(*e);
+        }
+        let floor = if largest > 0.0 {
+            largest
+        } else {
+            REGULARIZATION * scale
+        };
+        for e in eps.iter_mut() {
+            *e = if *e > 0.0 { -*e } else { -floor };
+        }
+    }
+
+    /// `out[r]` ← maxⱼ |Φ_q[r, j]| from the last Φ_q values.
+    pub fn row_maxima(&self, out: &mut [f64]) {
+        out.fill(0.0);
+        for (&(r, _), &v) in self.structure.jacobian.iter().zip(&self.jacobian) {
+            if let Some(o) = out.get_mut(r as usize) {
+                *o = o.max(v.abs());
+            }
+        }
+    }
+
+    /// The lower block's −E (the last `m` values, negated E as assembled)
+    /// and the factors: what the monitor's inverse iteration needs.
+    pub fn regularized_factors(&mut self) -> (&[f64], &mut SparseLu) {
+        let tail = self.values.len() - self.m;
+        (&self.values[tail..], &mut self.lu)
     }
 
     /// The assembled matrix written dense ((n + m)², row-major), for the

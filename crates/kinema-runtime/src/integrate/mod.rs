@@ -17,9 +17,12 @@
 pub mod dense;
 pub mod hht;
 mod kkt;
+pub mod monitor;
+mod saddle;
 pub mod rk;
 
 pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
+pub use monitor::{Monitor, Passage};
 pub use rk::{Accurate, AccurateStats};
 
 /// ½ q̇ᵀ M q̇ for a diagonal M (`mass`, one entry per coordinate).

@@ -19,7 +19,8 @@
 //! keep every step's output; diffsol targets stiff problems (BDF, SDIRK) on
 //! its own matrix types. The pair is seven stages and a dozen lines.
 
-use super::dense::Lu;
+use super::monitor::Monitor;
+use super::saddle::Saddle;
 use super::{ForwardSystem, IntegrateError};
 
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
@@ -114,9 +115,9 @@ pub struct Accurate<S> {
     nu: Vec<f64>,
     phi: Vec<f64>,
     rhs: Vec<f64>,
-    lu: Lu,
-    small: Lu,
-    ysmall: Vec<f64>,
+    saddle: Saddle,
+    /// Redundant rows at the start, singular configurations passed.
+    monitor: Monitor,
 }
 
 fn amax(v: &[f64]) -> f64 {
@@ -145,7 +146,7 @@ impl<S: ForwardSystem> Accurate<S> {
             )));
         }
         let (n, m) = (system.coords(), system.rows());
-        if q0.len() != n || qd0.len() != n || m > n {
+        if q0.len() != n || qd0.len() != n {
             return Err(IntegrateError::Setup(format!(
                 "{n} coordinates and {m} equations, given {} positions and {} velocities",
                 q0.len(),
@@ -179,10 +180,10 @@ impl<S: ForwardSystem> Accurate<S> {
             nu: vec![0.0; m],
             phi: vec![0.0; m],
             rhs: vec![0.0; n + m],
-            lu: Lu::new(n + m),
-            small: Lu::new(m),
-            ysmall: vec![0.0; m],
+            saddle: Saddle::new(n, m),
+            monitor: Monitor::inactive(),
         };
+        a.monitor = Monitor::new(&mut a.system, q0, t0, (10.0 * rtol).max(1e-5));
         // First derivative, and a first step from its size (Hairer's
         // starting-step heuristic, simplified).
         let y0 = std::mem::take(&mut a.y);
@@ -200,7 +201,7 @@ impl<S: ForwardSystem> Accurate<S> {
 
     /// dy/dt at (t, y) into `out`; λ into `self.lambda`.
     fn derivative(&mut self, t: f64, y: &[f64], out: &mut [f64]) -> Result<(), IntegrateError> {
-        let (n, m) = (self.n, self.m);
+        let n = self.n;
         let (q, qd) = (&y[..n], &y[n..2 * n]);
         self.stats.evaluations += 1;
         let s = &mut self.system;
@@ -218,20 +219,7 @@ impl<S: ForwardSystem> Accurate<S> {
                 what: "M, Q_A, Φ_q, γ or ν".to_owned(),
             });
         }
-        let w = n + m;
-        let a = self.lu.matrix_mut();
-        a.fill(0.0);
-        for i in 0..n {
-            a[i * w + i] = self.mass[i];
-        }
-        for r in 0..m {
-            for c in 0..n {
-                let v = self.jac[r * n + c];
-                a[(n + r) * w + c] = v;
-                a[c * w + n + r] = v;
-            }
-        }
-        if let Err(k) = self.lu.factor() {
+        if let Err(k) = self.saddle.factor(&self.mass, &self.jac) {
             let at = if k < n {
                 format!("q̈ of {}", self.system.coordinate_name(k))
             } else {
@@ -245,7 +233,7 @@ impl<S: ForwardSystem> Accurate<S> {
         }
         self.rhs[..n].copy_from_slice(&self.qa);
         self.rhs[n..].copy_from_slice(&self.gam);
-        self.lu.solve(&mut self.rhs);
+        self.saddle.solve(&self.jac, &mut self.rhs);
         if !self.rhs.iter().all(|x| x.is_finite()) {
             return Err(IntegrateError::NonFinite {
                 t,
@@ -261,13 +249,18 @@ impl<S: ForwardSystem> Accurate<S> {
         Ok(())
     }
 
-    /// Projects `ynew`'s q onto Φ = 0 and q̇ onto Φ_q q̇ = ν at `t`.
+    /// Projects `ynew`'s q onto Φ = 0 and q̇ onto Φ_q q̇ = ν at `t`,
+    /// mass-orthogonally (the corrections minimize ΔqᵀMΔq and Δq̇ᵀMΔq̇:
+    /// what constraint impulses would do), through the regularized
+    /// saddle-point matrix [M Φ_qᵀ; Φ_q −E] ([`Saddle`]), so a singular
+    /// configuration or a redundant constraint does not stop it.
     fn project(&mut self, t: f64) -> Result<(), IntegrateError> {
         let (n, m) = (self.n, self.m);
         if m == 0 {
             return Ok(());
         }
         let scale = amax(&self.ynew[..n]).max(1.0);
+        self.system.mass(&self.ynew[..n], &mut self.mass);
         for pass in 0..=10 {
             let q = &self.ynew[..n];
             self.system.phi(q, t, &mut self.phi);
@@ -279,51 +272,53 @@ impl<S: ForwardSystem> Accurate<S> {
                 });
             }
             self.system.jacobian(q, t, &mut self.jac);
-            self.gram(t)?;
+            self.factor_projection(t)?;
             if err <= 1e-15 * scale || pass == 10 {
                 break;
             }
-            self.ysmall.copy_from_slice(&self.phi);
+            self.rhs[..n].fill(0.0);
+            for (r, &p) in self.rhs[n..].iter_mut().zip(&self.phi) {
+                *r = -p;
+            }
             self.correct(0);
         }
         self.system.nu(&self.ynew[..n], t, &mut self.nu);
+        self.rhs[..n].fill(0.0);
         for i in 0..m {
             let r: f64 = self.jac[i * n..(i + 1) * n]
                 .iter()
                 .zip(&self.ynew[n..2 * n])
                 .map(|(a, v)| a * v)
                 .sum();
-            self.ysmall[i] = r - self.nu[i];
+            self.rhs[n + i] = self.nu[i] - r;
         }
         self.correct(n);
         Ok(())
     }
 
-    fn gram(&mut self, t: f64) -> Result<(), IntegrateError> {
-        let (n, m) = (self.n, self.m);
-        let a = self.small.matrix_mut();
-        for i in 0..m {
-            for j in 0..m {
-                let (ri, rj) = (&self.jac[i * n..(i + 1) * n], &self.jac[j * n..(j + 1) * n]);
-                a[i * m + j] = ri.iter().zip(rj).map(|(x, y)| x * y).sum();
-            }
-        }
-        self.small.factor().map_err(|k| IntegrateError::Singular {
-            t,
-            what: "Φ_q Φ_qᵀ (projection)",
-            at: self.system.equation_name(k).to_owned(),
-        })
+    /// Factors the projection's matrix at the state in `jac`, `mass`.
+    fn factor_projection(&mut self, t: f64) -> Result<(), IntegrateError> {
+        let n = self.n;
+        self.saddle
+            .factor(&self.mass, &self.jac)
+            .map_err(|k| IntegrateError::Singular {
+                t,
+                what: "the projection's matrix [M Φ_qᵀ; Φ_q 0]",
+                at: if k < n {
+                    format!("q̇ of {}", self.system.coordinate_name(k))
+                } else {
+                    format!("λ of {}", self.system.equation_name(k - n))
+                },
+            })
     }
 
-    /// ynew[offset..offset + n] −= Φ_qᵀ (Φ_q Φ_qᵀ)⁻¹ ysmall.
+    /// ynew[offset..offset + n] += Δ, the x part of the saddle-point
+    /// solution for the right-hand side in `rhs`.
     fn correct(&mut self, offset: usize) {
         let n = self.n;
-        self.small.solve(&mut self.ysmall);
-        for (i, &y) in self.ysmall.iter().enumerate() {
-            let row = &self.jac[i * n..(i + 1) * n];
-            for (x, &a) in self.ynew[offset..offset + n].iter_mut().zip(row) {
-                *x -= a * y;
-            }
+        self.saddle.solve(&self.jac, &mut self.rhs);
+        for (x, d) in self.ynew[offset..offset + n].iter_mut().zip(&self.rhs[..n]) {
+            *x += d;
         }
     }
 
@@ -419,6 +414,7 @@ impl<S: ForwardSystem> Accurate<S> {
                 self.project(t1)?;
                 std::mem::swap(&mut self.y, &mut self.ynew);
                 self.t = t1;
+                self.watch();
                 self.stats.accepted += 1;
                 if !last || factor < 1.0 {
                     self.h = h * factor;
@@ -436,6 +432,27 @@ impl<S: ForwardSystem> Accurate<S> {
         self.qdd.copy_from_slice(&k0[n..2 * n]);
         self.k[0] = k0;
         r
+    }
+
+    /// The monitor's step at the accepted (projected) state, with the
+    /// projection's factors (at that state).
+    fn watch(&mut self) {
+        let n = self.n;
+        if self.m == 0 {
+            return;
+        }
+        let saddle = &self.saddle;
+        let mut solve = |v: &mut [f64]| saddle.solve_regularized(v);
+        let state = (self.t, &self.y[..n], &self.y[n..2 * n]);
+        self.monitor
+            .step(&mut self.system, state, saddle.eps(), 1.0, &mut solve);
+    }
+
+    /// Redundant constraints found at the start and the singular
+    /// configurations passed so far (see [`Monitor`]).
+    #[must_use]
+    pub fn monitor(&self) -> &Monitor {
+        &self.monitor
     }
 
     /// Current time.
