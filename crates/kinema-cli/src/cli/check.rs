@@ -19,6 +19,10 @@ pub fn check(path: &Path) -> Result<(), Failure> {
     let loaded = super::load::load_with(path, None, false)?;
     loaded.print_warnings();
     let mut report = header(&loaded);
+    if let Some(redundant) = super::forward::redundancy_report(&loaded) {
+        report.push_str(&redundant);
+        return print_stdout(&report);
+    }
     if loaded.checked.dof().ndof() != 0 {
         // A model with inertia and free degrees of freedom (the checker
         // allows no other): no motion to assemble.

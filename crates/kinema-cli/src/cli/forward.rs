@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use kinema::forward::TapeForward;
-use kinema::integrate::{Consistency, Monitor};
+use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
 use kinema::{
     Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
 };
@@ -26,112 +26,134 @@ pub const DEFAULT_STEP: f64 = 1e-3;
 /// Default tolerance of `--integrator accurate`.
 pub const DEFAULT_RTOL: f64 = 1e-8;
 
-/// The integrator of a run.
-enum Engine {
-    Hht(Box<Hht<TapeForward>>),
-    Accurate(Box<Accurate<TapeForward>>),
+/// The motion engine of a run and the head of its summary line.
+struct Engine {
+    motion: Box<dyn MotionEngine<TapeForward>>,
+    /// "HHT-α (…), step ≤ h", "accurate (…), rtol r", "prescribed …".
+    head: String,
+    /// Whether the motion is prescribed (not integrated).
+    prescribed: bool,
+}
+
+impl std::ops::Deref for Engine {
+    type Target = dyn MotionEngine<TapeForward>;
+    fn deref(&self) -> &Self::Target {
+        &*self.motion
+    }
+}
+
+impl std::ops::DerefMut for Engine {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut *self.motion
+    }
 }
 
 impl Engine {
-    fn advance_to(&mut self, t: f64, h: f64) -> Result<(), IntegrateError> {
-        match self {
-            Engine::Hht(e) => e.advance_to(t, h),
-            Engine::Accurate(e) => e.advance_to(t),
-        }
-    }
-    fn t(&self) -> f64 {
-        match self {
-            Engine::Hht(e) => e.t(),
-            Engine::Accurate(e) => e.t(),
-        }
-    }
-    fn q(&self) -> &[f64] {
-        match self {
-            Engine::Hht(e) => e.q(),
-            Engine::Accurate(e) => e.q(),
-        }
-    }
-    fn qd(&self) -> &[f64] {
-        match self {
-            Engine::Hht(e) => e.qd(),
-            Engine::Accurate(e) => e.qd(),
-        }
-    }
-    fn qdd(&self) -> &[f64] {
-        match self {
-            Engine::Hht(e) => e.qdd(),
-            Engine::Accurate(e) => e.qdd(),
-        }
-    }
-    fn lambda(&self) -> &[f64] {
-        match self {
-            Engine::Hht(e) => e.lambda(),
-            Engine::Accurate(e) => e.lambda(),
-        }
-    }
-    fn work(&self) -> f64 {
-        match self {
-            Engine::Hht(e) => e.work(),
-            Engine::Accurate(e) => e.work(),
-        }
-    }
-    fn monitor(&self) -> &Monitor {
-        match self {
-            Engine::Hht(e) => e.monitor(),
-            Engine::Accurate(e) => e.monitor(),
-        }
-    }
-    fn kinetic_energy(&mut self) -> f64 {
-        match self {
-            Engine::Hht(e) => e.kinetic_energy(),
-            Engine::Accurate(e) => e.kinetic_energy(),
-        }
-    }
-    fn system_mut(&mut self) -> &mut TapeForward {
-        match self {
-            Engine::Hht(e) => e.system_mut(),
-            Engine::Accurate(e) => e.system_mut(),
-        }
-    }
-    /// The summary's line on the integrator (`projected`: HHT projects
-    /// velocities).
-    fn describe(&self, h: f64, rtol: f64, projected: bool) -> String {
-        match self {
-            Engine::Hht(e) => {
-                let stats = e.stats();
-                format!(
-                    "HHT-α (α = -0.1, β = 0.3025, γ = 0.6){}, step ≤ {h:e}: {} steps, Newton \
-                     iterations per step mean {:.2}, max {}, {} factorizations",
-                    if projected {
-                        " with velocity projection"
-                    } else {
-                        ""
-                    },
-                    stats.steps,
-                    if stats.steps == 0 {
-                        0.0
-                    } else {
-                        stats.iterations as f64 / stats.steps as f64
-                    },
-                    stats.max_iterations,
-                    stats.factorizations
-                )
-            }
-            Engine::Accurate(e) => {
-                let stats = e.stats();
-                format!(
-                    "accurate (Dormand–Prince 5(4), index-1 with projection), rtol {rtol:e}: \
-                     {} steps accepted, {} rejected, {} evaluations",
-                    stats.accepted, stats.rejected, stats.evaluations
-                )
-            }
-        }
+    /// The summary's line on the integrator.
+    fn describe(&self) -> String {
+        format!("{}: {}", self.head, self.motion.counters())
     }
 }
 
-/// Whether `loaded` runs as forward dynamics: it has inertia and NDOF > 0.
+/// How a model with inertia moves in `kinema run`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DynamicsRun {
+    /// Forward dynamics: free degrees of freedom (by the count, or left by
+    /// redundant constraints).
+    Forward,
+    /// A fully driven model whose rows outnumber its coordinates through
+    /// redundant constraints: kinematics and inverse dynamics by
+    /// minimum-norm solves ([`Prescribed`]).
+    Prescribed,
+}
+
+/// How `loaded` runs when it has inertia and is not the kinematic case:
+/// NDOF > 0 is forward dynamics; with NDOF ≤ 0 by the count (and no
+/// driver, or more rows than coordinates), the rank of Φ_q at the
+/// assembled guess decides: degrees of freedom left free by redundant
+/// constraints are forward dynamics, a fully determined motion with
+/// redundant rows is [`DynamicsRun::Prescribed`]. `None`: kinematics (and
+/// inverse dynamics) as usual.
+pub fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
+    loaded.model.derivation().dynamics.as_ref()?;
+    let dof = loaded.checked.dof();
+    if dof.ndof() > 0 {
+        return Some(DynamicsRun::Forward);
+    }
+    if dof.ndof() == 0 && dof.driving > 0 {
+        return None;
+    }
+    // More rows than coordinates never suit the kinematic solver: a
+    // configuration that does not assemble is the prescribed motion's
+    // error to report.
+    let over = (dof.ndof() < 0).then_some(DynamicsRun::Prescribed);
+    let mut fwd = loaded.model.forward_system()?;
+    let mut q = loaded.model.initial_configuration();
+    if kinema::integrate::assemble(&mut fwd, &mut q, 0.0).is_err() {
+        return over;
+    }
+    let Some(rank) = Monitor::new(&mut fwd, &q, 0.0, 0.0).rank() else {
+        return over;
+    };
+    if rank < q.len() {
+        Some(DynamicsRun::Forward)
+    } else if dof.ndof() < 0 {
+        Some(DynamicsRun::Prescribed)
+    } else {
+        None
+    }
+}
+
+/// `kinema check`'s report on a model with inertia whose equations are
+/// redundant at its assembled configuration (with what `kinema run` does
+/// with it), or `None` for any other model.
+pub fn redundancy_report(loaded: &Loaded) -> Option<String> {
+    loaded.model.derivation().dynamics.as_ref()?;
+    let dof = loaded.checked.dof();
+    if dof.ndof() > 0 || (dof.ndof() == 0 && dof.driving > 0) {
+        return None;
+    }
+    let mut fwd = loaded.model.forward_system()?;
+    let mut q = loaded.model.initial_configuration();
+    let assembled = kinema::integrate::assemble(&mut fwd, &mut q, 0.0);
+    let monitor = Monitor::new(&mut fwd, &q, 0.0, 0.0);
+    let (rank, redundancy) = match (assembled, monitor.rank(), monitor.redundancy()) {
+        (Ok(()), Some(rank), Some(redundancy)) => (rank, redundancy),
+        _ => return None,
+    };
+    let free = q.len() - rank;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "  assembly at t = 0 from the guess: converged (minimum-norm Newton steps); rank of Φ_q \
+         there {rank} of {} rows",
+        fwd.rows()
+    );
+    let _ = writeln!(
+        out,
+        "  redundant equations: {}",
+        redundancy.redundant.join(", ")
+    );
+    let _ = write!(
+        out,
+        "ok: `{}` is valid; its {} equations hold {} independent ones, leaving {free} degree{} of \
+         freedom: `kinema run` {}",
+        loaded.name(),
+        fwd.rows(),
+        rank,
+        if free == 1 { "" } else { "s" },
+        if free > 0 {
+            "integrates its forward dynamics"
+        } else {
+            "solves its prescribed motion and inverse dynamics (minimum-norm multipliers)"
+        }
+    );
+    Some(out)
+}
+
+/// Whether `loaded` runs as forward dynamics (see [`dynamics_run`]).
 pub fn is_forward(loaded: &Loaded) -> bool {
-    loaded.model.derivation().dynamics.is_some() && loaded.checked.dof().ndof() > 0
+    dynamics_run(loaded).is_some()
 }
 
 /// Refuses the forward-dynamics options in a kinematic run.
@@ -212,7 +234,8 @@ pub fn run(
 
     let analysis_start = Instant::now();
     let t0 = outputs_t.first().copied().unwrap_or(0.0);
-    let (mut motion, consistency) = Motion::start(args, fwd, [&q0, &qd0], t0, rtol)?;
+    let kind = dynamics_run(loaded).unwrap_or(DynamicsRun::Forward);
+    let (mut motion, consistency) = Motion::start(args, (fwd, kind), [&q0, &qd0], (t0, h, rtol))?;
     let sink = motion.integrate(args, loaded, &system, (outputs_t, h), sink, &mut samples)?;
     let csv = (sink.destination().clone(), sink.rows(), sink.columns());
     sink.finish()?;
@@ -229,8 +252,6 @@ pub fn run(
             args,
             loaded,
             grid,
-            h,
-            rtol,
             consistency: &consistency,
             t0,
             times: (start.elapsed(), analysis),
@@ -318,26 +339,55 @@ impl Motion {
     /// from HHT's consistent state); a note when they were corrected.
     fn start(
         args: &RunArgs,
-        fwd: TapeForward,
+        (fwd, kind): (TapeForward, DynamicsRun),
         [q0, qd0]: [&[f64]; 2],
-        t0: f64,
-        rtol: f64,
+        (t0, h, rtol): (f64, f64, f64),
     ) -> Result<(Motion, Consistency), Failure> {
-        let mut gravity_of = fwd.clone();
-        let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
+        let gravity_of = fwd.clone();
         let start_failure = |e: IntegrateError| {
             Failure::analysis(format_args!("forward dynamics cannot start: {e}"))
         };
+        if kind == DynamicsRun::Prescribed {
+            let p = Prescribed::new(fwd, q0, t0).map_err(|e| {
+                Failure::analysis(format_args!("the prescribed motion cannot start: {e}"))
+            })?;
+            let engine = Engine {
+                motion: Box::new(p),
+                head: "prescribed motion with redundant rows (minimum-norm solves at each output \
+                       time)"
+                    .to_owned(),
+                prescribed: true,
+            };
+            return Ok((Motion::new(engine, gravity_of), Consistency::default()));
+        }
+        let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
         let options = HhtOptions {
             project_velocity: args.project_velocity,
             ..HhtOptions::default()
         };
         let (hht, consistency) = Hht::new(fwd, q0, qd0, t0, options).map_err(start_failure)?;
-        let mut engine = match accurate_system {
-            None => Engine::Hht(Box::new(hht)),
-            Some(system) => Engine::Accurate(Box::new(
-                Accurate::new(system, hht.q(), hht.qd(), t0, rtol).map_err(start_failure)?,
-            )),
+        let engine = match accurate_system {
+            None => Engine {
+                head: format!(
+                    "HHT-α (α = -0.1, β = 0.3025, γ = 0.6){}, step ≤ {h:e}",
+                    if args.project_velocity {
+                        " with velocity projection"
+                    } else {
+                        ""
+                    }
+                ),
+                motion: Box::new(hht),
+                prescribed: false,
+            },
+            Some(system) => Engine {
+                motion: Box::new(
+                    Accurate::new(system, hht.q(), hht.qd(), t0, rtol).map_err(start_failure)?,
+                ),
+                head: format!(
+                    "accurate (Dormand–Prince 5(4), index-1 with projection), rtol {rtol:e}"
+                ),
+                prescribed: false,
+            },
         };
         if consistency.dq > 0.0 || consistency.dqd > 0.0 {
             print_stderr(&format!(
@@ -347,24 +397,27 @@ impl Motion {
                 consistency.dq, consistency.phi, consistency.dqd, consistency.velocity
             ));
         }
+        Ok((Motion::new(engine, gravity_of), consistency))
+    }
+
+    /// The motion from its engine; the energies at the start.
+    fn new(mut engine: Engine, mut gravity_of: TapeForward) -> Motion {
         if let Some(dependency) = engine.monitor().redundancy() {
             print_stderr(&format!(
                 "warning: redundant constraints at the start: {dependency}; the motion is \
                  determined, but the constraint forces of these equations are not: their λ, \
-                 reactions and driver efforts are the ones of least weighted norm that the \
-                 formulation gives"
+                 reactions and driver efforts are the minimum-norm values the solver gives"
             ));
         }
         let v0 = gravity_of.gravity_potential(engine.q()) + 0.0;
         let ke0 = engine.kinetic_energy();
-        let motion = Motion {
+        Motion {
             engine,
             warned: 0,
             gravity_of,
             v0,
             ke0,
-        };
-        Ok((motion, consistency))
+        }
     }
 
     /// One `warning:` line for each singular configuration passed since
@@ -372,11 +425,7 @@ impl Motion {
     /// the end of the run: [`summary`]).
     fn warn_passages(&mut self) {
         let passages = self.engine.monitor().passages();
-        for p in passages
-            .iter()
-            .take(MAX_PASSAGE_WARNINGS)
-            .skip(self.warned)
-        {
+        for p in passages.iter().take(MAX_PASSAGE_WARNINGS).skip(self.warned) {
             print_stderr(&format!("warning: {p}"));
         }
         self.warned = passages.len().min(MAX_PASSAGE_WARNINGS);
@@ -471,8 +520,6 @@ struct Summary<'a> {
     loaded: &'a Loaded,
     /// The grid's description.
     grid: &'a str,
-    h: f64,
-    rtol: f64,
     consistency: &'a Consistency,
     t0: f64,
     /// Total and analysis time.
@@ -494,18 +541,19 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
     let nb = d.bodies.len();
     let _ = writeln!(
         out,
-        "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, forward dynamics (tape back \
+        "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, {} (tape back \
          end)",
         loaded.checked.name,
         loaded.file,
         if nb == 1 { "y" } else { "ies" },
+        if motion.engine.prescribed {
+            "prescribed motion with redundant rows"
+        } else {
+            "forward dynamics"
+        }
     );
     let _ = writeln!(out, "  grid: {}", s.grid);
-    let _ = writeln!(
-        out,
-        "  integrator: {}",
-        motion.engine.describe(s.h, s.rtol, args.project_velocity)
-    );
+    let _ = writeln!(out, "  integrator: {}", motion.engine.describe());
     let _ = writeln!(
         out,
         "  start: ‖Δq‖∞ = {:.2e}, ‖Δq̇‖∞ = {:.2e} (consistency projections)",
@@ -591,12 +639,7 @@ fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
     }
 }
 
-fn step_failure(
-    sink: CsvSink,
-    e: &IntegrateError,
-    loaded: &Loaded,
-    monitor: &Monitor,
-) -> Failure {
+fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded, monitor: &Monitor) -> Failure {
     let note = sink.finish_after_failure();
     let mut message = format!("error: forward dynamics of `{}`: {e}", loaded.file);
     if monitor.near_singular() {

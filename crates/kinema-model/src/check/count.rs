@@ -13,8 +13,14 @@ pub(super) fn check_dof(cx: &mut Ctxt, model: &CheckedModel) {
     let dof = model.dof();
     let n = dof.ndof();
     // A model with inertia may have free degrees of freedom: its static
-    // equilibrium (`kinema run --equilibrium`) needs no driver.
-    if n == 0 || (n > 0 && model.dynamics.is_some()) {
+    // equilibrium (`kinema run --equilibrium`) needs no driver, and forward
+    // dynamics runs it. It may also count more equations than coordinates:
+    // redundant constraints (a parallelogram with a third crank), which
+    // only the rank of Φ_q at its assembled configuration tells from
+    // contradictory ones; `kinema run` decides there (forward dynamics, a
+    // prescribed motion with minimum-norm multipliers, or an error naming
+    // the equations).
+    if n == 0 || model.dynamics.is_some() {
         return;
     }
     let help = if n > 0 {

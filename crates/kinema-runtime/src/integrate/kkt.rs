@@ -13,8 +13,8 @@
 //! its block entry. Sums are formed in the order the dense assembly forms
 //! them, so the two paths build the same matrix to the last bit.
 
-use super::{DenseScratch, ForwardStructure, ForwardSystem};
 use super::saddle::REGULARIZATION;
+use super::{DenseScratch, ForwardStructure, ForwardSystem};
 use crate::linalg::{LinearSolver, SparseLu};
 
 /// The dense scratch buffers of the default `*_values` methods (untouched

@@ -11,6 +11,9 @@
 //! |---|---|
 //! | [`hht`] | [`Hht`]: fixed-step HHT-α on the index-3 DAE, Newton on [q̈; λ] |
 //! | [`rk`] | [`Accurate`]: error-controlled Dormand–Prince 5(4) on the index-1 form with projection |
+//! | [`prescribed`] | [`Prescribed`]: kinematics and inverse dynamics of a driven model with redundant rows |
+//! | [`monitor`] | [`Monitor`]: redundant rows at the start, singular configurations passed |
+//! | `saddle` | the regularized saddle-point systems every solve goes through |
 //! | [`dense`] | the dense LU they factor with |
 //! | `kkt` | HHT's Newton matrix on a sparse pattern, from the system's sparse values |
 
@@ -18,11 +21,13 @@ pub mod dense;
 pub mod hht;
 mod kkt;
 pub mod monitor;
-mod saddle;
+pub mod prescribed;
 pub mod rk;
+mod saddle;
 
 pub use hht::{Consistency, Hht, HhtOptions, HhtStats};
 pub use monitor::{Monitor, Passage};
+pub use prescribed::{Prescribed, assemble};
 pub use rk::{Accurate, AccurateStats};
 
 /// ½ q̇ᵀ M q̇ for a diagonal M (`mass`, one entry per coordinate).
@@ -252,4 +257,115 @@ pub enum IntegrateError {
     /// Wrong sizes or options.
     #[error("{0}")]
     Setup(String),
+}
+
+/// What every motion engine of this module offers: the state after
+/// [`advance_to`](Integrator::advance_to) an output time, the work
+/// account, the monitor of singular configurations. [`Hht`], [`Accurate`]
+/// and [`Prescribed`] implement it, so a caller runs any of them through
+/// one interface.
+pub trait Integrator<S> {
+    /// Moves to `t_end` (after the current time); `h` is the largest step
+    /// of a fixed-step integrator ([`Hht`]), which the others ignore.
+    ///
+    /// # Errors
+    /// The integrator's: a step that cannot be completed, with its cause.
+    fn advance_to(&mut self, t_end: f64, h: f64) -> Result<(), IntegrateError>;
+    /// Current time.
+    fn t(&self) -> f64;
+    /// Positions.
+    fn q(&self) -> &[f64];
+    /// Velocities.
+    fn qd(&self) -> &[f64];
+    /// Accelerations.
+    fn qdd(&self) -> &[f64];
+    /// Lagrange multipliers, one per row of Φ.
+    fn lambda(&self) -> &[f64];
+    /// Work of Q_A and of the drivers since the start.
+    fn work(&self) -> f64;
+    /// Kinetic energy ½ q̇ᵀ M q̇ at the current state.
+    fn kinetic_energy(&mut self) -> f64;
+    /// Redundant rows at the start, singular configurations passed.
+    fn monitor(&self) -> &Monitor;
+    /// The system.
+    fn system_mut(&mut self) -> &mut S;
+    /// The run's counters in words (steps, iterations, evaluations).
+    fn counters(&self) -> String;
+}
+
+macro_rules! delegate_integrator {
+    () => {
+        fn t(&self) -> f64 {
+            Self::t(self)
+        }
+        fn q(&self) -> &[f64] {
+            Self::q(self)
+        }
+        fn qd(&self) -> &[f64] {
+            Self::qd(self)
+        }
+        fn qdd(&self) -> &[f64] {
+            Self::qdd(self)
+        }
+        fn lambda(&self) -> &[f64] {
+            Self::lambda(self)
+        }
+        fn work(&self) -> f64 {
+            Self::work(self)
+        }
+        fn kinetic_energy(&mut self) -> f64 {
+            Self::kinetic_energy(self)
+        }
+        fn monitor(&self) -> &Monitor {
+            Self::monitor(self)
+        }
+        fn system_mut(&mut self) -> &mut S {
+            Self::system_mut(self)
+        }
+    };
+}
+
+impl<S: ForwardSystem> Integrator<S> for Hht<S> {
+    fn advance_to(&mut self, t_end: f64, h: f64) -> Result<(), IntegrateError> {
+        Hht::advance_to(self, t_end, h)
+    }
+    delegate_integrator!();
+    fn counters(&self) -> String {
+        let stats = self.stats();
+        format!(
+            "{} steps, Newton iterations per step mean {:.2}, max {}, {} factorizations",
+            stats.steps,
+            if stats.steps == 0 {
+                0.0
+            } else {
+                stats.iterations as f64 / stats.steps as f64
+            },
+            stats.max_iterations,
+            stats.factorizations
+        )
+    }
+}
+
+impl<S: ForwardSystem> Integrator<S> for Accurate<S> {
+    fn advance_to(&mut self, t_end: f64, _h: f64) -> Result<(), IntegrateError> {
+        Accurate::advance_to(self, t_end)
+    }
+    delegate_integrator!();
+    fn counters(&self) -> String {
+        let stats = self.stats();
+        format!(
+            "{} steps accepted, {} rejected, {} evaluations",
+            stats.accepted, stats.rejected, stats.evaluations
+        )
+    }
+}
+
+impl<S: ForwardSystem> Integrator<S> for Prescribed<S> {
+    fn advance_to(&mut self, t_end: f64, _h: f64) -> Result<(), IntegrateError> {
+        Prescribed::advance_to(self, t_end)
+    }
+    delegate_integrator!();
+    fn counters(&self) -> String {
+        format!("{} Newton iterations", self.iterations())
+    }
 }

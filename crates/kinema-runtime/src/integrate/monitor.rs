@@ -109,6 +109,8 @@ pub struct Monitor {
     count: usize,
     threshold: f64,
     redundancy: Option<Dependency>,
+    /// The rank of Φ_q at the start (`None` when not decided).
+    rank: Option<usize>,
     passages: Vec<Passage>,
     /// Whether the monitor runs (off for sizes above [`MAX_DENSE`] or
     /// more than `MAX_TRACKED − 1` redundant rows).
@@ -148,6 +150,7 @@ impl Monitor {
             count: 0,
             threshold,
             redundancy: None,
+            rank: None,
             passages: Vec::with_capacity(16),
             active: m > 0 && m * n <= MAX_DENSE,
             last_s: f64::NAN,
@@ -168,8 +171,13 @@ impl Monitor {
             .iter()
             .filter(|&&s| s > RANK_CUTOFF * largest)
             .count();
+        monitor.rank = Some(rank);
         if rank < m {
-            monitor.redundancy = Some(monitor.diagnose(system, &svd, RANK_CUTOFF * largest));
+            // Redundant rows leave no coordinate free beyond the motion's
+            // own degrees of freedom: only the equations are named.
+            let mut d = monitor.diagnose(system, &svd, RANK_CUTOFF * largest);
+            d.coordinates.clear();
+            monitor.redundancy = Some(d);
         }
         monitor.k = m - rank + 1;
         if monitor.k > MAX_TRACKED || monitor.k > m {
@@ -215,6 +223,7 @@ impl Monitor {
             count: 0,
             threshold: 0.0,
             redundancy: None,
+            rank: None,
             passages: Vec::new(),
             active: false,
             last_s: f64::NAN,
@@ -228,6 +237,15 @@ impl Monitor {
     #[must_use]
     pub fn redundancy(&self) -> Option<&Dependency> {
         self.redundancy.as_ref()
+    }
+
+    /// The numerical rank of Φ_q at the start (of the row- and
+    /// mass-scaled matrix, singular values below 10⁻⁸ of the largest
+    /// negligible), or `None` when it was not decided (a size beyond
+    /// [`MAX_DENSE`], non-finite values, no rows).
+    #[must_use]
+    pub fn rank(&self) -> Option<usize> {
+        self.rank
     }
 
     /// The passages so far, in time order.

@@ -232,7 +232,10 @@ mod tests {
         // x = (2, 0) + ... : x0 + x1 = 2, x0 − x1 = 3 − 1 (y cancels).
         assert!((x[0] - 2.0).abs() < 1e-12 && x[1].abs() < 1e-12, "{x:?}");
         // y₀ + y₁ = 1, split evenly.
-        assert!((x[2] - 0.5).abs() < 1e-9 && (x[3] - 0.5).abs() < 1e-9, "{x:?}");
+        assert!(
+            (x[2] - 0.5).abs() < 1e-9 && (x[3] - 0.5).abs() < 1e-9,
+            "{x:?}"
+        );
     }
 
     /// Inconsistent rows at a singular configuration: the solution stays
