@@ -391,4 +391,14 @@ impl Model {
             .map(|c| c.guess_value)
             .collect()
     }
+
+    /// The initial velocities the model declares (each body's `velocity`
+    /// item, zero for a body without one), the start of forward dynamics
+    /// together with [`Model::initial_configuration`]. The integrators make
+    /// the pair consistent (Φ_q q̇ = ν) by a minimum-norm correction and
+    /// report its size.
+    #[must_use]
+    pub fn initial_velocities(&self) -> Vec<f64> {
+        self.derivation().initial_velocity_values()
+    }
 }

@@ -416,3 +416,95 @@ fn velocity_projection_keeps_second_order() {
         }
     }
 }
+
+/// The pendulum of [`PENDULUM`] hanging at rest position and set swinging
+/// by a stated initial velocity: the body turns at `w` about the pivot, so
+/// its centroid (at L from it) moves at L w in +x.
+const SWING: &str = "
+mechanism Swing {
+    param L = 1;
+    param w = 5;
+    body bar { guess: (0, -L, -pi / 2), mass: 2, inertia: 0.3, velocity: (L * w, 0, w) }
+    gravity = (0, -9.81);
+    constraint pivot_x: abs_x(bar(-L, 0), 0);
+    constraint pivot_y: abs_y(bar(-L, 0), 0);
+}";
+
+/// φ(t) of [`SWING`]: θ = φ + π/2 from the downward vertical, started at
+/// θ = 0 with θ̇ = ω₀, is sin(θ/2) = k sn(ω t, k) with ω² = m g d / J_O and
+/// k = ω₀ / (2ω) (energy: ½ J_O ω₀² = 2 m g d k²), here k ≈ 0.69.
+fn swing_phi(t: f64) -> f64 {
+    let (m, j, d, g, w0): (f64, f64, f64, f64, f64) = (2.0, 0.3, 1.0, 9.81, 5.0);
+    let w = (m * g * d / (j + m * d * d)).sqrt();
+    let k = w0 / (2.0 * w);
+    let (_, sn) = jacobi_sn(w * t, k);
+    2.0 * (k * sn).asin() - std::f64::consts::FRAC_PI_2
+}
+
+#[test]
+fn a_stated_velocity_starts_the_motion_on_its_closed_form() {
+    let m = model(SWING);
+    assert_eq!(m.initial_velocities(), [5.0, 0.0, 5.0]);
+    // The model's own start, as `kinema run` takes it.
+    let Some(sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let (q0, qd0) = (m.initial_configuration(), m.initial_velocities());
+    let mut a = Accurate::new(sys, &q0, &qd0, 0.0, 1e-10).expect("start");
+    let mut err = 0.0_f64;
+    for k in 1..=100 {
+        let t = k as f64 * 0.02;
+        a.advance_to(t).expect("step");
+        err = err.max((a.q()[2] - swing_phi(t)).abs());
+    }
+    eprintln!("swing from a stated velocity: max error in phi {err:.3e}");
+    assert!(err <= 1e-8, "{err}");
+    // It swings: the closed form's amplitude, 2 asin(k) ≈ 1.52 rad.
+    assert!(swing_phi(0.3) + std::f64::consts::FRAC_PI_2 > 1.0);
+
+    // HHT from the same start is second order towards the same solution.
+    let mut errors = Vec::new();
+    for h in [4e-3_f64, 2e-3, 1e-3] {
+        let Some(sys) = m.forward_system() else {
+            panic!("no dynamics")
+        };
+        let (mut hht, c) = Hht::new(sys, &q0, &qd0, 0.0, HhtOptions::default()).expect("start");
+        // The stated start is consistent: nothing to project.
+        assert!(c.dq < 1e-15 && c.dqd < 1e-15, "{c:?}");
+        for _ in 0..(1.0 / h).round() as usize {
+            hht.step(h).expect("step");
+        }
+        errors.push((hht.q()[2] - swing_phi(1.0)).abs());
+    }
+    eprintln!("swing HHT errors in phi at t = 1: {errors:?}");
+    for w in errors.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!((3.5..4.6).contains(&ratio), "ratio {ratio}: {errors:?}");
+    }
+}
+
+#[test]
+fn a_free_body_keeps_its_stated_velocity_under_gravity() {
+    // No constraint: q = q0 + v0 t + g t²/2 exactly (the integrators are
+    // exact on a quadratic, up to rounding).
+    let m = model(
+        "mechanism Thrown {
+            param v = 3;
+            body stone { guess: (0, 1, 0), mass: 0.5, inertia: 0.01, velocity: (v, 2 * v, -1) }
+            gravity = (0, -9.81);
+        }",
+    );
+    let Some(sys) = m.forward_system() else {
+        panic!("no dynamics")
+    };
+    let (q0, qd0) = (m.initial_configuration(), m.initial_velocities());
+    assert_eq!(qd0, [3.0, 6.0, -1.0]);
+    let mut a = Accurate::new(sys, &q0, &qd0, 0.0, 1e-10).expect("start");
+    a.advance_to(0.8).expect("steps");
+    let t: f64 = 0.8;
+    let exact = [3.0 * t, 1.0 + 6.0 * t - 9.81 * t * t / 2.0, -t];
+    for (i, (q, e)) in a.q().iter().zip(exact).enumerate() {
+        assert!((q - e).abs() < 1e-12, "q[{i}] = {q}, exact {e}");
+    }
+    assert!((a.qd()[1] - (6.0 - 9.81 * t)).abs() < 1e-12);
+}

@@ -11,8 +11,8 @@
 //! comments. The mapping is the table of [`crate::emit`].
 
 use kinema_model::syntax::{
-    BinOp, BodyDecl, EquationDecl, EquationKeyword, Expr, ExprKind, ExprNode, ForceDecl,
-    GravityDecl, Item, Mechanism, Name, PointDecl,
+    BinOp, BodyDecl, BodyVelocity, EquationDecl, EquationKeyword, Expr, ExprKind, ExprNode,
+    ForceDecl, GravityDecl, Item, Mechanism, Name, PointDecl,
 };
 use kinema_model::{Diagnostics, ParsedModel, Span};
 use proc_macro2::LineColumn;
@@ -284,12 +284,17 @@ fn body_decl(model: &Model, body: &Body, ident: &str) -> BodyDecl {
         (true, Some(m), Some(j)) => (Some(one(m, "mass")), Some(one(j, "jbar"))),
         _ => (None, None),
     };
+    let velocity = crate::dynamics::stated_velocity(model, body).map(|[vx, vy, w]| BodyVelocity {
+        keyword: at("qd0"),
+        value: [one(vx, "qd0"), one(vy, "qd0"), one(w, "qd0")],
+    });
     BodyDecl {
         docs: doc(format!("body {} \"{}\"", body.id, comment_text(&body.name))),
         name: Name::new(ident, at("name")),
         guess: Some([one(x, "q0"), one(y, "q0"), one(phi, "q0")]),
         mass,
         inertia,
+        velocity,
     }
 }
 

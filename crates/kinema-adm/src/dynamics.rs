@@ -33,18 +33,38 @@ pub fn has_dynamics(model: &Model) -> bool {
             .all(|b| b.mass.is_some() && b.jbar.is_some())
 }
 
-/// `, mass: m, inertia: J` for a body of a model with dynamics.
+/// `, mass: m, inertia: J` for a body of a model with dynamics, and
+/// `, velocity: (ẋ, ẏ, φ̇)` when its `qd0` is stated and not zero.
 pub(crate) fn body_fields(model: &Model, body: &Body) -> String {
     match (has_dynamics(model), body.mass, body.jbar) {
         (true, Some(m), Some(j)) => {
-            format!(
+            let mut out = format!(
                 ", mass: {}, inertia: {}",
                 format_number(m),
                 format_number(j)
-            )
+            );
+            if let Some([vx, vy, w]) = stated_velocity(model, body) {
+                let _ = write!(
+                    out,
+                    ", velocity: ({}, {}, {})",
+                    format_number(vx),
+                    format_number(vy),
+                    format_number(w)
+                );
+            }
+            out
         }
         _ => String::new(),
     }
+}
+
+/// A body's initial velocity `qd0` as the `.kin` model states it: in a
+/// model with dynamics, when the file gives one that is not zero (a zero
+/// `qd0` is the language's default, so the text stays as it was). The
+/// engine's Dynamics analysis starts from it; kinematics does not read it.
+pub(crate) fn stated_velocity(model: &Model, body: &Body) -> Option<[f64; 3]> {
+    body.qd0
+        .filter(|v| has_dynamics(model) && v.iter().any(|x| *x != 0.0))
 }
 
 /// The `PointForceFile` elements of a model: (name, id, m-file), which no

@@ -401,7 +401,8 @@ pub fn to_kin(model: &Model) -> String {
     if crate::dynamics::has_dynamics(model) {
         let _ = writeln!(
             out,
-            "// Each body's q0 is its guess; mass and jbar are its inertia; qd0 is not used."
+            "// Each body's q0 is its guess; mass and jbar are its inertia; qd0, where not zero, \
+             is its velocity."
         );
     } else {
         let _ = writeln!(

@@ -50,6 +50,12 @@ pub struct Coordinate {
     pub guess: ExprId,
     /// The initial guess at the default params.
     pub guess_value: f64,
+    /// The stated initial velocity (a body's `velocity` item), an
+    /// expression of the params; `None` when not stated (zero).
+    pub initial_velocity: Option<ExprId>,
+    /// The initial velocity at the default params (0 when not stated):
+    /// where forward dynamics starts.
+    pub initial_velocity_value: f64,
 }
 
 /// One parameter.
@@ -265,6 +271,16 @@ impl Derivation {
         self.coordinates.iter().map(|c| c.guess_value).collect()
     }
 
+    /// The initial velocities at the default params: each body's stated
+    /// `velocity`, zero elsewhere (forward dynamics starts there).
+    #[must_use]
+    pub fn initial_velocity_values(&self) -> Vec<f64> {
+        self.coordinates
+            .iter()
+            .map(|c| c.initial_velocity_value)
+            .collect()
+    }
+
     /// Evaluates `e` at coordinates `q`, velocities `qd`, time `t` and
     /// params `p` (missing entries read as NaN).
     #[must_use]
@@ -316,6 +332,7 @@ fn coordinates(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Vec
             let suffix = ["x", "y", "phi"][c];
             let qd = arena.velocity(&format!("{}.{suffix}_dot", b.name), idx(i));
             let guess = lo.scalar(arena, &b.guess[c]);
+            let initial_velocity = b.velocity.as_ref().map(|v| lo.scalar(arena, &v.exprs[c]));
             coordinates.push(Coordinate {
                 name: format!("{}.{suffix}", b.name),
                 body: k,
@@ -324,6 +341,8 @@ fn coordinates(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Vec
                 velocity: sym(arena, qd),
                 guess,
                 guess_value: b.guess_value[c],
+                initial_velocity,
+                initial_velocity_value: b.velocity.as_ref().map_or(0.0, |v| v.value[c]),
             });
         }
     }

@@ -144,6 +144,8 @@ pub(crate) fn push_coordinates(
             velocity,
             guess,
             guess_value: c.guess_value,
+            initial_velocity: None,
+            initial_velocity_value: 0.0,
         });
     }
 }

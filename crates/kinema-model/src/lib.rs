@@ -50,8 +50,12 @@
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
 //! Item       := Doc* ( Param | Body | Point | Coord | Curve | Equation | Output )
 //! Param      := "param" Ident "=" Expr ";"              constant: numbers, `pi`, earlier params
-//! Body       := "body" Ident "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" )? "}"
+//! Body       := "body" Ident "{" BodyField,* "}"
 //!             | "body" Ident ";"                          guess (0, 0, 0)
+//! BodyField  := "guess" ":" "(" Expr "," Expr "," Expr ")"     (x, y, phi), constants of params
+//!             | "mass" ":" Expr | "inertia" ":" Expr       dynamics: constants ≥ 0
+//!             | "velocity" ":" "(" Expr "," Expr "," Expr ")"  initial (ẋ, ẏ, φ̇) of forward
+//!                                                          dynamics (needs inertia), constants
 //! Point      := "point" Body "." Ident "=" Expr ";"      local coordinates, constants of params
 //! Coord      := "coord" Ident ( "{" "guess" ":" Expr "}" | ";" )   a coordinate of its own (guess 0)
 //! Curve      := "curve" Body "." Ident "(" Ident ")" "=" Expr ";"  vector of params and the parameter

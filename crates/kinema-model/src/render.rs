@@ -72,13 +72,24 @@ impl Derivation {
 
         let _ = writeln!(out, "\ncoordinates (guess):");
         for (i, c) in self.coordinates.iter().enumerate() {
-            let _ = writeln!(
+            let _ = write!(
                 out,
                 "  q[{i}] {} = {} ({})",
                 c.name,
                 self.arena.display(c.guess),
                 format_number(c.guess_value)
             );
+            // A stated initial velocity (only then: the text of models
+            // without one is unchanged).
+            if let Some(v) = c.initial_velocity {
+                let _ = write!(
+                    out,
+                    ", velocity {} ({})",
+                    self.arena.display(v),
+                    format_number(c.initial_velocity_value)
+                );
+            }
+            out.push('\n');
         }
 
         let _ = writeln!(out, "\nequations:");

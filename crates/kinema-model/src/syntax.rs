@@ -6,7 +6,7 @@
 //! Mechanism  := Doc* "mechanism" Ident "{" Item* "}"
 //! Item       := Doc* ( Param | Body | Point | Coord | Curve | Equation | Output )
 //! Param      := "param" Ident ( "=" Expr )? ";"
-//! Body       := "body" Ident ( "{" ( "guess" ":" "(" Expr "," Expr "," Expr ")" ","? )? "}" | ";" )
+//! Body       := "body" Ident ( "{" BodyField,* "}" | ";" )   (guess, mass, inertia, velocity: syntax/dynamics.rs)
 //! Point      := "point" Ident "." Ident "=" Expr ";"
 //! Coord      := "coord" Ident ( "{" ( "guess" ":" Expr ","? )? "}" | ";" )
 //! Curve      := "curve" Ident "." Ident "(" Ident ")" "=" Expr ";"
@@ -46,6 +46,7 @@ pub(crate) mod kw {
     syn::custom_keyword!(output);
     syn::custom_keyword!(mass);
     syn::custom_keyword!(inertia);
+    syn::custom_keyword!(velocity);
     syn::custom_keyword!(gravity);
     syn::custom_keyword!(force);
     syn::custom_keyword!(coord);
@@ -56,7 +57,7 @@ mod dynamics;
 mod items;
 mod lexing;
 mod name;
-pub use dynamics::{ForceDecl, GravityDecl};
+pub use dynamics::{BodyVelocity, ForceDecl, GravityDecl};
 use items::parse_item;
 use lexing::{lex_error, nesting_error};
 pub use name::Name;
@@ -130,6 +131,9 @@ pub struct BodyDecl {
     /// Its polar moment of inertia about its frame's origin (`inertia: J`),
     /// if written: dynamics.
     pub inertia: Option<Expr>,
+    /// Its initial velocity (`velocity: (vx, vy, omega)`), if written:
+    /// where forward dynamics starts (zero otherwise).
+    pub velocity: Option<BodyVelocity>,
 }
 
 /// `point body.name = (sx, sy);`

@@ -309,9 +309,11 @@ fn check_options(args: &RunArgs, rtol: f64, acf_step: Option<f64>) -> Result<f64
     Ok(h)
 }
 
-/// q̇ at the start: zero, or a simEngine2D body's initial velocities.
+/// q̇ at the start: the model's stated initial velocities (a `.kin`
+/// body's `velocity` item, zero elsewhere), or a simEngine2D body's `qd0`.
 fn initial_velocities(loaded: &Loaded, n: usize) -> Vec<f64> {
-    let mut qd0 = vec![0.0; n];
+    let mut qd0 = loaded.model.initial_velocities();
+    qd0.resize(n, 0.0);
     if let Some(adm) = &loaded.adm {
         for (k, b) in adm.model.bodies.iter().enumerate() {
             if let (Some(v), Some(slot)) = (b.qd0, qd0.get_mut(3 * k..3 * k + 3)) {

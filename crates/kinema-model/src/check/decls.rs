@@ -7,7 +7,7 @@ use crate::syntax;
 
 use super::eval::{eval_scalar, eval_vector};
 use super::expr::check_expr;
-use super::model::{Body, BodyRef, Param, Point, TExpr, TNode, Ty};
+use super::model::{Body, BodyRef, InitialVelocity, Param, Point, TExpr, TNode, Ty};
 use super::{Names, Typed, show_nonfinite, ty_name};
 
 /// Rule: a param's value is a constant expression of earlier params and
@@ -90,7 +90,8 @@ pub(super) fn check_points(
     out
 }
 
-/// Rule: bodies' initial guesses are finite constant scalars of params.
+/// Rule: bodies' initial guesses and initial velocities are finite
+/// constant scalars of params.
 ///   error: this initial guess is NaN: expected a finite number
 pub(super) fn check_guesses(
     cx: &mut Ctxt,
@@ -98,6 +99,7 @@ pub(super) fn check_guesses(
     bodies: &[&syntax::BodyDecl],
     values: &[f64],
 ) -> Vec<Body> {
+    let params = values;
     let mut out = Vec::with_capacity(bodies.len());
     for b in bodies {
         let mut guess = [scalar_const(0.0), scalar_const(0.0), scalar_const(0.0)];
@@ -117,12 +119,31 @@ pub(super) fn check_guesses(
                 guess[k] = t;
             }
         }
+        let velocity = b.velocity.as_ref().map(|v| {
+            let mut exprs = [scalar_const(0.0), scalar_const(0.0), scalar_const(0.0)];
+            let mut values = [0.0; 3];
+            for (k, e) in v.value.iter().enumerate() {
+                let place = (e, e.root);
+                let what = "an initial velocity";
+                // error: time `t` cannot appear in an initial velocity: expected a constant expression of params
+                if let Some(t) = check_constant(cx, names, place, params.len(), Ty::Scalar, what) {
+                    values[k] = finite_scalar(cx, &t, params, e.span(), "this initial velocity");
+                    exprs[k] = t;
+                }
+            }
+            InitialVelocity {
+                keyword: v.keyword,
+                value: values,
+                exprs,
+            }
+        });
         out.push(Body {
             name: b.name.to_string(),
             span: b.name.span(),
             docs: b.docs.clone(),
             guess_value,
             guess,
+            velocity,
         });
     }
     out

@@ -272,6 +272,42 @@ pub(super) fn check_dynamics(
     })
 }
 
+/// Rule: a body's `velocity` is an initial condition of forward dynamics,
+/// so a model that states one has inertia. Without it the velocity could
+/// only be ignored (a kinematic run takes q̇ from its drivers), which would
+/// hide a mistake: it is an error at each `velocity`.
+///   error: body `crank` states a `velocity`, but the model has no inertia: an initial velocity is where forward dynamics starts
+pub(super) fn check_velocities_need_inertia(cx: &mut Ctxt, mech: &syntax::Mechanism) {
+    let bodies = mech.items.iter().filter_map(|i| match i {
+        Item::Body(b) => Some(b),
+        _ => None,
+    });
+    let any_inertia = bodies
+        .clone()
+        .any(|b| b.mass.is_some() || b.inertia.is_some());
+    if any_inertia {
+        return;
+    }
+    for b in bodies {
+        if let Some(v) = &b.velocity {
+            cx.push(
+                Diagnostic::error(
+                    v.keyword,
+                    format!(
+                        "body `{}` states a `velocity`, but the model has no inertia: an initial \
+                         velocity is where forward dynamics starts",
+                        b.name
+                    ),
+                )
+                .with_help(
+                    "give every body a `mass` and an `inertia`, or remove `velocity` (a kinematic \
+                     run takes its velocities from the drivers)",
+                ),
+            );
+        }
+    }
+}
+
 /// Rules: in a model with inertia every body has a `mass` and an
 /// `inertia`, finite constants ≥ 0 of params.
 ///   error: body `rod` has no `mass` and `inertia`: in a model with dynamics every body needs both

@@ -43,7 +43,9 @@ use crate::syntax::{self, ExprKind};
 pub use coord::{Coord, Curve};
 pub use dynamics::{Dynamics, Force, ForceKind, Inertia};
 pub use library::LibKind;
-pub use model::{Body, BodyRef, CheckedModel, Comp, DofReport, Equation, Param, Point, Ty};
+pub use model::{
+    Body, BodyRef, CheckedModel, Comp, DofReport, Equation, InitialVelocity, Param, Point, Ty,
+};
 pub(crate) use model::{Form, LibArg, TExpr, TNode};
 pub use names::may_declare;
 pub use output::Output;
@@ -184,6 +186,7 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     let outputs = output::check_outputs(&mut cx, &names, mech, &bodies, &out_points);
     names.velocities = true;
     let dynamics = dynamics::check_dynamics(&mut cx, &names, mech, &values);
+    dynamics::check_velocities_need_inertia(&mut cx, mech);
     let mut model = CheckedModel {
         name: mech.name.to_string(),
         span: mech.name.span(),

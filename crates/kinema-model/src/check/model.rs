@@ -143,6 +143,18 @@ pub struct Body {
     /// The initial guess `(x, y, phi)` at the default params.
     pub guess_value: [f64; 3],
     pub(crate) guess: [TExpr; 3],
+    /// The initial velocity `(vx, vy, omega)`, if the body states one.
+    pub velocity: Option<InitialVelocity>,
+}
+
+/// A body's stated initial velocity (`velocity: (vx, vy, omega)`).
+#[derive(Clone, Debug)]
+pub struct InitialVelocity {
+    /// Span of the `velocity` keyword.
+    pub keyword: Span,
+    /// (ẋ, ẏ, φ̇) at the default params.
+    pub value: [f64; 3],
+    pub(crate) exprs: [TExpr; 3],
 }
 
 /// A named body-fixed point.

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! Body     := "body" Ident "{" ( BodyField ","? )* "}"
-//! BodyField:= "guess" ":" "(" Expr "," Expr "," Expr ")" | "mass" ":" Expr | "inertia" ":" Expr
+//! BodyField:= "guess" ":" Triple | "mass" ":" Expr | "inertia" ":" Expr | "velocity" ":" Triple
+//! Triple   := "(" Expr "," Expr "," Expr ","? ")"
 //! Gravity  := "gravity" "=" Expr ";"
 //! Force    := "force" Ident ":" Expr ";"          a force element call
 //! ```
@@ -37,16 +38,59 @@ pub struct ForceDecl {
     pub call: Expr,
 }
 
+/// `velocity: (vx, vy, omega)` in a body's block: the body's initial
+/// velocity (ẋ, ẏ, φ̇), where forward dynamics starts.
+#[derive(Clone, Debug)]
+pub struct BodyVelocity {
+    /// The `velocity` keyword's span.
+    pub keyword: Span,
+    /// (ẋ, ẏ, φ̇), constant expressions of params.
+    pub value: [Expr; 3],
+}
+
 /// What a body's block holds.
 #[derive(Default)]
 pub(super) struct BodyFields {
     pub(super) guess: Option<[Expr; 3]>,
     pub(super) mass: Option<Expr>,
     pub(super) inertia: Option<Expr>,
+    pub(super) velocity: Option<BodyVelocity>,
 }
 
-/// The inside of a body's `{ … }`: `guess`, `mass` and `inertia` fields in
-/// any order, each at most once, separated by commas.
+/// `( a, b, c )` after `field:` (`shape` is how the message writes it,
+/// `(x, y, phi)`), a last comma allowed.
+fn parse_triple(content: ParseStream<'_>, field: &str, shape: &str) -> syn::Result<[Expr; 3]> {
+    expect::<Token![:]>(content, &format!("`:` after `{field}`"))?;
+    if !content.peek(syn::token::Paren) {
+        return Err(expected(content, &format!("`{shape}` after `{field}:`")));
+    }
+    let article = if field.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    let inner;
+    parenthesized!(inner in content);
+    let x: Expr = inner.parse()?;
+    expect::<Token![,]>(&inner, &format!("`,`: {article} {field} is `{shape}`"))?;
+    let y: Expr = inner.parse()?;
+    expect::<Token![,]>(&inner, &format!("`,`: {article} {field} is `{shape}`"))?;
+    let z: Expr = inner.parse()?;
+    if inner.peek(Token![,]) {
+        inner.parse::<Token![,]>()?;
+    }
+    if !inner.is_empty() {
+        // error: expected `)`: a guess is `(x, y, phi)`, found `,`
+        return Err(expected(
+            &inner,
+            &format!("`)`: {article} {field} is `{shape}`"),
+        ));
+    }
+    Ok([x, y, z])
+}
+
+/// The inside of a body's `{ … }`: `guess`, `mass`, `inertia` and
+/// `velocity` fields in any order, each at most once, separated by commas.
 pub(super) fn parse_body_fields(content: ParseStream<'_>) -> syn::Result<BodyFields> {
     let mut fields = BodyFields::default();
     while !content.is_empty() {
@@ -56,25 +100,18 @@ pub(super) fn parse_body_fields(content: ParseStream<'_>) -> syn::Result<BodyFie
             if fields.guess.is_some() {
                 return Err(syn::Error::new(k.span, "a body has one `guess`"));
             }
-            expect::<Token![:]>(content, "`:` after `guess`")?;
-            if !content.peek(syn::token::Paren) {
-                return Err(expected(content, "`(x, y, phi)` after `guess:`"));
+            fields.guess = Some(parse_triple(content, "guess", "(x, y, phi)")?);
+        } else if lookahead.peek(kw::velocity) {
+            let k = content.parse::<kw::velocity>()?;
+            if fields.velocity.is_some() {
+                // error: a body has one `velocity`
+                return Err(syn::Error::new(k.span, "a body has one `velocity`"));
             }
-            let inner;
-            parenthesized!(inner in content);
-            let x: Expr = inner.parse()?;
-            expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
-            let y: Expr = inner.parse()?;
-            expect::<Token![,]>(&inner, "`,`: a guess is `(x, y, phi)`")?;
-            let phi: Expr = inner.parse()?;
-            if inner.peek(Token![,]) {
-                inner.parse::<Token![,]>()?;
-            }
-            if !inner.is_empty() {
-                // error: expected `)`: a guess is `(x, y, phi)`, found `,`
-                return Err(expected(&inner, "`)`: a guess is `(x, y, phi)`"));
-            }
-            fields.guess = Some([x, y, phi]);
+            let value = parse_triple(content, "velocity", "(vx, vy, omega)")?;
+            fields.velocity = Some(BodyVelocity {
+                keyword: Span::new(k.span),
+                value,
+            });
         } else if lookahead.peek(kw::mass) {
             let k = content.parse::<kw::mass>()?;
             if fields.mass.is_some() {
@@ -92,7 +129,7 @@ pub(super) fn parse_body_fields(content: ParseStream<'_>) -> syn::Result<BodyFie
         } else {
             return Err(expected(
                 content,
-                "`guess`, `mass`, `inertia` or `}` in a body's block",
+                "`guess`, `mass`, `inertia`, `velocity` or `}` in a body's block",
             ));
         }
         if content.peek(Token![,]) {

@@ -71,7 +71,7 @@ fn parse_param(input: ParseStream<'_>, docs: Vec<String>) -> syn::Result<ParamDe
     })
 }
 
-/// `body name ;` or `body name { fields }` (guess, mass, inertia).
+/// `body name ;` or `body name { fields }` (guess, mass, inertia, velocity).
 fn parse_body(input: ParseStream<'_>, docs: Vec<String>) -> syn::Result<BodyDecl> {
     input.parse::<kw::body>()?;
     let name = name(input, "the body's name after `body`")?;
@@ -96,6 +96,7 @@ fn parse_body(input: ParseStream<'_>, docs: Vec<String>) -> syn::Result<BodyDecl
         guess: fields.guess,
         mass: fields.mass,
         inertia: fields.inertia,
+        velocity: fields.velocity,
     })
 }
 
