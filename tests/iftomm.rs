@@ -396,6 +396,196 @@ fn a02_forty_four_bars_follow_the_reference_before_the_singular_position() {
     a02_against_reference(40, 5e-5, 0.2);
 }
 
+/// The reference's singular passages: where θ crosses a multiple of π
+/// (every bar horizontal), located by bisection on the RK4 solution at
+/// 0.5 ms samples over `t_end`.
+fn passages(reference: &FourBarReference, t_end: f64) -> Vec<f64> {
+    let times: Vec<f64> = (1..=(t_end * 2000.0) as usize)
+        .map(|k| k as f64 * 5e-4)
+        .collect();
+    let states = reference.solve(&times, 1e-5);
+    let mut out = Vec::new();
+    let mut prev = (0.0, std::f64::consts::FRAC_PI_2);
+    for (&t, s) in times.iter().zip(&states) {
+        let (a, b) = (prev.1.sin(), s[0].sin());
+        if a * b < 0.0 {
+            // Linear interpolation of sin θ within the sample: O(h²).
+            out.push(prev.0 + (t - prev.0) * a / (a - b));
+        }
+        prev = (t, s[0]);
+    }
+    out
+}
+
+/// The largest difference between every crank's angle and the reference
+/// at (t, q) samples.
+fn crank_error(n: usize, samples: &[(f64, Vec<f64>)], reference: &FourBarReference) -> f64 {
+    let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
+    let states = reference.solve(&times, 1e-5);
+    let mut worst = 0.0_f64;
+    for ((_, q), s) in samples.iter().zip(&states) {
+        for i in 0..=n {
+            let b = if i == 0 { 0 } else { 2 * i - 1 };
+            worst = worst.max((q[3 * b + 2] - s[0]).abs());
+        }
+    }
+    worst
+}
+
+/// A02 with N = 1 over the benchmark's 20 s, through its 21 singular
+/// passages, in both integrators: every passage found (its time within
+/// 10⁻³ of the reference's), the cranks within 10⁻⁴ rad of the
+/// one-degree-of-freedom solution throughout (HHT at 0.25 ms, the accurate
+/// mode at rtol 1e-10), the redundancy-free start not reported as
+/// redundant.
+#[test]
+fn a02_one_four_bar_passes_every_singular_position_in_both_integrators() {
+    let n = 1;
+    let m = load("models/iftomm/a02_four_bar_1.kin");
+    let r = FourBarReference::new(n);
+    let expected = passages(&r, 20.0);
+    assert_eq!(expected.len(), 21, "{expected:?}");
+    let (q0, qd0) = (m.initial_configuration(), m.initial_velocities());
+    let outputs: Vec<f64> = (1..=400).map(|k| f64::from(k) * 0.05).collect();
+    let check_passages = |label: &str, found: &[kinema::integrate::Passage]| {
+        let times: Vec<f64> = found.iter().map(|p| p.t).collect();
+        assert_eq!(
+            times.len(),
+            expected.len(),
+            "{label}: {times:?} against {expected:?}"
+        );
+        for (t, e) in times.iter().zip(&expected) {
+            assert!(
+                (t - e).abs() < 1e-3,
+                "{label}: passage at {t}, reference {e}"
+            );
+        }
+        for p in found {
+            // The horizontal position: the x rows of the four joints are
+            // dependent, the cranks and the coupler's angle left free.
+            assert!(p.dependency.rank == Some(7), "{label}: {p}");
+            assert!(
+                p.dependency.coordinates.iter().any(|c| c == "crank0.phi"),
+                "{label}: {p}"
+            );
+        }
+    };
+
+    let Some(sys) = m.forward_system() else {
+        panic!("no inertia")
+    };
+    let mut a = Accurate::new(sys, &q0, &qd0, 0.0, 1e-10).expect("start");
+    assert!(a.monitor().redundancy().is_none());
+    let mut samples = Vec::new();
+    for &t in &outputs {
+        a.advance_to(t).expect("accurate step");
+        samples.push((t, a.q().to_vec()));
+    }
+    let err = crank_error(n, &samples, &r);
+    eprintln!(
+        "A02 N = 1 accurate (rtol 1e-10), 20 s: max crank error {err:.3e}, {:?}",
+        a.stats()
+    );
+    assert!(err < 1e-6, "{err}");
+    check_passages("accurate", a.monitor().passages());
+
+    let Some(sys) = m.forward_system() else {
+        panic!("no inertia")
+    };
+    let (mut hht, _) = Hht::new(sys, &q0, &qd0, 0.0, HhtOptions::default()).expect("start");
+    let mut samples = Vec::new();
+    for &t in &outputs {
+        hht.advance_to(t, 2.5e-4).expect("HHT step");
+        samples.push((t, hht.q().to_vec()));
+    }
+    let err = crank_error(n, &samples, &r);
+    eprintln!(
+        "A02 N = 1 HHT (h = 0.25 ms), 20 s: max crank error {err:.3e}, {:?}",
+        hht.stats()
+    );
+    assert!(err < 1e-4, "{err}");
+    check_passages("HHT", hht.monitor().passages());
+}
+
+/// No tolerance hangs or stops the accurate mode on A02 (N = 1, 20 s):
+/// every rung of the ladder from 1e-4 to 1e-12 finishes within a bounded
+/// number of evaluations, keeps the energy balance, finds the passages
+/// (at 1e-4 the phase error of 0.4 rad after ten swings moves the last
+/// one past 20 s) and stays on the reference to its tolerance's order.
+#[test]
+fn a02_accurate_mode_finishes_at_every_tolerance() {
+    let m = load("models/iftomm/a02_four_bar_1.kin");
+    let r = FourBarReference::new(1);
+    let (q0, qd0) = (m.initial_configuration(), m.initial_velocities());
+    let outputs: Vec<f64> = (1..=100).map(|k| f64::from(k) * 0.2).collect();
+    let ladder = [
+        (1e-4, 1.0, 20),
+        (1e-6, 3e-3, 21),
+        (1e-8, 3e-6, 21),
+        (1e-10, 3e-6, 21),
+        (1e-12, 3e-6, 21),
+    ];
+    for (rtol, bound, passages) in ladder {
+        let Some(sys) = m.forward_system() else {
+            panic!("no inertia")
+        };
+        let mut a = Accurate::new(sys, &q0, &qd0, 0.0, rtol).expect("start");
+        let ke0 = a.kinetic_energy();
+        let mut samples = Vec::new();
+        for &t in &outputs {
+            if let Err(e) = a.advance_to(t) {
+                panic!("rtol {rtol:e}: {e}");
+            }
+            samples.push((t, a.q().to_vec()));
+        }
+        let err = crank_error(1, &samples, &r);
+        let stats = a.stats();
+        // The energy theorem: T − T₀ is the work of gravity (in `work`).
+        let balance = a.kinetic_energy() - ke0 - a.work();
+        let found = a.monitor().passages().len();
+        eprintln!(
+            "rtol {rtol:e}: error {err:.3e}, balance {balance:.2e}, {stats:?}, {found} passages"
+        );
+        assert!(err < bound, "rtol {rtol:e}: {err}");
+        assert!(balance.abs() < 1e-2 * G, "rtol {rtol:e}: {balance}");
+        assert!(stats.evaluations < 200_000, "rtol {rtol:e}: {stats:?}");
+        assert!(found >= passages, "rtol {rtol:e}: {found}");
+    }
+}
+
+/// A02 with N = 40 through its first two singular passages (to t = 1.5 s;
+/// the whole 20 s is in BENCHMARKS.md, run in release): HHT at 0.25 ms
+/// within 10⁻⁴ rad of the reference in every crank, both passages found,
+/// with the 40 parallelogram loops' x rows dependent (rank 202 of 242).
+#[test]
+fn a02_forty_four_bars_pass_the_singular_positions() {
+    let n = 40;
+    let m = load("models/iftomm/a02_four_bar_40.kin");
+    let r = FourBarReference::new(n);
+    let expected: Vec<f64> = passages(&r, 1.5);
+    assert_eq!(expected.len(), 2, "{expected:?}");
+    let (q0, qd0) = (m.initial_configuration(), m.initial_velocities());
+    let Some(sys) = m.forward_system() else {
+        panic!("no inertia")
+    };
+    let (mut hht, _) = Hht::new(sys, &q0, &qd0, 0.0, HhtOptions::default()).expect("start");
+    let mut samples = Vec::new();
+    for k in 1..=30 {
+        let t = f64::from(k) * 0.05;
+        hht.advance_to(t, 2.5e-4).expect("HHT step");
+        samples.push((t, hht.q().to_vec()));
+    }
+    let err = crank_error(n, &samples, &r);
+    eprintln!("A02 N = 40 HHT (h = 0.25 ms) to 1.5 s: max crank error {err:.3e}");
+    assert!(err < 1e-4, "{err}");
+    let found = hht.monitor().passages();
+    assert_eq!(found.len(), 2, "{found:?}");
+    for (p, e) in found.iter().zip(&expected) {
+        assert!((p.t - e).abs() < 1e-3, "{} against {e}", p.t);
+        assert_eq!(p.dependency.rank, Some(202), "{p}");
+    }
+}
+
 // ---------------------------------------------------------------- A03
 
 /// The seven angles (β, Θ, γ, Φ, δ, Ω, ε) at t = 0.03 of the test set for

@@ -16,8 +16,9 @@
 //! one step of inverse (subspace) iteration per integration step follows
 //! s along the motion, warm-started from the last step's vectors.
 //!
-//! **A passage.** A local minimum of s along the steps that dips well
-//! below its neighbours (or below 10⁻³) is a candidate; the motion between
+//! **A passage.** A local minimum of s along the steps whose lines to its
+//! neighbours reach zero within their bracket (a V: s ∝ |t − t*| at a
+//! crossing), or below 10⁻³, is a candidate; the motion between
 //! the neighbouring steps is interpolated (cubic Hermite in q, q̇) and the
 //! minimum of the exact s (a singular value decomposition of the scaled
 //! Φ_q) located by golden-section search. At or below the threshold
@@ -39,11 +40,9 @@ pub const MAX_DENSE: usize = 600 * 600;
 /// one more).
 const MAX_TRACKED: usize = 8;
 
-/// A step's s is a candidate when it is a local minimum below this
-/// fraction of the larger neighbour.
-const DIP: f64 = 0.5;
-
-/// ... or below this, whatever its neighbours.
+/// A step's s that is a local minimum is a candidate when the lines
+/// through it and either neighbour reach zero within the bracket, or it
+/// is below this, whatever its neighbours.
 const LOW: f64 = 1e-3;
 
 /// A singular value of the scaled Φ_q at most this (relative to the
@@ -53,6 +52,22 @@ const RANK_CUTOFF: f64 = 1e-8;
 /// A component of a unit singular vector at least this large names its
 /// equation or coordinate (as in the kinematic diagnosis).
 const INVOLVED: f64 = 1e-3;
+
+/// Steps of inverse (subspace) iteration per integration step.
+const TRACKING_ITERATIONS: usize = 2;
+
+/// Size of the perturbation added to the tracked vectors every step.
+const PERTURBATION: f64 = 1e-2;
+
+/// A fixed pseudo-random number in [−1, 1] for index `i` (a hash, not a
+/// generator: the same every run).
+fn pseudo_random(i: usize) -> f64 {
+    let mut z = (i as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
 
 /// Golden-section rounds locating a passage (0.618³⁰ ≈ 5·10⁻⁷ of the
 /// bracket).
@@ -288,46 +303,58 @@ impl Monitor {
         for (d, &e) in self.d.iter_mut().zip(eps) {
             *d = (e.abs() / (REGULARIZATION * scale)).sqrt();
         }
-        // Y = D^½ (Ĝ + ε)⁻¹-ish D^½ X: solve [A cΦᵀ; Φ −E][·; y] = [0; D^½ x],
-        // then y ← −c D^½ y.
-        for v in 0..k {
-            self.rhs[..n].fill(0.0);
-            for r in 0..m {
-                self.rhs[n + r] = self.d[r] * self.x[v * m + r];
-            }
-            solve(&mut self.rhs);
-            for r in 0..m {
-                self.y[v * m + r] = -scale * self.d[r] * self.rhs[n + r];
-            }
+        // A fixed pseudo-random perturbation keeps a component of every
+        // mode in the tracked vectors: a mode that goes singular while
+        // orthogonal to them (by a symmetry of the mechanism) would
+        // otherwise never be amplified into view.
+        for (i, x) in self.x.iter_mut().enumerate() {
+            *x += PERTURBATION * pseudo_random(i);
         }
-        // H = Xᵀ Y (k × k, symmetric up to A's h-terms); its smallest
-        // eigenvalue θ gives the largest tracked μ = 1/θ − ε.
-        for a in 0..k {
-            for b in 0..k {
-                let xa = &self.x[a * m..(a + 1) * m];
-                let yb = &self.y[b * m..(b + 1) * m];
-                let v: f64 = xa.iter().zip(yb).map(|(p, q)| p * q).sum();
-                self.h[a * k + b] = v;
+        orthonormalize(&mut self.x, k, m);
+        let mut theta = f64::NAN;
+        for _ in 0..TRACKING_ITERATIONS {
+            // Y = (Ĝ + ε)⁻¹ X: solve [A cΦᵀ; Φ −E][·; y] = [0; D^½ x], then
+            // y ← −c D^½ y.
+            for v in 0..k {
+                self.rhs[..n].fill(0.0);
+                for r in 0..m {
+                    self.rhs[n + r] = self.d[r] * self.x[v * m + r];
+                }
+                solve(&mut self.rhs);
+                for r in 0..m {
+                    self.y[v * m + r] = -scale * self.d[r] * self.rhs[n + r];
+                }
             }
-        }
-        for a in 0..k {
-            for b in a + 1..k {
-                let v = 0.5 * (self.h[a * k + b] + self.h[b * k + a]);
-                self.h[a * k + b] = v;
-                self.h[b * k + a] = v;
+            // H = Xᵀ Y (k × k, symmetric up to A's h-terms); its smallest
+            // eigenvalue θ gives the largest tracked μ = 1/θ − ε.
+            for a in 0..k {
+                for b in 0..k {
+                    let xa = &self.x[a * m..(a + 1) * m];
+                    let yb = &self.y[b * m..(b + 1) * m];
+                    let v: f64 = xa.iter().zip(yb).map(|(p, q)| p * q).sum();
+                    self.h[a * k + b] = v;
+                }
             }
+            for a in 0..k {
+                for b in a + 1..k {
+                    let v = 0.5 * (self.h[a * k + b] + self.h[b * k + a]);
+                    self.h[a * k + b] = v;
+                    self.h[b * k + a] = v;
+                }
+            }
+            theta = smallest_eigenvalue(&mut self.h[..k * k], k);
+            // X ← orthonormalized Y (modified Gram–Schmidt).
+            self.x.copy_from_slice(&self.y);
+            orthonormalize(&mut self.x, k, m);
         }
-        let theta = smallest_eigenvalue(&mut self.h[..k * k], k);
         let mu = if theta > 0.0 {
             (1.0 / theta - REGULARIZATION).max(0.0)
         } else {
             0.0
         };
         let s = mu.sqrt();
-        // X ← orthonormalized Y (modified Gram–Schmidt).
-        self.x.copy_from_slice(&self.y);
-        orthonormalize(&mut self.x, k, m);
         self.last_s = s;
+
         if !s.is_finite() {
             return;
         }
@@ -350,7 +377,19 @@ impl Monitor {
     /// Is the middle sample a candidate? Then locate and diagnose.
     fn check<S: ForwardSystem>(&mut self, system: &mut S) {
         let [a, b, c] = &self.samples;
-        let dips = b.s < a.s && b.s <= c.s && (b.s <= DIP * a.s.max(c.s) || b.s <= LOW);
+        // A V that reaches zero: the line through a and b meets s = 0 before
+        // c's time, or the line through c and b after a's (a crossing of a
+        // singular configuration makes s ∝ |t − t*|; a smooth minimum of a
+        // regular motion is flat there and its lines stay above zero).
+        let reaches_zero = |(t1, s1): (f64, f64), (t2, s2): (f64, f64), span: f64| {
+            let slope = (s2 - s1) / (t2 - t1);
+            slope.abs() > 0.0 && s2 / slope.abs() <= span
+        };
+        let dips = b.s < a.s
+            && b.s <= c.s
+            && (b.s <= LOW
+                || reaches_zero((a.t, a.s), (b.t, b.s), c.t - b.t)
+                || reaches_zero((c.t, c.s), (b.t, b.s), b.t - a.t));
         if !dips {
             return;
         }
@@ -392,6 +431,7 @@ impl Monitor {
             }
         }
         let (t_min, s_min) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
+
         if s_min.is_nan() || s_min > self.threshold {
             return;
         }

@@ -395,6 +395,22 @@ impl<S: ForwardSystem> Accurate<S> {
             }
             self.y = y;
             self.k = k;
+            // The step's own drift off Φ = 0 counts in its error: the
+            // index-1 form keeps Φ̈ = 0, so a step that meets the tolerance
+            // leaves Φ at the tolerance's size; one that does not has
+            // stepped across a singular configuration too coarsely (and
+            // the projection could put it on another branch).
+            if result.is_ok() && self.m > 0 {
+                let t1 = if last { t_end } else { t + h };
+                self.system.phi(&self.ynew[..n], t1, &mut self.phi);
+                let scale = self.atol + self.rtol * amax(&self.ynew[..n]);
+                let drift = amax(&self.phi) / scale;
+                err = if drift.is_nan() {
+                    f64::INFINITY
+                } else {
+                    err.max(drift)
+                };
+            }
             if let Err(e) = result {
                 // A failed evaluation inside the step: retry smaller once
                 // the step allows, else report.
