@@ -57,6 +57,8 @@ mod model;
 #[cfg(feature = "model")]
 pub use model::{Backend, Model, ModelSolver, TapeSystem};
 #[cfg(feature = "model")]
+mod domains;
+#[cfg(feature = "model")]
 mod kinks;
 #[cfg(feature = "model")]
 mod model_outputs;

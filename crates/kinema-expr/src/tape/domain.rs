@@ -25,6 +25,11 @@ pub enum Domain {
     /// The argument is outside the domain: `sqrt`, `ln` or a fractional
     /// power of a negative number, `asin` or `acos` beyond ±1.
     Outside,
+    /// At the edge of the domain, where the derivative is unbounded:
+    /// `sqrt`, a fractional power, `asin` or `acos` of an argument that
+    /// reaches the edge within its bound without being past it (the next
+    /// moment it is).
+    Edge,
     /// `atan2(0, 0)`: no angle.
     NoAngle,
     /// The value overflows f64 from finite arguments (`exp(1000)`).
@@ -121,6 +126,16 @@ fn unary_name(op: UnaryOp) -> &'static str {
         .map_or("a function", |f| f.name)
 }
 
+/// Past the edge of the domain (`Outside`), or at it within the argument's
+/// bound (`Edge`).
+fn past(outside: bool) -> Domain {
+    if outside {
+        Domain::Outside
+    } else {
+        Domain::Edge
+    }
+}
+
 /// Whether instruction `ins` (its operands in `r`, their bounds in `e`,
 /// its value `value`) leaves its function's domain: the function, how, and
 /// its argument.
@@ -147,14 +162,14 @@ fn outside(ins: &Instr, r: &[f64], e: &[f64], value: f64) -> Option<(&'static st
         }
         Instr::Sqrt { a, .. } => {
             let (x, ex) = arg(a);
-            below(x, ex).then_some(("sqrt", Domain::Outside, x))
+            below(x, ex).then_some(("sqrt", past(x < 0.0), x))
         }
         Instr::PowF { a, p, .. } => {
             let (x, ex) = arg(a);
             if p < 0.0 && near(x.abs(), ex) {
                 Some(("pow", Domain::Pole, x))
             } else if p.fract() != 0.0 && below(x, ex) {
-                Some(("pow", Domain::Outside, x))
+                Some(("pow", past(x < 0.0), x))
             } else {
                 None
             }
@@ -165,7 +180,7 @@ fn outside(ins: &Instr, r: &[f64], e: &[f64], value: f64) -> Option<(&'static st
             if y < 0.0 && near(x.abs(), ex) {
                 Some(("pow", Domain::Pole, x))
             } else if !integer && below(x, ex) {
-                Some(("pow", Domain::Outside, x))
+                Some(("pow", past(x < 0.0), x))
             } else {
                 None
             }
@@ -186,7 +201,7 @@ fn outside(ins: &Instr, r: &[f64], e: &[f64], value: f64) -> Option<(&'static st
                     Some(("ln", domain, x))
                 }
                 UnaryOp::Asin | UnaryOp::Acos if x.abs() + MARGIN * ex > 1.0 => {
-                    Some((unary_name(op), Domain::Outside, x))
+                    Some((unary_name(op), past(x.abs() > 1.0), x))
                 }
                 // cos x is 0 at the pole: within its move and the roundoff
                 // of x itself (no double is an odd multiple of π/2).
@@ -335,6 +350,10 @@ mod tests {
         assert_eq!(kind(undefined_at(root, 0.0, 0.5, 0.0)), None);
         assert_eq!(
             kind(undefined_at(root, 0.0, 0.5, 1e-9)),
+            Some((Some(1), "sqrt", Domain::Edge))
+        );
+        assert_eq!(
+            kind(undefined_at(root, 0.0, 0.5 - 1e-9, 1e-9)),
             Some((Some(1), "sqrt", Domain::Outside))
         );
         let arc = |a: &mut Arena, x, t| {
