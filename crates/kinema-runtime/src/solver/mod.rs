@@ -436,27 +436,44 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     }
 
     /// Before a step from `t0` to `t` (at assembly `t0 == t`): whether an
-    /// equation's function of time leaves its domain at t or between (see
-    /// [`System::undefined`]); the time is then located by bisection of
-    /// the bracket to roundoff. The system's answer over a bracket is a
-    /// first-order one: a bracket that no half confirms is no finding.
+    /// equation's function of time leaves its domain in (t0, t] (see
+    /// [`System::undefined`]): the step's bracket asked first, and the
+    /// first point located by bisection to roundoff of t; then t itself.
+    /// The system's answer over a bracket is a first-order one with a
+    /// margin: a bracket that no half confirms is no finding.
     #[inline]
     fn check_defined(&mut self, t0: f64, t: f64) -> Result<(), Error> {
         // `next.q` holds the guess at assembly, the last iterate (of the
         // right length) otherwise: functions of time alone do not read it.
-        let q = &self.next.q;
-        let found = self.system.undefined(&mut self.scratch, q, t, 0.0);
-        let found = match found {
-            Some(u) => Some((t, u)),
-            None if t0 < t => {
-                let half = 0.5 * (t - t0);
-                match self.system.undefined(&mut self.scratch, q, t0 + half, half) {
-                    Some(_) => self.locate_undefined(t0, t),
-                    None => None,
-                }
+        let mut found = None;
+        if t0 < t {
+            let half = 0.5 * (t - t0);
+            let q = &self.next.q;
+            if self
+                .system
+                .undefined(&mut self.scratch, q, t0 + half, half)
+                .is_some()
+            {
+                found = self.locate_undefined(t0, t);
             }
-            None => None,
-        };
+            // A point within roundoff of the step's end that is undefined
+            // itself (a pole at a time of the grid) is that time.
+            if let Some((at, _)) = found
+                && t - at <= 1e-12 * (t - t0)
+                && let Some(u) = self
+                    .system
+                    .undefined(&mut self.scratch, &self.next.q, t, 0.0)
+            {
+                found = Some((t, u));
+            }
+        }
+        if found.is_none() {
+            let q = &self.next.q;
+            found = self
+                .system
+                .undefined(&mut self.scratch, q, t, 0.0)
+                .map(|u| (t, u));
+        }
         match found {
             None => Ok(()),
             Some((t, u)) => Err(Error::Undefined {
