@@ -704,6 +704,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Reads the LU's pivots for `self.next` (Φ_q at its q in `ws.jac`): det sign, pivot ratio, and near-singularity, confirmed by
     /// the equilibrated SVD when the ratio is below the gate.
     fn monitor(&mut self) {
+        if self.system.is_empty() {
+            // Φ_q is 0 × 0: det 1, never singular (nothing to diagnose).
+            self.next.stats.pivot_ratio = 1.0;
+            self.next.det_sign = 1.0;
+            self.next.stats.near_singular = false;
+            return;
+        }
         let (ratio, sign) = self
             .lu
             .pivot_report()
