@@ -281,7 +281,12 @@ fn check_lib_arg(
             Some((LibArg::Point(b, local), none))
         }
         ArgKind::Vector => {
-            let what = "a body-fixed vector";
+            // `cd`'s and `abs_distance`'s vector is a point of the
+            // global frame, the others' a direction in a body's frame.
+            let what = match spec.kind {
+                LibKind::Cd | LibKind::AbsDistance => "a constant vector of the global frame",
+                _ => "a body-fixed vector",
+            };
             let t = check_constant(cx, names, (expr, a), values.len(), Ty::Vector, what)?;
             let v = eval_vector(&t, values);
             finite_vector(cx, v, node.span, &t, values);

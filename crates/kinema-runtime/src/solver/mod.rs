@@ -456,6 +456,26 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             {
                 found = self.locate_undefined(t0, t);
             }
+            // The edge of a domain (√0, acos(±1)) is a finding only where
+            // the domain is left: at the step's end (where the derivative
+            // is unbounded, and the next step would be outside) or before
+            // it; one the function only touches between two times of the
+            // grid (`acos(cos t)` at π) is not, the motion goes on.
+            if let Some((at, u)) = found
+                && u.domain == crate::state::Domain::Edge
+            {
+                let at_end = t - at <= 1e-12 * (t - t0);
+                let q = &self.next.q;
+                if at_end {
+                    found = Some((t, u));
+                } else if self
+                    .system
+                    .undefined(&mut self.scratch, q, t, 0.0)
+                    .is_none()
+                {
+                    found = None;
+                }
+            }
             // A point within roundoff of the step's end that is undefined
             // itself (a pole at a time of the grid) is that time.
             if let Some((at, _)) = found
