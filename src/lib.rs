@@ -34,11 +34,12 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, DynDenseLu, Dynamics,
-    Error, FoldedLu, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
+    Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, Domain, DynDenseLu,
+    Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
     InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
     Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
-    SparseLu, State, StepStats, System, Trajectory, diagnose, integrate, point_kinematics,
+    SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
+    point_kinematics,
 };
 pub use kinema_runtime::{Outputs, Table};
 
@@ -56,6 +57,8 @@ mod linkage;
 mod model;
 #[cfg(feature = "model")]
 pub use model::{Backend, Model, ModelSolver, TapeSystem};
+#[cfg(feature = "model")]
+mod domains;
 #[cfg(feature = "model")]
 mod kinks;
 #[cfg(feature = "model")]

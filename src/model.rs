@@ -268,6 +268,9 @@ pub struct TapeSystem {
     /// Φ's subexpressions with a function that can be at a kink (see
     /// [`System::kink`]).
     kinks: Option<crate::kinks::KinkTape>,
+    /// Φ's functions of time with a domain that can be left (see
+    /// [`System::undefined`]).
+    domains: Option<crate::domains::DomainTape>,
     pub(crate) zeros: Vec<f64>,
     /// The tapes of the closed-form position solution, if the model is a
     /// linkage of revolute joints and driven angles (shared by clones).
@@ -379,6 +382,7 @@ impl TapeSystem {
             dynamics,
             registers,
             kinks: crate::kinks::KinkTape::new(a, &d.phi),
+            domains: crate::domains::DomainTape::new(a, &d.phi),
             timed: crate::precision::TimedTapes::new(d).map(std::sync::Arc::new),
             linkage_tapes: linkage_tapes.map(std::sync::Arc::new),
             linkage,
@@ -653,6 +657,20 @@ impl System for TapeSystem {
         })
     }
 
+    /// Φ's domain tape (its functions of time alone), with t uncertain by
+    /// `t_error` (see [`Tape::undefined`]), in the scratch's kink part.
+    #[inline]
+    fn undefined(
+        &self,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        t_error: f64,
+    ) -> Option<kinema_runtime::Undefined> {
+        let domains = self.domains.as_ref()?;
+        self.find_undefined(domains, scratch, q, t, t_error)
+    }
+
     fn linkage(&self) -> Option<&kinema_runtime::Linkage> {
         self.linkage.as_ref()
     }
@@ -747,7 +765,11 @@ impl TapeSystem {
             .kinks
             .as_ref()
             .map_or(0, crate::kinks::KinkTape::registers);
-        2 * phi.max(self.outputs.kink_registers())
+        let domains = self
+            .domains
+            .as_ref()
+            .map_or(0, crate::domains::DomainTape::registers);
+        2 * phi.max(self.outputs.kink_registers()).max(domains)
     }
 
     /// The first function of `kinks` at its kink at `inputs` (see
@@ -772,6 +794,40 @@ impl TapeSystem {
         let (registers, errors) = rest[..2 * len].split_at_mut(len);
         let trig = &mut start[..self.trig_len()];
         kinks.find(inputs, uncertainty, size, registers, errors, trig)
+    }
+
+    /// [`System::undefined`] on `domains`, in the scratch's kink part
+    /// (grown if the scratch came from another system). Out of line: most
+    /// models have no function of time with a restricted domain.
+    #[inline(never)]
+    fn find_undefined(
+        &self,
+        domains: &crate::domains::DomainTape,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        t_error: f64,
+    ) -> Option<kinema_runtime::Undefined> {
+        let inputs = self.inputs(q, &self.zeros, t);
+        let (base, len) = (self.kink_base(), domains.registers());
+        if scratch.len() < base + 2 * len {
+            grow(scratch, base + 2 * len);
+        }
+        let (registers, errors) = scratch[base..base + 2 * len].split_at_mut(len);
+        let found = domains.find(&inputs, t_error, registers, errors)?;
+        let domain = match found.undefined.domain {
+            kinema_expr::Domain::Pole => kinema_runtime::Domain::Pole,
+            kinema_expr::Domain::Outside => kinema_runtime::Domain::Outside,
+            kinema_expr::Domain::Edge => kinema_runtime::Domain::Edge,
+            kinema_expr::Domain::NoAngle => kinema_runtime::Domain::NoAngle,
+            kinema_expr::Domain::Overflow => kinema_runtime::Domain::Overflow,
+        };
+        Some(kinema_runtime::Undefined {
+            equation: found.root,
+            function: found.undefined.function,
+            domain,
+            argument: found.undefined.argument,
+        })
     }
 
     /// The tapes' inputs: `q`, `qd`, this system's parameters, `t`.

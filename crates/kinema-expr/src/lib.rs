@@ -50,4 +50,6 @@ pub use function::{FUNCTIONS, Function, FunctionKind, function, unary_function};
 pub use node::{ExprId, Factor, NodeRef, SymId, SymKind, Symbol, Term, UnaryOp, smooth};
 pub use print::{Display, format_number};
 pub use schedule::Schedule;
-pub use tape::{Instr, Reg, Tape, TapeError, TapeInputs, TapeKink, TapeLayout};
+pub use tape::{
+    Domain, Instr, Reg, Tape, TapeError, TapeInputs, TapeKink, TapeLayout, TapeUndefined,
+};

@@ -11,8 +11,10 @@ use crate::arena::Arena;
 use crate::build::is_int;
 use crate::node::{ExprId, Factor, NodeRef, SymKind, Term, UnaryOp};
 
+mod domain;
 mod kink;
 
+pub use domain::{Domain, TapeUndefined};
 pub use kink::TapeKink;
 
 /// Where a tape reads its inputs from.

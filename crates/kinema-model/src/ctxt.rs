@@ -26,6 +26,16 @@ impl Ctxt {
         self.diagnostics.error_count()
     }
 
+    /// A mark of the diagnostics so far, for [`help_since`](Self::help_since).
+    pub(crate) fn mark(&self) -> usize {
+        self.diagnostics.kept()
+    }
+
+    /// Gives every error recorded since `mark` that has no help `help()`.
+    pub(crate) fn help_since(&mut self, mark: usize, help: impl Fn() -> String) {
+        self.diagnostics.help_since(mark, help);
+    }
+
     /// All diagnostics.
     pub(crate) fn finish(self) -> Diagnostics {
         self.diagnostics

@@ -377,6 +377,21 @@ impl Diagnostics {
         self.error_count() > 0
     }
 
+    /// Diagnostics kept so far: a mark for [`help_since`](Self::help_since).
+    pub(crate) fn kept(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Gives every error kept since `mark` (a [`kept`](Self::kept)) that
+    /// has no help `help()`.
+    pub(crate) fn help_since(&mut self, mark: usize, help: impl Fn() -> String) {
+        for d in self.items.iter_mut().skip(mark) {
+            if d.severity == Severity::Error && d.help.is_none() {
+                d.help = Some(help());
+            }
+        }
+    }
+
     /// Number of errors, kept or not.
     #[must_use]
     pub fn error_count(&self) -> usize {

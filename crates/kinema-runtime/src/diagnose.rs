@@ -57,7 +57,7 @@ pub fn near_singular_condition(singular_tolerance: f64) -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum RankError {
-    /// n = 0 or n > [`MAX_DENSE_DIAGNOSIS`].
+    /// n > [`MAX_DENSE_DIAGNOSIS`].
     #[error("Φ_q is {0} × {0}: outside the sizes of the dense rank-revealing diagnosis")]
     Size(usize),
     /// An entry of Φ_q is NaN or infinite.
@@ -74,8 +74,11 @@ pub enum RankError {
 /// σₖ is negligible when σₖ ≤ max(10 τ, n ε) σ₁. The condition is σ₁/σₙ of
 /// the equilibrated matrix.
 ///
+/// A 0 × 0 Φ_q (a system without coordinates) has full rank 0 and
+/// condition 1: it is never singular.
+///
 /// # Errors
-/// [`RankError`] for a size outside 1..=[`MAX_DENSE_DIAGNOSIS`], a
+/// [`RankError`] for a size above [`MAX_DENSE_DIAGNOSIS`], a
 /// non-finite entry, or a failed decomposition — never a panic.
 pub fn rank(
     n: usize,
@@ -83,6 +86,13 @@ pub fn rank(
     values: &[f64],
     singular_tolerance: f64,
 ) -> Result<Rank, RankError> {
+    if n == 0 {
+        return Ok(Rank {
+            rank: 0,
+            dim: 0,
+            condition: 1.0,
+        });
+    }
     let svd = equilibrated_svd(n, pattern, values, false)?;
     Ok(svd.rank(singular_tolerance))
 }
@@ -129,6 +139,7 @@ fn equilibrated_svd(
     vectors: bool,
 ) -> Result<Decomposition, RankError> {
     if n == 0 || n > MAX_DENSE_DIAGNOSIS {
+        // n = 0 is answered by the callers (full rank 0).
         return Err(RankError::Size(n));
     }
     if values.iter().any(|v| !v.is_finite()) {
@@ -189,6 +200,12 @@ pub fn dependency<S: System + ?Sized>(
         redundant: Vec::new(),
         coordinates: Vec::new(),
     };
+    if n == 0 {
+        // Nothing to depend on: full rank 0, condition 1 (see [`rank`]).
+        dep.rank = Some(0);
+        dep.condition = Some(1.0);
+        return dep;
+    }
     let Ok(decomposition) = equilibrated_svd(n, system.jacobian_pattern(), values, true) else {
         return dep;
     };

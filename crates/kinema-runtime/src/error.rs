@@ -130,6 +130,27 @@ pub enum Error {
         /// Condition number of Φ_q (equilibrated) there.
         condition: f64,
     },
+    /// An equation has no value, or no finite one, at time `t`: a
+    /// function of time in it is evaluated outside its domain or at a pole
+    /// there (`atan2(t, t)` at t = 0, `1 / (t - 0.5)` at 0.5, `ln` or
+    /// `sqrt` of a negative number, `exp` overflowing). Found before the
+    /// step that would cross it (see
+    /// [`System::undefined`](crate::System::undefined)); `t` is within
+    /// roundoff of the point when it lies between two times of the grid.
+    #[error("{}", UndefinedText(self))]
+    Undefined {
+        /// Where the equation is undefined.
+        t: f64,
+        /// The equation's name.
+        equation: String,
+        /// The function, as the model language names it, or `"division"`.
+        function: &'static str,
+        /// How it left its domain.
+        domain: crate::state::Domain,
+        /// Its argument there (for `atan2`, y; for a division, the
+        /// divisor).
+        argument: f64,
+    },
     /// A time grid without any time.
     #[error("the time grid is empty")]
     EmptyTimeGrid,
@@ -214,6 +235,57 @@ impl fmt::Display for Time {
             write!(f, "{:e}", self.0)
         } else {
             write!(f, "{}", self.0)
+        }
+    }
+}
+
+/// The text of [`Error::Undefined`]: "equation `swing` is undefined at
+/// t = 0: atan2(0, 0) has no angle".
+struct UndefinedText<'a>(&'a Error);
+
+impl fmt::Display for UndefinedText<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use crate::state::Domain;
+        let Error::Undefined {
+            t,
+            equation,
+            function,
+            domain,
+            argument,
+        } = self.0
+        else {
+            return Ok(());
+        };
+        let word = match domain {
+            Domain::Pole | Domain::Overflow => "unbounded",
+            Domain::Outside | Domain::NoAngle | Domain::Edge => "undefined",
+        };
+        write!(f, "equation `{equation}` is {word} at t = {}: ", Time(*t))?;
+        let x = Time(*argument);
+        match (domain, *function) {
+            (Domain::NoAngle, _) => write!(f, "{function}(0, 0) has no angle"),
+            (Domain::Pole, "division") => write!(f, "division by 0 (the divisor is {x})"),
+            (Domain::Pole, "tan") => write!(
+                f,
+                "tan at a pole (its argument {x} is an odd multiple of π/2)"
+            ),
+            (Domain::Pole, "ln") => write!(f, "ln of 0 (its argument is {x})"),
+            (Domain::Pole, _) => write!(f, "{function} of 0 to a negative power (its base is {x})"),
+            (Domain::Outside, "asin" | "acos") => {
+                write!(f, "{function} of a number beyond ±1 ({x})")
+            }
+            (Domain::Outside, "sqrt" | "ln" | "pow") => {
+                write!(f, "{function} of a negative number ({x})")
+            }
+            (Domain::Outside, _) => write!(f, "{function} outside its domain (argument {x})"),
+            (Domain::Edge, _) => write!(
+                f,
+                "{function} at the edge of its domain (its argument is {x}), where its \
+                 derivative is unbounded and past which it has no value"
+            ),
+            (Domain::Overflow, _) => {
+                write!(f, "{function} overflows f64's range (argument {x})")
+            }
         }
     }
 }

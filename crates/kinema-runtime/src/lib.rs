@@ -79,6 +79,6 @@ pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
 pub use outputs::{Outputs, Table};
 pub use solver::Solver;
-pub use state::{Kink, State, StepStats};
+pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;
 pub use trajectory::Trajectory;

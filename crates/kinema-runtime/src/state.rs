@@ -56,6 +56,42 @@ pub struct Kink {
     pub function: &'static str,
 }
 
+/// How a function left its domain ([`Undefined`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Domain {
+    /// At a pole: a division by 0, a negative power of 0, `ln` of 0, `tan`
+    /// at an odd multiple of π/2. The equation is unbounded there.
+    Pole,
+    /// Outside the domain: `sqrt`, `ln` or a fractional power of a
+    /// negative number, `asin` or `acos` beyond ±1.
+    Outside,
+    /// At the edge of the domain, where the derivative is unbounded:
+    /// `sqrt` or a fractional power of 0, `asin` or `acos` of ±1, with the
+    /// domain left right after.
+    Edge,
+    /// `atan2(0, 0)`: no angle.
+    NoAngle,
+    /// The value overflows f64 (`exp` of a large number).
+    Overflow,
+}
+
+/// A function of an equation evaluated outside its domain or at a pole
+/// ([`System::undefined`](crate::System::undefined)): the equation has no
+/// value, or no finite one, there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Undefined {
+    /// The equation (its index in Φ).
+    pub equation: usize,
+    /// The function as the model language names it (`"ln"`, `"sqrt"`,
+    /// `"atan2"`, `"tan"`, `"pow"`, `"exp"` …) or `"division"`.
+    pub function: &'static str,
+    /// How it left its domain.
+    pub domain: Domain,
+    /// Its argument there (for `atan2`, y; for a division, the divisor).
+    pub argument: f64,
+}
+
 /// The kinematic state at time t: q with Φ(q, t) = 0, q̇ with Φ_q q̇ = ν,
 /// q̈ with Φ_q q̈ = γ.
 #[derive(Debug, Clone)]

@@ -141,6 +141,27 @@ pub trait System {
         None
     }
 
+    /// The first equation of Φ that, at time `t` or within `t_error` of
+    /// it, evaluates a function of time outside its domain or at a pole
+    /// (`atan2(t, t)` at t = 0, `1 / (t - 0.5)` at 0.5, `ln(f)` or
+    /// `sqrt(f)` of an f(t) < 0, `exp` that overflows): the equation has no
+    /// value, or no finite one, there, and no step can be taken through it.
+    /// `t_error` 0 asks about `t` alone; a bracket may be reported when the
+    /// point is merely near (within a first-order bound): the solver
+    /// narrows it down by bisection. Asked before each step (over the
+    /// step's bracket) and after a failed one: must not allocate after its
+    /// first call. The default: `None`, the system cannot tell.
+    fn undefined(
+        &self,
+        scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        t_error: f64,
+    ) -> Option<crate::Undefined> {
+        let _ = (scratch, q, t, t_error);
+        None
+    }
+
     /// The system's closed-form position solution, if it is a linkage of
     /// cranks and dyads ([`Linkage`](crate::Linkage)) whose body k has
     /// coordinates 3k, 3k + 1, 3k + 2 and nothing else: with
@@ -243,6 +264,15 @@ macro_rules! forward {
                 t: f64,
             ) -> Option<crate::Kink> {
                 (**self).kink(scratch, q, uncertainty, size, t)
+            }
+            fn undefined(
+                &self,
+                scratch: &mut S::Scratch,
+                q: &[f64],
+                t: f64,
+                t_error: f64,
+            ) -> Option<crate::Undefined> {
+                (**self).undefined(scratch, q, t, t_error)
             }
             fn linkage(&self) -> Option<&crate::Linkage> {
                 (**self).linkage()

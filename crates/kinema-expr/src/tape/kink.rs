@@ -153,7 +153,7 @@ impl Tape {
     /// (forward through the registers; a register overwritten by a value
     /// that does not depend on it no longer does).
     #[cold]
-    fn first_reader(&self, at: usize) -> Option<usize> {
+    pub(super) fn first_reader(&self, at: usize) -> Option<usize> {
         let mut tainted = vec![false; self.registers];
         let dst = self.instrs.get(at)?.dst() as usize;
         *tainted.get_mut(dst)? = true;
@@ -222,7 +222,7 @@ fn at_kink(ins: &Instr, r: &[f64], e: &[f64]) -> bool {
 /// cosines to within an ulp), and the
 /// first-order bound on its error from its operands' (the rounding of the
 /// result is added by the caller).
-fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64, f64) {
+pub(super) fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64]) -> (f64, f64) {
     let v = |a: Reg| r[a as usize];
     let err = |a: Reg| e[a as usize];
     match *ins {

@@ -11,6 +11,10 @@ use super::model::{CheckedModel, Form, LibArg, TExpr};
 ///   = help: add 1 driving or kinematic equation
 pub(super) fn check_dof(cx: &mut Ctxt, model: &CheckedModel) {
     let dof = model.dof();
+    if dof.coordinates == 0 {
+        check_not_empty(cx, model);
+        return;
+    }
     let n = dof.ndof();
     // A model with inertia may have free degrees of freedom: its static
     // equilibrium (`kinema run --equilibrium`) needs no driver, and forward
@@ -42,6 +46,31 @@ pub(super) fn check_dof(cx: &mut Ctxt, model: &CheckedModel) {
         )
         .with_help(help),
     );
+}
+
+/// Rule: the mechanism has coordinates. Without one there is nothing to
+/// solve (Φ_q is 0 × 0) and no motion to write; the model is a mistake, not
+/// a degenerate mechanism.
+///   error: mechanism `Empty` has no coordinates: there is nothing to analyse
+///   = help: declare a body (`body b { guess: (0, 0, 0) }`), the joints that connect it and the drivers that move it
+fn check_not_empty(cx: &mut Ctxt, model: &CheckedModel) {
+    let equations = model.equations.len();
+    let message = if equations == 0 {
+        format!(
+            "mechanism `{}` has no coordinates: there is nothing to analyse",
+            model.name
+        )
+    } else {
+        format!(
+            "mechanism `{}` has no coordinates for its {equations} equation{} to place",
+            model.name,
+            plural(i64::try_from(equations).unwrap_or(i64::MAX))
+        )
+    };
+    cx.push(Diagnostic::error(model.span, message).with_help(
+        "declare a body (`body b { guess: (0, 0, 0) }`), the joints that connect it and the \
+         drivers that move it",
+    ));
 }
 
 fn plural(n: i64) -> &'static str {

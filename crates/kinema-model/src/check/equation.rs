@@ -222,8 +222,12 @@ fn check_library(
     let mut out = Vec::new();
     let mut deps = Deps::default();
     let mut bodies: Vec<Option<BodyRef>> = Vec::new();
-    for (&a, &kind) in args.iter().zip(spec.args) {
+    for (k, (&a, &kind)) in args.iter().zip(spec.args).enumerate() {
+        // An argument's errors say which parameter it is and what the call
+        // takes (issue 42: a newcomer needs the signature).
+        let mark = cx.mark();
         let arg = check_lib_arg(cx, names, expr, a, kind, spec, values);
+        cx.help_since(mark, || spec.argument_help(k));
         if let Some((_, d)) = &arg {
             deps = deps.or(*d);
         }
@@ -277,7 +281,12 @@ fn check_lib_arg(
             Some((LibArg::Point(b, local), none))
         }
         ArgKind::Vector => {
-            let what = "a body-fixed vector";
+            // `cd`'s and `abs_distance`'s vector is a point of the
+            // global frame, the others' a direction in a body's frame.
+            let what = match spec.kind {
+                LibKind::Cd | LibKind::AbsDistance => "a constant vector of the global frame",
+                _ => "a body-fixed vector",
+            };
             let t = check_constant(cx, names, (expr, a), values.len(), Ty::Vector, what)?;
             let v = eval_vector(&t, values);
             finite_vector(cx, v, node.span, &t, values);

@@ -79,6 +79,95 @@ pub(super) struct LibSpec {
     pub(super) pair: Option<(usize, usize)>,
 }
 
+impl LibSpec {
+    /// The names of the parameters in [`signature`](Self::signature)
+    /// (`(cx, cy)` is one).
+    fn parameters(&self) -> Vec<&'static str> {
+        let sig = self.signature;
+        let inner = sig
+            .find('(')
+            .and_then(|open| sig.get(open + 1..sig.len().saturating_sub(1)))
+            .unwrap_or("");
+        let (mut out, mut depth, mut start) = (Vec::new(), 0usize, 0usize);
+        for (i, c) in inner.char_indices() {
+            match c {
+                '(' => depth += 1,
+                ')' => depth = depth.saturating_sub(1),
+                ',' if depth == 0 => {
+                    out.push(inner[start..i].trim());
+                    start = i + 1;
+                }
+                _ => {}
+            }
+        }
+        out.push(inner[start..].trim());
+        out
+    }
+
+    /// Help for a wrong argument `k`: which parameter it is and what the
+    /// call takes, every parameter by kind.
+    ///   `vi` is argument 2 of `translational(Pi, vi, Pj, vj)`, which takes Pi, Pj: points …; vi, vj: directions in their bodies' frames, constant vectors of params such as `(1, 0)`
+    pub(super) fn argument_help(&self, k: usize) -> String {
+        let names = self.parameters();
+        let name = names.get(k).copied().unwrap_or("?");
+        // The kinds in the order they first appear, each with its names.
+        let mut groups: Vec<(ArgKind, bool, Vec<&str>)> = Vec::new();
+        for (&kind, &n) in self.args.iter().zip(&names) {
+            let global = n.starts_with('(');
+            match groups
+                .iter_mut()
+                .find(|(g, gl, _)| *g == kind && *gl == global)
+            {
+                Some((_, _, list)) => list.push(n),
+                None => groups.push((kind, global, vec![n])),
+            }
+        }
+        let takes: Vec<String> = groups
+            .iter()
+            .map(|(kind, global, list)| {
+                let many = list.len() > 1;
+                format!("{}: {}", list.join(", "), describe(*kind, *global, many))
+            })
+            .collect();
+        format!(
+            "`{name}` is argument {} of `{}`, which takes {}",
+            k + 1,
+            self.signature,
+            takes.join("; ")
+        )
+    }
+}
+
+/// What an argument of `kind` is, for [`LibSpec::argument_help`]
+/// (`global`: a vector in the global frame; `many`: plural).
+fn describe(kind: ArgKind, global: bool, many: bool) -> &'static str {
+    match (kind, many) {
+        (ArgKind::Point, false) => {
+            "a point (`B(sx, sy)` in body B's frame, `B.name`, or `ground(x, y)`)"
+        }
+        (ArgKind::Point, true) => {
+            "points (`B(sx, sy)` in body B's frame, `B.name`, or `ground(x, y)`)"
+        }
+        (ArgKind::Body, false) => "a body's name (or `ground`)",
+        (ArgKind::Body, true) => "bodies' names (or `ground`)",
+        (ArgKind::Vector, _) if global => {
+            "a constant vector of params in the global frame, such as `(0, 0)`"
+        }
+        (ArgKind::Vector, false) => {
+            "a direction in its body's frame, a constant vector of params such as `(1, 0)`"
+        }
+        (ArgKind::Vector, true) => {
+            "directions in their bodies' frames, constant vectors of params such as `(1, 0)`"
+        }
+        (ArgKind::Scalar, false) => "a scalar expression of params and `t`",
+        (ArgKind::Scalar, true) => "scalar expressions of params and `t`",
+        (ArgKind::Curve, false) => "a curve `B.name` declared with `curve`",
+        (ArgKind::Curve, true) => "curves `B.name` declared with `curve`",
+        (ArgKind::Coord, false) => "a coordinate declared with `coord`",
+        (ArgKind::Coord, true) => "coordinates declared with `coord`",
+    }
+}
+
 use ArgKind::{Body as AB, Coord as AQ, Curve as AC, Point as AP, Scalar as AS, Vector as AV};
 
 pub(super) const LIBRARY: &[LibSpec] = &[

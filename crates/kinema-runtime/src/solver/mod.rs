@@ -352,6 +352,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         self.ws.diagnoses_left = DIAGNOSES_PER_STEP;
         self.system.initial_guess(&mut self.next.q);
+        self.check_defined(t0, t0)?;
         check_coordinates(&self.system, t0, Quantity::InitialGuess, &self.next.q)?;
         // The residual test's scale, from Φ_q at the guess.
         self.factored = 0;
@@ -406,6 +407,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
                 t,
             });
         }
+        self.check_defined(previous, t)?;
         self.advance(previous, t)?;
         Ok(&self.state)
     }
@@ -431,6 +433,125 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         }
         trajectory.set_events(self.close_events().to_vec());
         Ok(trajectory)
+    }
+
+    /// Before a step from `t0` to `t` (at assembly `t0 == t`): whether an
+    /// equation's function of time leaves its domain in (t0, t] (see
+    /// [`System::undefined`]): the step's bracket asked first, and the
+    /// first point located by bisection to roundoff of t; then t itself.
+    /// The system's answer over a bracket is a first-order one with a
+    /// margin: a bracket that no half confirms is no finding.
+    #[inline]
+    fn check_defined(&mut self, t0: f64, t: f64) -> Result<(), Error> {
+        // `next.q` holds the guess at assembly, the last iterate (of the
+        // right length) otherwise: functions of time alone do not read it.
+        let mut found = None;
+        if t0 < t {
+            let half = 0.5 * (t - t0);
+            let q = &self.next.q;
+            if self
+                .system
+                .undefined(&mut self.scratch, q, t0 + half, half)
+                .is_some()
+            {
+                found = self.locate_undefined(t0, t);
+            }
+            // The edge of a domain (√0, acos(±1)) is a finding only where
+            // the domain is left: at the step's end (where the derivative
+            // is unbounded, and the next step would be outside) or before
+            // it; one the function only touches between two times of the
+            // grid (`acos(cos t)` at π) is not, the motion goes on.
+            if let Some((at, u)) = found
+                && u.domain == crate::state::Domain::Edge
+            {
+                let at_end = t - at <= 1e-12 * (t - t0);
+                let q = &self.next.q;
+                if at_end {
+                    found = Some((t, u));
+                } else if self
+                    .system
+                    .undefined(&mut self.scratch, q, t, 0.0)
+                    .is_none()
+                {
+                    found = None;
+                }
+            }
+            // A point within roundoff of the step's end that is undefined
+            // itself (a pole at a time of the grid) is that time.
+            if let Some((at, _)) = found
+                && t - at <= 1e-12 * (t - t0)
+                && let Some(u) = self
+                    .system
+                    .undefined(&mut self.scratch, &self.next.q, t, 0.0)
+            {
+                found = Some((t, u));
+            }
+        }
+        if found.is_none() {
+            let q = &self.next.q;
+            found = self
+                .system
+                .undefined(&mut self.scratch, q, t, 0.0)
+                .map(|u| (t, u));
+        }
+        match found {
+            None => Ok(()),
+            Some((t, u)) => Err(Error::Undefined {
+                t,
+                equation: self.system.equation_name(u.equation).to_owned(),
+                function: u.function,
+                domain: u.domain,
+                argument: u.argument,
+            }),
+        }
+    }
+
+    /// A bracket [t0, t] in which an equation is reported undefined: the
+    /// first point in time that the system confirms at every scale, down
+    /// to roundoff of t, searched depth first, earlier halves first (a
+    /// report over a bracket is a first-order bound with a margin, so both
+    /// halves of one may be reported, and a reported half may hold no
+    /// point); the point and what is undefined there, or `None` if none
+    /// is confirmed.
+    #[cold]
+    #[inline(never)]
+    fn locate_undefined(&mut self, t0: f64, t: f64) -> Option<(f64, crate::Undefined)> {
+        // At most this many questions: a false report dies out within a few
+        // halvings, a true one is confirmed by a few dozen per level.
+        let mut budget = 20_000usize;
+        let mut stack = vec![(t0, t)];
+        while let Some((lo, hi)) = stack.pop() {
+            let mid = lo + 0.5 * (hi - lo);
+            if !(mid > lo && mid < hi) {
+                // Down to roundoff: the point itself if an end is one, else
+                // the bracket's middle, within roundoff of it.
+                let q = &self.next.q;
+                for at in [lo, hi, mid] {
+                    let error = if at == mid { 0.5 * (hi - lo) } else { 0.0 };
+                    if let Some(u) = self.system.undefined(&mut self.scratch, q, at, error) {
+                        return Some((at, u));
+                    }
+                }
+                continue;
+            }
+            // Later half pushed first: the earlier one is searched first.
+            for (a, b) in [(mid, hi), (lo, mid)] {
+                if budget == 0 {
+                    return None;
+                }
+                budget -= 1;
+                let half = 0.5 * (b - a);
+                let q = &self.next.q;
+                if self
+                    .system
+                    .undefined(&mut self.scratch, q, a + half, half)
+                    .is_some()
+                {
+                    stack.push((a, b));
+                }
+            }
+        }
+        None
     }
 
     /// From the current state at `t0` to `t`: one step if it is accepted,
@@ -603,6 +724,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// Reads the LU's pivots for `self.next` (Φ_q at its q in `ws.jac`): det sign, pivot ratio, and near-singularity, confirmed by
     /// the equilibrated SVD when the ratio is below the gate.
     fn monitor(&mut self) {
+        if self.system.is_empty() {
+            // Φ_q is 0 × 0: det 1, never singular (nothing to diagnose).
+            self.next.stats.pivot_ratio = 1.0;
+            self.next.det_sign = 1.0;
+            self.next.stats.near_singular = false;
+            return;
+        }
         let (ratio, sign) = self
             .lu
             .pivot_report()

@@ -1,0 +1,5 @@
+kinema::mechanism! {
+    mechanism Empty { }
+}
+
+fn main() {}
