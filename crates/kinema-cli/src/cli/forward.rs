@@ -391,7 +391,10 @@ impl Motion {
                 prescribed: false,
             },
         };
-        if consistency.dq > 0.0 || consistency.dqd > 0.0 {
+        // Corrections at the rounding of the start (cos(π/2) in a guess)
+        // are not news.
+        let roundoff = 1e-12 * (1.0 + q0.iter().chain(qd0).fold(0.0_f64, |m, x| m.max(x.abs())));
+        if consistency.dq > roundoff || consistency.dqd > roundoff {
             print_stderr(&format!(
                 "note: the initial conditions were made consistent: q moved by ‖Δq‖∞ = {:.3e} \
                  (‖Φ‖∞ was {:.3e}), q̇ by ‖Δq̇‖∞ = {:.3e} (‖Φ_q q̇ − ν‖∞ was {:.3e}), \
@@ -472,7 +475,13 @@ impl Motion {
                 self.warn_passages();
                 if let Err(e) = result {
                     super::run::print_imprecision_warning(system, &imprecise);
-                    return Err(step_failure(sink, &e, loaded, self.engine.monitor()));
+                    let bracket = (self.engine.t(), t);
+                    let undefined = undefined_between(system, &mut row.scratch, self.engine.q(), bracket);
+                    let cause = Cause {
+                        monitor: self.engine.monitor(),
+                        undefined,
+                    };
+                    return Err(step_failure(sink, &e, loaded, &cause));
                 }
             }
             row.fill(system, &mut self.engine)?;
@@ -641,9 +650,68 @@ fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
     }
 }
 
-fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded, monitor: &Monitor) -> Failure {
+/// What a failed step is put down to, beyond the integrator's own error.
+struct Cause<'a> {
+    monitor: &'a Monitor,
+    /// An equation undefined or unbounded in the failed step's bracket.
+    undefined: Option<kinema::Error>,
+}
+
+/// The first equation of Φ that is undefined or unbounded (a function of
+/// time outside its domain or at a pole, [`System::undefined`]) between
+/// the last state computed and the output time not reached, narrowed by
+/// bisection to rounding of t (the earlier half first), as the kinematic
+/// run reports it.
+fn undefined_between(
+    system: &kinema::TapeSystem,
+    scratch: &mut <kinema::TapeSystem as System>::Scratch,
+    q: &[f64],
+    (t0, t1): (f64, f64),
+) -> Option<kinema::Error> {
+    let (mut lo, mut hi) = (t0.min(t1), t0.max(t1));
+    let mut found = None;
+    for _ in 0..80 {
+        let half = 0.5 * (hi - lo);
+        let mid = lo + half;
+        let Some(u) = system.undefined(scratch, q, mid, half) else {
+            break;
+        };
+        found = Some((u, mid));
+        if half <= 4.0 * f64::EPSILON * mid.abs().max(1.0) {
+            break;
+        }
+        // The earlier half first: the first point where the model breaks.
+        if system.undefined(scratch, q, lo + 0.5 * half, 0.5 * half).is_some() {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let (u, t) = found?;
+    Some(kinema::Error::Undefined {
+        t,
+        equation: system.equation_name(u.equation).to_owned(),
+        function: u.function,
+        domain: u.domain,
+        argument: u.argument,
+    })
+}
+
+fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded, cause: &Cause<'_>) -> Failure {
     let note = sink.finish_after_failure();
-    let mut message = format!("error: forward dynamics of `{}`: {e}", loaded.file);
+    let monitor = cause.monitor;
+    let mut message = format!("error: forward dynamics of `{}`: ", loaded.file);
+    // An equation without a value explains the failure better than the
+    // integrator's symptom of it (which follows as a note).
+    match &cause.undefined {
+        Some(u) => {
+            let _ = write!(message, "{u}
+  = note: the integrator stopped: {e}");
+        }
+        None => {
+            let _ = write!(message, "{e}");
+        }
+    }
     if monitor.near_singular() {
         let _ = write!(
             message,

@@ -435,6 +435,16 @@ impl Monitor {
         if s_min.is_nan() || s_min > self.threshold {
             return;
         }
+        // Two overlapping brackets can locate one passage twice (a V
+        // sampled with two low steps on either side of its vertex).
+        let gap = 1e-6 * (t1 - t0).max(f64::EPSILON * t_min.abs());
+        if self
+            .passages
+            .last()
+            .is_some_and(|p| (p.t - t_min).abs() <= gap.max(0.5 * (t1 - t0)))
+        {
+            return;
+        }
         self.interpolate(t_min);
         let q = std::mem::take(&mut self.qi);
         let dependency = match self.scaled_svd(system, &q, t_min, true) {
