@@ -888,6 +888,7 @@ impl NativeModel {
             stop_at_singular,
         };
         let (adm, rows_n) = (self.is_adm(), d.rows.len());
+        let start = std::time::Instant::now();
         let out = py
             .detach(|| {
                 run_kinematics(
@@ -901,7 +902,11 @@ impl NativeModel {
                 )
             })
             .map_err(KinemaError::new_err)?;
+        // The Rust part of the run (the solver loop into one buffer), for
+        // measurements of the Python overhead around it.
+        let rust_seconds = start.elapsed().as_secs_f64();
         let dict = PyDict::new(py);
+        dict.set_item("rust_seconds", rust_seconds)?;
         let cols = out.columns.len();
         dict.set_item("values", array(py, out.values, out.rows, cols)?)?;
         dict.set_item("columns", out.columns)?;

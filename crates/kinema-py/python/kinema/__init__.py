@@ -116,7 +116,8 @@ class Results:
     ``results["coupler.p.x"]`` is one column (a view of ``values``);
     :meth:`to_pandas` makes a DataFrame. ``events`` lists the singular
     configurations met; ``flagged``, ``kinks``, ``output_kinks`` and
-    ``imprecise`` the output times the CLI warns about.
+    ``imprecise`` the output times the CLI warns about; ``backend`` the
+    back end the run ended on (``"jit"`` or ``"tape"``).
     """
 
     def __init__(
@@ -130,6 +131,7 @@ class Results:
         imprecise: Optional[List[Tuple[float, str, str]]] = None,
         failures: Optional[List[Tuple[int, str]]] = None,
         backend: Optional[str] = None,
+        rust_seconds: Optional[float] = None,
     ) -> None:
         self.columns: List[str] = list(columns)
         self.values: np.ndarray = values
@@ -140,6 +142,9 @@ class Results:
         self.imprecise: List[Tuple[float, str, str]] = imprecise or []
         self.failures: List[Tuple[int, str]] = failures or []
         self.backend = backend
+        #: Seconds the run spent in Rust (the solver loop), for measuring
+        #: the Python overhead around it; None for sweeps.
+        self.rust_seconds = rust_seconds
         self._index = {name: k for k, name in enumerate(self.columns)}
 
     @property
@@ -305,6 +310,7 @@ def _results_of_run(out: Mapping[str, Any]) -> Results:
         output_kinks=list(out["output_kinks"]),
         imprecise=list(out["imprecise"]),
         backend=out["backend"],
+        rust_seconds=out["rust_seconds"],
     )
 
 
