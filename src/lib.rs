@@ -44,6 +44,8 @@ pub use kinema_runtime::{
 pub use kinema_runtime::{Outputs, Table};
 
 #[cfg(feature = "model")]
+pub mod columns;
+#[cfg(feature = "model")]
 pub mod dynamics;
 #[cfg(feature = "model")]
 pub mod equilibrium;

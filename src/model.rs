@@ -82,6 +82,21 @@ impl Model {
     pub fn from_source(source: &str, file: &str) -> Result<Model, ModelError> {
         let model = kinema_model::ParsedModel::parse_str(source)
             .map_err(|d| model_error(&d, source, file))?;
+        Model::from_parsed(model, source, file)
+    }
+
+    /// Checks and derives a model whose syntax tree was made elsewhere (a
+    /// simEngine2D file through `kinema_adm::build`, its spans in that
+    /// file's text): `source` is the text the spans point into, `file`
+    /// names it in messages.
+    ///
+    /// # Errors
+    /// [`ModelError`] with every error found (and the warnings).
+    pub fn from_parsed(
+        model: kinema_model::ParsedModel,
+        source: &str,
+        file: &str,
+    ) -> Result<Model, ModelError> {
         let checked = model.check().map_err(|d| model_error(&d, source, file))?;
         let warnings = checked.warnings.render_each(source, file);
         let derivation = Derivation::new(&checked).map_err(|d| model_error(&d, source, file))?;

@@ -206,6 +206,59 @@ impl Analysis {
         }
         times
     }
+
+    /// The run's grid as the command line solves it: the solve times of
+    /// [`Analysis::solve_times`] merged with the [`Analysis::output_times`]
+    /// (strictly increasing), and for each whether it is an output. A solve
+    /// within roundoff (1e-9 · stepSize) before the next output time is
+    /// that output (the engine's `t + stepSize` drifts: 0.29 + 0.01 <
+    /// 0.3). `kinema run model.adm` and the Python package step a solver
+    /// through these times and report the outputs.
+    #[must_use]
+    pub fn grid(&self) -> (Vec<f64>, Vec<bool>) {
+        let outputs = self.output_times();
+        let solves = self.solve_times();
+        let (mut times, mut output) = (Vec::new(), Vec::new());
+        let (mut i, mut j) = (0, 0);
+        while i < solves.len() || j < outputs.len() {
+            let (s, o) = (solves.get(i).copied(), outputs.get(j).copied());
+            let (t, is_output) = match (s, o) {
+                (Some(s), Some(o)) if s == o => {
+                    i += 1;
+                    j += 1;
+                    (s, true)
+                }
+                (Some(s), Some(o)) if s < o => {
+                    i += 1;
+                    (s, false)
+                }
+                (_, Some(o)) => {
+                    j += 1;
+                    (o, true)
+                }
+                (Some(s), None) => {
+                    i += 1;
+                    (s, false)
+                }
+                (None, None) => break,
+            };
+            let near_output = !is_output
+                && outputs
+                    .get(j)
+                    .is_some_and(|&o| o - t <= 1e-9 * self.step_size.abs());
+            if near_output {
+                continue;
+            }
+            // Keep the grid strictly increasing whatever the inputs.
+            if times.last().is_none_or(|&last| t > last) {
+                times.push(t);
+                output.push(is_output);
+            } else if is_output && let Some(last) = output.last_mut() {
+                *last = true;
+            }
+        }
+        (times, output)
+    }
 }
 
 /// Most solve times an analysis may ask for (`tend / stepSize`): the same

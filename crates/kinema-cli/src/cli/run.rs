@@ -81,48 +81,7 @@ impl Grid {
     pub fn simengine(analysis: &Analysis, source: &dyn Fn() -> String) -> Result<Grid, Failure> {
         let outputs = analysis.output_times();
         check_increasing(&outputs, source)?;
-        let solves = analysis.solve_times();
-        let (mut times, mut output) = (Vec::new(), Vec::new());
-        let (mut i, mut j) = (0, 0);
-        while i < solves.len() || j < outputs.len() {
-            let (s, o) = (solves.get(i).copied(), outputs.get(j).copied());
-            let (t, is_output) = match (s, o) {
-                (Some(s), Some(o)) if s == o => {
-                    i += 1;
-                    j += 1;
-                    (s, true)
-                }
-                (Some(s), Some(o)) if s < o => {
-                    i += 1;
-                    (s, false)
-                }
-                (_, Some(o)) => {
-                    j += 1;
-                    (o, true)
-                }
-                (Some(s), None) => {
-                    i += 1;
-                    (s, false)
-                }
-                (None, None) => break,
-            };
-            // A solve within roundoff of the next output is that output
-            // (the engine's `t + stepSize` drifts: 0.29 + 0.01 < 0.3).
-            let near_output = !is_output
-                && outputs
-                    .get(j)
-                    .is_some_and(|&o| o - t <= 1e-9 * analysis.step_size.abs());
-            if near_output {
-                continue;
-            }
-            // Keep the grid strictly increasing whatever the inputs.
-            if times.last().is_none_or(|&last| t > last) {
-                times.push(t);
-                output.push(is_output);
-            } else if is_output && let Some(last) = output.last_mut() {
-                *last = true;
-            }
-        }
+        let (times, output) = analysis.grid();
         let outputs_n = output.iter().filter(|&&o| o).count();
         Ok(Grid {
             description: format!(
