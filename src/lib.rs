@@ -39,7 +39,7 @@ pub use kinema_runtime::{
     InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
     Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
     SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
-    point_kinematics,
+    locate_undefined, point_kinematics,
 };
 pub use kinema_runtime::{Outputs, Table};
 

@@ -471,17 +471,36 @@ impl Motion {
         let mut imprecise = Vec::new();
         for (k, &t) in outputs_t.iter().enumerate() {
             if k > 0 {
-                let result = self.engine.advance_to(t, h);
+                // An equation without a value inside the interval (a pole of
+                // a driver between two steps) stops the run there: no step
+                // size follows it, and one stepping over it would print
+                // numbers of a model that does not exist there.
+                let interval = (self.engine.t(), t, f64::NAN);
+                let ahead = undefined_between(system, &mut row.scratch, self.engine.q(), interval);
+                let result = match ahead {
+                    Some(u) => Err((None, Some(u))),
+                    None => self.engine.advance_to(t, h).map_err(|e| (Some(e), None)),
+                };
                 self.warn_passages();
-                if let Err(e) = result {
+                if let Err((e, undefined)) = result {
                     super::run::print_imprecision_warning(system, &imprecise);
-                    let bracket = (self.engine.t(), t);
-                    let undefined = undefined_between(system, &mut row.scratch, self.engine.q(), bracket);
+                    let undefined = undefined.or_else(|| {
+                        let failed_at = match &e {
+                            Some(
+                                IntegrateError::NoConvergence { t, .. }
+                                | IntegrateError::Singular { t, .. }
+                                | IntegrateError::NonFinite { t, .. },
+                            ) => *t,
+                            _ => f64::NAN,
+                        };
+                        let bracket = (self.engine.t(), t, failed_at);
+                        undefined_between(system, &mut row.scratch, self.engine.q(), bracket)
+                    });
                     let cause = Cause {
                         monitor: self.engine.monitor(),
                         undefined,
                     };
-                    return Err(step_failure(sink, &e, loaded, &cause));
+                    return Err(step_failure(sink, e.as_ref(), loaded, &cause));
                 }
             }
             row.fill(system, &mut self.engine)?;
@@ -666,51 +685,52 @@ fn undefined_between(
     system: &kinema::TapeSystem,
     scratch: &mut <kinema::TapeSystem as System>::Scratch,
     q: &[f64],
-    (t0, t1): (f64, f64),
+    (t0, t1, failed_at): (f64, f64, f64),
 ) -> Option<kinema::Error> {
-    let (mut lo, mut hi) = (t0.min(t1), t0.max(t1));
-    let mut found = None;
-    for _ in 0..80 {
-        let half = 0.5 * (hi - lo);
-        let mid = lo + half;
-        let Some(u) = system.undefined(scratch, q, mid, half) else {
-            break;
-        };
-        found = Some((u, mid));
-        if half <= 4.0 * f64::EPSILON * mid.abs().max(1.0) {
-            break;
-        }
-        // The earlier half first: the first point where the model breaks.
-        if system.undefined(scratch, q, lo + 0.5 * half, 0.5 * half).is_some() {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    let (u, t) = found?;
-    Some(kinema::Error::Undefined {
+    let at = |t: f64, u: kinema::Undefined| kinema::Error::Undefined {
         t,
         equation: system.equation_name(u.equation).to_owned(),
         function: u.function,
         domain: u.domain,
         argument: u.argument,
-    })
+    };
+    // The time the integrator failed at first (a pole met exactly).
+    if failed_at.is_finite()
+        && let Some(u) = system.undefined(scratch, q, failed_at, 0.0)
+    {
+        return Some(at(failed_at, u));
+    }
+    let (lo, hi) = (t0.min(t1), t0.max(t1));
+    let half = 0.5 * (hi - lo);
+    system.undefined(scratch, q, lo + half, half)?;
+    let (t, u) = kinema::locate_undefined(system, scratch, q, (lo, hi))?;
+    Some(at(t, u))
 }
 
-fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded, cause: &Cause<'_>) -> Failure {
+/// The error of a run that stopped: the integrator's `e` (none when the
+/// run stopped before a step, at an undefined equation), its cause.
+fn step_failure(
+    sink: CsvSink,
+    e: Option<&IntegrateError>,
+    loaded: &Loaded,
+    cause: &Cause<'_>,
+) -> Failure {
     let note = sink.finish_after_failure();
     let monitor = cause.monitor;
     let mut message = format!("error: forward dynamics of `{}`: ", loaded.file);
     // An equation without a value explains the failure better than the
     // integrator's symptom of it (which follows as a note).
-    match &cause.undefined {
-        Some(u) => {
-            let _ = write!(message, "{u}
-  = note: the integrator stopped: {e}");
+    match (&cause.undefined, e) {
+        (Some(u), Some(e)) => {
+            let _ = write!(message, "{u}\n  = note: the integrator stopped: {e}");
         }
-        None => {
+        (Some(u), None) => {
+            let _ = write!(message, "{u}: no step can be taken through it");
+        }
+        (None, Some(e)) => {
             let _ = write!(message, "{e}");
         }
+        (None, None) => message.push_str("the run stopped"),
     }
     if monitor.near_singular() {
         let _ = write!(
@@ -721,7 +741,7 @@ fn step_failure(sink: CsvSink, e: &IntegrateError, loaded: &Loaded, cause: &Caus
         );
     }
     if let Some(adm) = &loaded.adm
-        && let IntegrateError::NoConvergence { equation, .. } = e
+        && let Some(IntegrateError::NoConvergence { equation, .. }) = e
         && let Some(name) = equation
             .strip_prefix("constraint `")
             .and_then(|s| s.strip_suffix('`'))

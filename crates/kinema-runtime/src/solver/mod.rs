@@ -516,42 +516,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     #[cold]
     #[inline(never)]
     fn locate_undefined(&mut self, t0: f64, t: f64) -> Option<(f64, crate::Undefined)> {
-        // At most this many questions: a false report dies out within a few
-        // halvings, a true one is confirmed by a few dozen per level.
-        let mut budget = 20_000usize;
-        let mut stack = vec![(t0, t)];
-        while let Some((lo, hi)) = stack.pop() {
-            let mid = lo + 0.5 * (hi - lo);
-            if !(mid > lo && mid < hi) {
-                // Down to roundoff: the point itself if an end is one, else
-                // the bracket's middle, within roundoff of it.
-                let q = &self.next.q;
-                for at in [lo, hi, mid] {
-                    let error = if at == mid { 0.5 * (hi - lo) } else { 0.0 };
-                    if let Some(u) = self.system.undefined(&mut self.scratch, q, at, error) {
-                        return Some((at, u));
-                    }
-                }
-                continue;
-            }
-            // Later half pushed first: the earlier one is searched first.
-            for (a, b) in [(mid, hi), (lo, mid)] {
-                if budget == 0 {
-                    return None;
-                }
-                budget -= 1;
-                let half = 0.5 * (b - a);
-                let q = &self.next.q;
-                if self
-                    .system
-                    .undefined(&mut self.scratch, q, a + half, half)
-                    .is_some()
-                {
-                    stack.push((a, b));
-                }
-            }
-        }
-        None
+        locate_undefined(&self.system, &mut self.scratch, &self.next.q, (t0, t))
     }
 
     /// From the current state at `t0` to `t`: one step if it is accepted,
@@ -1125,4 +1090,50 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
         Ok((&self.system, &self.ws.jac))
     }
+}
+
+/// The first point of [t0, t] where one of `system`'s equations is
+/// undefined or unbounded ([`System::undefined`]), located by bisection to
+/// roundoff of t: both halves of a flagged bracket are searched, the
+/// earlier first, because the system's answer over a bracket is a
+/// first-order one with a margin (a bracket no half confirms is no
+/// finding). `q` is any state of the right length (the functions asked
+/// about are of time alone). Allocates a small stack; for the failure and
+/// pre-step paths, not the step.
+pub fn locate_undefined<S: System>(
+    system: &S,
+    scratch: &mut S::Scratch,
+    q: &[f64],
+    (t0, t): (f64, f64),
+) -> Option<(f64, crate::Undefined)> {
+    // At most this many questions: a false report dies out within a few
+    // halvings, a true one is confirmed by a few dozen per level.
+    let mut budget = 20_000usize;
+    let mut stack = vec![(t0, t)];
+    while let Some((lo, hi)) = stack.pop() {
+        let mid = lo + 0.5 * (hi - lo);
+        if !(mid > lo && mid < hi) {
+            // Down to roundoff: the point itself if an end is one, else
+            // the bracket's middle, within roundoff of it.
+            for at in [lo, hi, mid] {
+                let error = if at == mid { 0.5 * (hi - lo) } else { 0.0 };
+                if let Some(u) = system.undefined(scratch, q, at, error) {
+                    return Some((at, u));
+                }
+            }
+            continue;
+        }
+        // Later half pushed first: the earlier one is searched first.
+        for (a, b) in [(mid, hi), (lo, mid)] {
+            if budget == 0 {
+                return None;
+            }
+            budget -= 1;
+            let half = 0.5 * (b - a);
+            if system.undefined(scratch, q, a + half, half).is_some() {
+                stack.push((a, b));
+            }
+        }
+    }
+    None
 }
