@@ -6,6 +6,9 @@
 //! mean (descending Landen transformation, Abramowitz & Stegun 16.4), good to
 //! roundoff.
 
+mod common;
+
+use common::jacobi_sn;
 use kinema::{Accurate, ForwardSystem, Hht, HhtOptions, Model};
 
 const PENDULUM: &str = "
@@ -32,27 +35,6 @@ mechanism SliderCrankFree {
     constraint on_axis: abs_y(slider(0, 0), 0);
     constraint no_turn: abs_angle(slider, 0);
 }";
-
-/// K(k) and sn(u, k) by the AGM.
-fn jacobi_sn(u: f64, k: f64) -> (f64, f64) {
-    let mut a = vec![1.0_f64];
-    let mut c = vec![k];
-    let mut b = (1.0 - k * k).sqrt();
-    while c.last().is_some_and(|c| c.abs() > 1e-17) && a.len() < 40 {
-        let an = a[a.len() - 1];
-        let (a1, b1, c1) = ((an + b) / 2.0, (an * b).sqrt(), (an - b) / 2.0);
-        a.push(a1);
-        c.push(c1);
-        b = b1;
-    }
-    let nn = a.len() - 1;
-    let big_k = std::f64::consts::PI / (2.0 * a[nn]);
-    let mut phi = 2f64.powi(nn as i32) * a[nn] * u;
-    for i in (1..=nn).rev() {
-        phi = (phi + (c[i] / a[i] * phi.sin()).asin()) / 2.0;
-    }
-    (big_k, phi.sin())
-}
 
 /// φ(t) of the pendulum (angle of the bar from +x) released at φ = 0.
 fn pendulum_phi(t: f64) -> f64 {
