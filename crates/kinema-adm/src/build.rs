@@ -138,11 +138,6 @@ impl Tree {
         self.push(ExprKind::Ident(Name::new(name, at)), at)
     }
 
-    fn field(&mut self, base: u32, name: &str, at: Span) -> u32 {
-        let span = self.span(base).to(at);
-        self.push(ExprKind::Field(base, Name::new(name, at)), span)
-    }
-
     fn call(&mut self, name: &str, at: Span, args: Vec<u32>) -> u32 {
         let span = args.last().map_or(at, |&a| at.to(self.span(a)));
         self.push(ExprKind::Call(Name::new(name, at), args), span)
@@ -319,8 +314,7 @@ fn vis_points<'a>(body: &'a Body, ident: &'a str) -> impl Iterator<Item = PointD
         })
 }
 
-/// The equations of one constraint element: one, or two for a
-/// RackPinion.
+/// The equation of one constraint element.
 fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec<EquationDecl> {
     let at = |key: &str| field_span(&c.fields, key, c.pos);
     let head = format!(
@@ -342,14 +336,16 @@ fn constraint_decls(c: &Constraint, idents: &[String], bodies: &[String]) -> Vec
         rhs,
     };
     if let Some(rp) = RackPinion::of(&c.kind, bodies) {
-        let [first, second] = rack_pinion_rows(&rp, &at);
         let ignored = crate::emit::ignored_fun(rp.fun.as_deref());
-        let doc1 = format!("{head} {}{ignored}", rp.first_doc());
-        let doc2 = rp.second_doc(c.id, &comment_text(&c.name));
-        return vec![
-            equation(EquationKeyword::Constraint, doc1, name(0), first),
-            equation(EquationKeyword::Constraint, doc2, name(1), second),
-        ];
+        let doc_text = format!("{head} {}{ignored}", rp.doc());
+        let mut t = Tree::new();
+        let root = rack_pinion_call(&mut t, &rp, &at);
+        return vec![equation(
+            EquationKeyword::Constraint,
+            doc_text,
+            name(0),
+            (t.finish(root), None),
+        )];
     }
     let mut t = Tree::new();
     let (keyword, doc_text, root) = one_row(&mut t, c, bodies, &head, &at);
@@ -430,7 +426,7 @@ fn one_row(
             );
             (EquationKeyword::Joint, doc_text, root)
         }
-        // Never here: `constraint_decls` makes a RackPinion's two rows
+        // Never here: `constraint_decls` makes a RackPinion's call
         // itself. An empty call would be refused by the checker.
         ConstraintKind::RackPinion { .. } => {
             let root = t.call("rack_pinion", at("type"), Vec::new());
@@ -448,55 +444,22 @@ fn keyword(fun: &fun::Expr) -> EquationKeyword {
     }
 }
 
-/// The two rows of a RackPinion (SIMENGINE2D.md), with u = sQ1 − sP1,
-/// a = A(φ_rack) u, L = |u|, α = φ_rack + θ1 − φ_pinion − θ2 + 3π/2:
-///
-/// - rolling: (r_pinion(sP2) − r_rack(sQ1))ᵀ a = L R2 α;
-/// - contact: (r_pinion(sP2) − r_rack(sP1))ᵀ (R a) = L R2.
-fn rack_pinion_rows(rp: &RackPinion<'_>, at: &dyn Fn(&str) -> Span) -> [(Expr, Option<Expr>); 2] {
-    let row = |contact: bool| {
-        let mut t = Tree::new();
-        let pinion = t.point(rp.bodies, rp.pinion, rp.sp2, (at("body2"), at("sP2")));
-        let (s, key) = if contact {
-            (rp.sp1, "sP1")
-        } else {
-            (rp.sq1, "sQ1")
-        };
-        let rack = t.point(rp.bodies, rp.rack, s, (at("body1"), at(key)));
-        let d = t.bin(BinOp::Sub, pinion, rack);
-        let phi_at = at("body1");
-        let rack_body = t.ident(body_name(rp.bodies, rp.rack), phi_at);
-        let phi = t.field(rack_body, "phi", phi_at);
-        let u = t.pair(rp.u, at("sQ1"));
-        let mut a = t.call("rot", at("type"), vec![phi, u]);
-        if contact {
-            a = t.call("perp", at("type"), vec![a]);
-        }
-        let lhs = t.call("dot", at("type"), vec![d, a]);
-        let lhs = t.finish(lhs);
-        let mut t = Tree::new();
-        let l = t.num(rp.length, at("sQ1"));
-        let r2 = t.num(rp.r2, at("R2"));
-        let mut rhs = t.bin(BinOp::Mul, l, r2);
-        if !contact {
-            let alpha = rack_pinion_angle(&mut t, rp, at);
-            rhs = t.bin(BinOp::Mul, rhs, alpha);
-        }
-        (lhs, Some(t.finish(rhs)))
-    };
-    [row(false), row(true)]
-}
-
-/// α of [`rack_pinion_rows`] as the sum the printer writes.
-fn rack_pinion_angle(t: &mut Tree, rp: &RackPinion<'_>, at: &dyn Fn(&str) -> Span) -> u32 {
+/// A RackPinion as kinema's library element (see [`RackPinion`]):
+/// `rack_pinion(rack(sP1), u, pinion(sP2), R2, L + R2 * (θ1 − θ2 + 3π/2))`
+/// with u = sQ1 − sP1 and L = |u|.
+fn rack_pinion_call(t: &mut Tree, rp: &RackPinion<'_>, at: &dyn Fn(&str) -> Span) -> u32 {
+    let rack = t.point(rp.bodies, rp.rack, rp.sp1, (at("body1"), at("sP1")));
+    let u = t.pair(rp.u, at("sQ1"));
+    let pinion = t.point(rp.bodies, rp.pinion, rp.sp2, (at("body2"), at("sP2")));
+    let r2 = t.num(rp.r2, at("R2"));
+    let l = t.num(rp.length, at("sQ1"));
+    let r2_again = t.num(rp.r2, at("R2"));
     let mut terms = Vec::new();
     for term in rp.angle_terms() {
-        let id = match term {
-            SumTerm::Phi(negative, body, key) => {
-                let s = at(key);
-                let b = t.ident(body_name(rp.bodies, body), s);
-                (negative, t.field(b, "phi", s))
-            }
+        terms.push(match term {
+            // A leading negative number is parsed as `-` applied to it,
+            // straight after its literal; a later one is subtracted.
+            SumTerm::Num(x, key) if terms.is_empty() => (false, t.num(x, at(key))),
             SumTerm::Num(x, key) => {
                 let lit = t.num(x.abs(), at(key));
                 (x < 0.0, lit)
@@ -509,10 +472,12 @@ fn rack_pinion_angle(t: &mut Tree, rp: &RackPinion<'_>, at: &dyn Fn(&str) -> Spa
                 let two = t.num(2.0, s);
                 (false, t.bin(BinOp::Div, num, two))
             }
-        };
-        terms.push(id);
+        });
     }
-    t.sum(terms, at("type"))
+    let angle = t.sum(terms, at("type"));
+    let scaled = t.bin(BinOp::Mul, r2_again, angle);
+    let c0 = t.bin(BinOp::Add, l, scaled);
+    t.call("rack_pinion", at("type"), vec![rack, u, pinion, r2, c0])
 }
 
 fn gravity_decl(model: &Model) -> GravityDecl {

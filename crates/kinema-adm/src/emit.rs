@@ -11,7 +11,7 @@
 //! | AbsoluteAngle, `fun` | `abs_angle(B, f)` |
 //! | RevoluteJoint | `joint n: revolute(Bi(sP1), Bj(sP2))` |
 //! | TranslationalJoint | `joint n: translational(Bi(sP1), v1, Bj(sP2), v2)`, v normalised |
-//! | RackPinion | two written equations `n_1`, `n_2` with the engine's formula |
+//! | RackPinion | `constraint n: rack_pinion(Bi(sP1), sQ1 - sP1, Bj(sP2), R2, c0)`, c0 below |
 //!
 //! An Absolute* element whose `fun` mentions `t` is a `driver`, otherwise a
 //! `constraint`. Names become identifiers ([`Names`]); each item carries a
@@ -46,8 +46,8 @@ pub struct Names {
     pub mechanism: String,
     /// One identifier per body, in order.
     pub bodies: Vec<String>,
-    /// Per constraint element, the names of the items it becomes: one, or
-    /// two for a RackPinion (`name_1`, `name_2`).
+    /// Per constraint element, the names of the items it becomes (one
+    /// each).
     pub constraints: Vec<Vec<String>>,
 }
 
@@ -74,14 +74,7 @@ impl Names {
         let constraints = model
             .constraints
             .iter()
-            .map(|c| {
-                let base = identifier(&c.name, "c", c.id);
-                if matches!(c.kind, ConstraintKind::RackPinion { .. }) {
-                    vec![take(format!("{base}_1")), take(format!("{base}_2"))]
-                } else {
-                    vec![take(base)]
-                }
-            })
+            .map(|c| vec![take(identifier(&c.name, "c", c.id))])
             .collect();
         Names {
             mechanism: camel_identifier(&model.name),
@@ -95,10 +88,10 @@ impl Names {
 /// constraint it comes from.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RowOrigin {
-    /// The row's name in kinema: `name` for a one-row element and for each of
-    /// a rack-pinion's two written equations, `name.x`/`name.y` for a
-    /// revolute joint, `name.1`/`name.2` for a translational joint (kinema's
-    /// naming of library rows).
+    /// The row's name in kinema: `name` for a one-row element,
+    /// `name.x`/`name.y` for a revolute joint, `name.1`/`name.2` for a
+    /// translational joint and a rack-and-pinion (kinema's naming of
+    /// library rows).
     pub row: String,
     /// 0-based index of the constraint in [`Model::constraints`].
     pub constraint: usize,
@@ -125,6 +118,12 @@ impl Names {
                 ConstraintKind::Translational { .. } => {
                     push(format!("{first}.1"));
                     push(format!("{first}.2"));
+                }
+                // The engine's first row rolls (kinema's `.2`), its second
+                // keeps the centre off the pitch line (`.1`).
+                ConstraintKind::RackPinion { .. } => {
+                    push(format!("{first}.2"));
+                    push(format!("{first}.1"));
                 }
                 _ => idents.iter().cloned().for_each(push),
             }
@@ -241,12 +240,10 @@ pub(crate) fn normalised(v: Vec2) -> Option<Vec2> {
     u.iter().all(|x| x.is_finite()).then_some(u)
 }
 
-/// A term of the rack-pinion's angle α = φ_rack + θ1 − φ_pinion − θ2 +
-/// 3π/2, shared by the printer and [`crate::build`].
+/// A term of the constant part of the rack-pinion's angle,
+/// θ1 − θ2 + 3π/2, shared by the printer and [`crate::build`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum SumTerm {
-    /// ± the angle of a body (index) written in field `key`.
-    Phi(bool, usize, &'static str),
     /// A number from field `key`; its sign is the term's (zero: no term).
     Num(f64, &'static str),
     /// `3 * pi / 2`.
@@ -255,13 +252,24 @@ pub(crate) enum SumTerm {
 
 /// A RackPinion element's numbers (SIMENGINE2D.md): u = sQ1 − sP1 along
 /// the pitch line, L = |u| (finite: the reader refuses a pitch line whose
-/// length overflows), and the terms of its angle.
+/// length overflows), and the terms of its angle's constant.
+///
+/// The engine's two rows, with d = r_pinion(sP2) − r_rack(sP1),
+/// a = A(φ_rack) u and α = φ_rack + θ1 − φ_pinion − θ2 + 3π/2, are
+///
+/// - rolling: (d − a)ᵀ a − L R2 α = L (ûᵀd + R2 (φ_pinion − φ_rack) − c0),
+/// - contact: dᵀ(R a) − L R2 = L (n̂ᵀd − R2),
+///
+/// with û = a / L, n̂ = R û and c0 = L + R2 (θ1 − θ2 + 3π/2): L times the
+/// rows `.2` and `.1` of kinema's `rack_pinion(rack(sP1), u, pinion(sP2),
+/// R2, c0)`. The import writes that element, so its reaction is one element
+/// about its own points (sP1 on the rack, sP2 on the pinion); its
+/// multipliers are the engine's divided by L, its rows in kinema's order.
 pub(crate) struct RackPinion<'a> {
     pub(crate) bodies: &'a [String],
     pub(crate) rack: usize,
     pub(crate) pinion: usize,
     pub(crate) sp1: Vec2,
-    pub(crate) sq1: Vec2,
     pub(crate) sp2: Vec2,
     pub(crate) u: Vec2,
     pub(crate) length: f64,
@@ -293,7 +301,6 @@ impl<'a> RackPinion<'a> {
             rack: *body1,
             pinion: *body2,
             sp1: *sp1,
-            sq1: *sq1,
             sp2: *sp2,
             u,
             length: length(u),
@@ -303,13 +310,10 @@ impl<'a> RackPinion<'a> {
         })
     }
 
-    /// α = φ_rack + θ1 − φ_pinion − θ2 + 3π/2, term by term; a zero θ is
-    /// no term.
+    /// θ1 − θ2 + 3π/2, term by term; a zero θ is no term.
     pub(crate) fn angle_terms(&self) -> Vec<SumTerm> {
         [
-            SumTerm::Phi(false, self.rack, "body1"),
             SumTerm::Num(self.theta[0], "theta1"),
-            SumTerm::Phi(true, self.pinion, "body2"),
             SumTerm::Num(-self.theta[1], "theta2"),
             SumTerm::ThreePiOverTwo,
         ]
@@ -318,32 +322,24 @@ impl<'a> RackPinion<'a> {
         .collect()
     }
 
-    /// What the first row's doc comment says after the element's head.
-    pub(crate) fn first_doc(&self) -> String {
+    /// What the doc comment says after the element's head.
+    pub(crate) fn doc(&self) -> String {
         let name = |i: usize| body_name(self.bodies, i);
         format!(
-            "(body1 {} is the rack, body2 {} the pinion), row 1 of 2: rolling, scaled by L = |sQ1 - sP1|",
+            "(body1 {} is the rack, body2 {} the pinion): u = sQ1 - sP1, c0 = |u| + R2 (theta1 - theta2 + 3 pi / 2); rows .1 (contact) and .2 (rolling) are the engine's rows 2 and 1 divided by |u|",
             name(self.rack),
             name(self.pinion)
-        )
-    }
-
-    /// The second row's doc comment.
-    pub(crate) fn second_doc(&self, id: usize, name: &str) -> String {
-        format!(
-            "constraint {id} \"{name}\": RackPinion, row 2 of 2: pinion centre at distance R2 left of the pitch line"
         )
     }
 }
 
 /// The printed sum of signed terms: numbers are folded into the sign
 /// (`x + -1.5` prints as `x - 1.5`).
-fn sum(terms: &[SumTerm], bodies: &[String]) -> String {
+fn sum(terms: &[SumTerm]) -> String {
     let mut out = String::new();
     for term in terms {
         let (negative, text) = match *term {
             SumTerm::Num(x, _) => (x < 0.0, format_number(x.abs())),
-            SumTerm::Phi(neg, b, _) => (neg, format!("{}.phi", body_name(bodies, b))),
             SumTerm::ThreePiOverTwo => (false, "3 * pi / 2".to_string()),
         };
         match (out.is_empty(), negative) {
@@ -571,55 +567,28 @@ fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: 
         }
         ConstraintKind::RackPinion { .. } => {
             if let Some(rp) = RackPinion::of(&c.kind, bodies) {
-                emit_rack_pinion(out, &rp, &head, idents, c);
+                emit_rack_pinion(out, &rp, &head, idents);
             }
         }
     }
 }
 
-/// The two rows of a RackPinion (see [`crate::build`]'s
-/// `rack_pinion_rows` for the formulas).
-fn emit_rack_pinion(
-    out: &mut String,
-    rp: &RackPinion<'_>,
-    head: &str,
-    idents: &[String],
-    c: &Constraint,
-) {
-    let body = |i: usize| body_name(rp.bodies, i);
+/// A RackPinion as kinema's library element (see [`RackPinion`]).
+fn emit_rack_pinion(out: &mut String, rp: &RackPinion<'_>, head: &str, idents: &[String]) {
     let point = |i: usize, s: Vec2| point_text(rp.bodies, i, s);
     let name = idents.first().map_or("c", String::as_str);
-    let second = idents.get(1).map_or("c_2", String::as_str);
-    let a = format!("rot({}.phi, {})", body(rp.rack), pair(rp.u));
-    let alpha = sum(&rp.angle_terms(), rp.bodies);
-    let scale = format!("{} * {}", format_number(rp.length), format_number(rp.r2));
+    let _ = writeln!(out, "{head} {}{}", rp.doc(), ignored_fun(rp.fun.as_deref()));
     let _ = writeln!(
         out,
-        "{head} {}{}",
-        rp.first_doc(),
-        ignored_fun(rp.fun.as_deref())
-    );
-    let _ = writeln!(out, "    constraint {name}:");
-    let _ = writeln!(
-        out,
-        "        dot({} - {}, {a})",
+        "    constraint {name}: rack_pinion({}, {}, {}, {}, {} + {} * ({}));",
+        point(rp.rack, rp.sp1),
+        pair(rp.u),
         point(rp.pinion, rp.sp2),
-        point(rp.rack, rp.sq1)
+        format_number(rp.r2),
+        format_number(rp.length),
+        format_number(rp.r2),
+        sum(&rp.angle_terms())
     );
-    let _ = writeln!(out, "            == {scale} * ({alpha});");
-    let _ = writeln!(
-        out,
-        "    /// {}",
-        rp.second_doc(c.id, &comment_text(&c.name))
-    );
-    let _ = writeln!(out, "    constraint {second}:");
-    let _ = writeln!(
-        out,
-        "        dot({} - {}, perp({a}))",
-        point(rp.pinion, rp.sp2),
-        point(rp.rack, rp.sp1)
-    );
-    let _ = writeln!(out, "            == {scale};");
 }
 
 #[cfg(test)]
@@ -705,24 +674,18 @@ mod tests {
 
     #[test]
     fn sums_fold_signs() {
-        let bodies = ["a".to_string(), "b".to_string()];
         assert_eq!(
-            sum(
-                &[
-                    SumTerm::Phi(false, 0, "body1"),
-                    SumTerm::Num(-1.5, "theta1"),
-                    SumTerm::Phi(true, 1, "body2"),
-                    SumTerm::Num(2.0, "theta2"),
-                ],
-                &bodies
-            ),
-            "a.phi - 1.5 - b.phi + 2"
+            sum(&[
+                SumTerm::Num(-1.5, "theta1"),
+                SumTerm::Num(2.0, "theta2"),
+                SumTerm::ThreePiOverTwo,
+            ]),
+            "-1.5 + 2 + 3 * pi / 2"
         );
-        assert_eq!(sum(&[], &bodies), "0");
-        assert_eq!(sum(&[SumTerm::Phi(true, 1, "body2")], &bodies), "-b.phi");
+        assert_eq!(sum(&[]), "0");
         assert_eq!(
-            sum(&[SumTerm::Phi(false, 5, "body1")], &bodies),
-            "ground.phi"
+            sum(&[SumTerm::Num(0.5, "theta1"), SumTerm::Num(-2.0, "theta2")]),
+            "0.5 - 2"
         );
     }
 }

@@ -36,6 +36,7 @@ fn built_and_printed_models_derive_the_same() {
         "absolute_pendulum.adm",
         "four_bar.adm",
         "rack_pinion.adm",
+        "rack_pinion_tilting.adm",
         "slider_crank.adm",
         "translational.adm",
         "free_pendulum.adm",

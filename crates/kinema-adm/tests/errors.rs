@@ -57,14 +57,15 @@ fn fun_undefined_whatever_the_time() {
     insta::assert_snapshot!("undefined_fun", e);
 }
 
-/// A rack-and-pinion whose rolling row's scale L·R2 overflows is refused at
+/// A rack-and-pinion whose rolling row's constant L + R2 (θ1 − θ2 + 3π/2)
+/// overflows is refused at
 /// R2 (fuzz run 2: 391 imported models refused at "this constant is
 /// infinite" in text the user never wrote).
 #[test]
 fn rack_pinion_scale_that_overflows() {
     let e = error("rack_scale_overflow.adm");
     assert!(
-        e.contains("field \"R2\": R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number"),
+        e.contains("field \"R2\": the rolling row's constant |sQ1 - sP1| + R2 (theta1 - theta2 + 3 pi / 2) is larger than the largest number"),
         "{e}"
     );
     assert!(e.contains("rack_scale_overflow.adm:9:"), "{e}");

@@ -670,7 +670,7 @@ fn read_joint(cx: &mut Cx<'_>, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option
 /// RackPinion (body1 the rack, body2 the pinion, sP1, sQ1, sP2, R2,
 /// theta1, theta2). The imported equations' constants must be numbers:
 /// the pitch line u = sQ1 − sP1 nonzero with a finite length L = |u|,
-/// L·R2 (the rolling row's scale) and θ1 − θ2 (its angle's constant)
+/// θ1 − θ2 and the rolling row's constant L + R2 (θ1 − θ2 + 3π/2)
 /// finite.
 fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<ConstraintKind> {
     let bodies = e.two_bodies(cx, nbodies);
@@ -696,20 +696,20 @@ fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<Con
             "the pitch line from sP1 to sQ1 is longer than the largest number (about 1.8e308)",
         );
     }
-    let r2 = r2?;
-    if !(crate::emit::length(u) * r2).is_finite() {
-        return e.refuse(
-            cx,
-            "R2",
-            "R2 times the pitch line's length |sQ1 - sP1| is larger than the largest number (about 1.8e308)",
-        );
-    }
-    let (theta1, theta2) = (theta1?, theta2?);
+    let (r2, theta1, theta2) = (r2?, theta1?, theta2?);
     if !(theta1 - theta2).is_finite() {
         return e.refuse(
             cx,
             "theta2",
             "theta1 - theta2 is larger than the largest number (about 1.8e308)",
+        );
+    }
+    let c0 = crate::emit::length(u) + r2 * (theta1 - theta2 + 3.0 * std::f64::consts::FRAC_PI_2);
+    if !c0.is_finite() {
+        return e.refuse(
+            cx,
+            "R2",
+            "the rolling row's constant |sQ1 - sP1| + R2 (theta1 - theta2 + 3 pi / 2) is larger than the largest number (about 1.8e308)",
         );
     }
     let (body1, body2) = bodies?;
