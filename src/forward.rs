@@ -28,6 +28,8 @@ pub struct TapeForward {
     coordinate_names: Vec<String>,
     equation_names: Vec<String>,
     params: Vec<f64>,
+    /// The stated start (q⁰, q̇⁰) at `params`.
+    start: (Vec<f64>, Vec<f64>),
     phi: Tape,
     jac: Part,
     nu: Tape,
@@ -86,6 +88,7 @@ impl TapeForward {
             coordinate_names: d.coordinates.iter().map(|c| c.name.clone()).collect(),
             equation_names: d.rows.iter().map(|r| r.name.clone()).collect(),
             params: params.to_vec(),
+            start: d.start_at(params),
             phi: Tape::compile(a, &d.phi),
             jac: part(&jac_e, jac_s),
             nu: Tape::compile(a, &d.nu),
@@ -157,6 +160,15 @@ impl TapeForward {
     }
 }
 
+/// `from` into `to`, or NaN in `to` when the lengths differ.
+fn copy_or_nan(from: &[f64], to: &mut [f64]) {
+    if from.len() == to.len() {
+        to.copy_from_slice(from);
+    } else {
+        to.fill(f64::NAN);
+    }
+}
+
 /// Evaluates `tape` into `out` (NaN on a failed evaluation).
 fn run(tape: &Tape, inputs: &TapeInputs<'_>, registers: &mut [f64], out: &mut [f64]) {
     if tape.eval(inputs, registers, out).is_err() {
@@ -208,6 +220,10 @@ impl ForwardSystem for TapeForward {
     }
     fn equation_name(&self, i: usize) -> &str {
         self.equation_names.get(i).map_or("?", String::as_str)
+    }
+    fn initial_state(&mut self, q: &mut [f64], qd: &mut [f64]) {
+        copy_or_nan(&self.start.0, q);
+        copy_or_nan(&self.start.1, qd);
     }
     fn phi(&mut self, q: &[f64], t: f64, out: &mut [f64]) {
         let inputs = TapeInputs {
@@ -382,7 +398,9 @@ impl Model {
     }
 
     /// The initial configuration the model declares (its coordinates'
-    /// guesses), the start of forward dynamics.
+    /// guesses, at the default parameters), the start of forward dynamics;
+    /// at other parameters, [`TapeForward::new`] with them states its own
+    /// (`ForwardSystem::initial_state`).
     #[must_use]
     pub fn initial_configuration(&self) -> Vec<f64> {
         self.derivation()
@@ -393,7 +411,8 @@ impl Model {
     }
 
     /// The initial velocities the model declares (each body's `velocity`
-    /// item, zero for a body without one), the start of forward dynamics
+    /// item, zero for a body without one; at the default parameters), the
+    /// start of forward dynamics
     /// together with [`Model::initial_configuration`]. The integrators make
     /// the pair consistent (Φ_q q̇ = ν) by a minimum-norm correction and
     /// report its size.

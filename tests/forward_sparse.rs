@@ -47,6 +47,9 @@ impl<S: ForwardSystem> ForwardSystem for DenseOnly<S> {
     fn equation_name(&self, i: usize) -> &str {
         self.0.equation_name(i)
     }
+    fn initial_state(&mut self, q: &mut [f64], qd: &mut [f64]) {
+        self.0.initial_state(q, qd);
+    }
     fn phi(&mut self, q: &[f64], t: f64, out: &mut [f64]) {
         self.0.phi(q, t, out);
     }

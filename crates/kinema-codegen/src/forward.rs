@@ -97,14 +97,33 @@ pub(crate) fn forward_items(
         n: d.nc(),
         m: d.rows.len(),
     };
-    let (arena, hessian, hessian_rows) = hessian_terms(d);
+    let (mut arena, hessian, hessian_rows) = hessian_terms(d);
+    // The stated initial velocities, zero where none is stated.
+    let zero = arena.num(0.0);
+    let velocities: Vec<ExprId> = d
+        .coordinates
+        .iter()
+        .map(|c| c.initial_velocity.unwrap_or(zero))
+        .collect();
     let sparse = [
         Sparse::of(&d.phi_q),
         Sparse::of(&dy.applied_q),
         Sparse::of(&dy.applied_qd),
         hessian,
     ];
-    let evals = evaluations(d, &sparse, &hessian_rows);
+    let mut evals = evaluations(d, &sparse, &hessian_rows);
+    evals.push(Eval {
+        name: "forward_initial_configuration",
+        exprs: d.coordinates.iter().map(|c| c.guess).collect(),
+        inputs: &[],
+        then: quote!(),
+    });
+    evals.push(Eval {
+        name: "forward_initial_velocity",
+        exprs: velocities,
+        inputs: &[],
+        then: quote!(),
+    });
     let methods = evals.iter().map(|e| method(&arena, e, names, cache, lens));
     let positions = position_consts(&sparse);
     wrapper(names, lens, quote!(#(#methods)*), &positions)
@@ -332,6 +351,10 @@ fn system_impl(names: &Names<'_>, lens: Lens, fwd: &Ident) -> TokenStream {
             }
             fn equation_name(&self, i: usize) -> &str {
                 #name::EQUATION_NAMES.get(i).copied().unwrap_or("?")
+            }
+            fn initial_state(&mut self, q: &mut [f64], qd: &mut [f64]) {
+                self.mechanism.forward_initial_configuration(&mut self.scratch, &[], &[], 0.0, &[], q);
+                self.mechanism.forward_initial_velocity(&mut self.scratch, &[], &[], 0.0, &[], qd);
             }
             fn phi(&mut self, q: &[f64], t: f64, out: &mut [f64]) {
                 self.mechanism.forward_phi(&mut self.scratch, q, &[], t, &[], out);

@@ -281,6 +281,28 @@ impl Derivation {
             .collect()
     }
 
+    /// The stated start at the params `p` (declaration order): the
+    /// guesses q⁰ and the initial velocities q̇⁰ (zero where no `velocity`
+    /// is stated), evaluated again, so a start written in terms of params
+    /// follows them. At the default params, the values above.
+    #[must_use]
+    pub fn start_at(&self, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let q = self
+            .coordinates
+            .iter()
+            .map(|c| self.eval(c.guess, &[], &[], 0.0, p))
+            .collect();
+        let qd = self
+            .coordinates
+            .iter()
+            .map(|c| {
+                c.initial_velocity
+                    .map_or(0.0, |v| self.eval(v, &[], &[], 0.0, p))
+            })
+            .collect();
+        (q, qd)
+    }
+
     /// Evaluates `e` at coordinates `q`, velocities `qd`, time `t` and
     /// params `p` (missing entries read as NaN).
     #[must_use]

@@ -75,6 +75,14 @@ pub trait ForwardSystem {
     /// ∂(Φ_qᵀλ)/∂q (n × n) at `lambda` (m).
     fn constraint_hessian(&mut self, q: &[f64], lambda: &[f64], t: f64, out: &mut [f64]);
 
+    /// The start the model states, at the system's parameters: its initial
+    /// configuration q⁰ (the guesses) into `q` and its initial velocities
+    /// q̇⁰ (the `velocity` items, zero elsewhere) into `qd`, both of length
+    /// [`coords`](ForwardSystem::coords) (NaN on a wrong length). Not
+    /// necessarily consistent: the integrators' constructors project it
+    /// onto Φ = 0, Φ_q q̇ = ν and report the correction.
+    fn initial_state(&mut self, q: &mut [f64], qd: &mut [f64]);
+
     /// Where the matrices can be nonzero, for a sparse factorization of
     /// HHT's Newton matrix ([`HhtOptions::sparse_from`]); `None` (the
     /// default): dense. Called once, at the integrator's construction (it
