@@ -448,7 +448,7 @@ fn keyword(fun: &fun::Expr) -> EquationKeyword {
     }
 }
 
-/// The two rows of a RackPinion (SIMENGINE2D.md), with u = sQ1 − sP1,
+/// The two rows of a RackPinion (docs/src/simengine2d.md), with u = sQ1 − sP1,
 /// a = A(φ_rack) u, L = |u|, α = φ_rack + θ1 − φ_pinion − θ2 + 3π/2:
 ///
 /// - rolling: (r_pinion(sP2) − r_rack(sQ1))ᵀ a = L R2 α;

@@ -253,7 +253,7 @@ pub(crate) enum SumTerm {
     ThreePiOverTwo,
 }
 
-/// A RackPinion element's numbers (SIMENGINE2D.md): u = sQ1 − sP1 along
+/// A RackPinion element's numbers (docs/src/simengine2d.md): u = sQ1 − sP1 along
 /// the pitch line, L = |u| (finite: the reader refuses a pitch line whose
 /// length overflows), and the terms of its angle.
 pub(crate) struct RackPinion<'a> {
