@@ -1,6 +1,6 @@
 //! The tape back end's inverse dynamics: diag M, Q_A and the reactions'
 //! arms compiled to one tape, and the names of the output columns
-//! (DYNAMICS.md, "CSV columns").
+//! (docs/src/dynamics.md, "Inverse dynamics").
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::{Derivation, RowKind};

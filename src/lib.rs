@@ -30,7 +30,8 @@
 //! # Ok::<(), kinema::Error>(())
 //! ```
 //!
-//! See `ARCHITECTURE.md` for how the crates fit together.
+//! The user guide is in `docs/` (an mdBook: `mdbook build docs`); see
+//! `ARCHITECTURE.md` for how the crates fit together.
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
@@ -89,3 +90,13 @@ pub mod __private {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
+
+/// The user guide's Rust examples (docs/src), compiled and run as doc
+/// tests: one module per chapter with Rust code.
+#[cfg(doctest)]
+mod guide {
+    #[doc = include_str!("../docs/src/rust-api.md")]
+    mod rust_api {}
+    #[doc = include_str!("../docs/src/dynamics.md")]
+    mod dynamics {}
+}

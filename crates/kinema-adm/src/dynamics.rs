@@ -1,6 +1,6 @@
 //! The dynamics part of an imported model: masses and `jbar` as body
 //! inertia, `gravity`, and the force elements as kinema `force` items
-//! (DYNAMICS.md, "Force elements"):
+//! (docs/src/simengine2d.md, "Force elements"):
 //!
 //! | ADM | kinema |
 //! |---|---|

@@ -250,7 +250,7 @@ pub(crate) enum SumTerm {
     ThreePiOverTwo,
 }
 
-/// A RackPinion element's numbers (SIMENGINE2D.md): u = sQ1 − sP1 along
+/// A RackPinion element's numbers (docs/src/simengine2d.md): u = sQ1 − sP1 along
 /// the pitch line, L = |u| (finite: the reader refuses a pitch line whose
 /// length overflows), and the terms of its angle's constant.
 ///

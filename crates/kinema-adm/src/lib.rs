@@ -2,7 +2,7 @@
 //! model kinema checks, and prints it in kinema's model language.
 //!
 //! simEngine2D is the MATLAB engine of the ME451 course; its files and their
-//! meaning are described in `SIMENGINE2D.md`. The command line uses it
+//! meaning are described in `docs/src/simengine2d.md`. The command line uses it
 //! for `kinema run model.adm [--acf analysis.acf]` and `kinema import
 //! model.adm`:
 //!

@@ -1,6 +1,6 @@
 //! The emitted `.kin` text, read back by kinema's own model parser: it
 //! parses and validates, and the Φ it derives equals the engine's equations
-//! of SIMENGINE2D.md, evaluated here directly from the ADM data, at random
+//! of docs/src/simengine2d.md, evaluated here directly from the ADM data, at random
 //! configurations and times, row by row in the engine's order.
 
 #![allow(clippy::unwrap_used)] // tests: a failure should stop the test
@@ -9,7 +9,7 @@ mod common;
 
 use kinema_adm::{ConstraintKind, Counts, Model, Names, to_kin};
 
-/// Φ(q, t) of SIMENGINE2D.md, computed from the ADM model.
+/// Φ(q, t) of docs/src/simengine2d.md, computed from the ADM model.
 fn engine_phi(m: &Model, q: &[f64], t: f64) -> Vec<f64> {
     let r = |i: usize| [q[3 * i], q[3 * i + 1]];
     let a = |i: usize, s: [f64; 2]| {

@@ -1,6 +1,6 @@
 //! Reads every real simEngine2D file in `../shared/simengine2d/` (beside the
 //! repository), when that folder is present: each ADM parses, has the counts
-//! of SIMENGINE2D.md's table, and prints as `.kin`; each ACF parses to the
+//! of docs/src/simengine2d.md's table, and prints as `.kin`; each ACF parses to the
 //! values the page lists. Skips with a notice when the folder is absent.
 //! (The files are reference material and are not copied into the repository.)
 
@@ -23,7 +23,7 @@ fn folder() -> Option<PathBuf> {
     }
 }
 
-/// SIMENGINE2D.md, "Which shipped models are kinematic": bodies, n, m.
+/// docs/src/simengine2d.md, "The course's models": bodies, n, m.
 const COUNTS: &[(&str, usize, usize, usize)] = &[
     ("pendKIN", 1, 3, 3),
     ("simplePend", 1, 3, 3),
@@ -46,7 +46,7 @@ const COUNTS: &[(&str, usize, usize, usize)] = &[
     ("dpendVIS", 2, 6, 4),
 ];
 
-/// SIMENGINE2D.md, "ACF": simulation, tend, stepSize, outputSteps.
+/// docs/src/simengine2d.md, "The analysis file (ACF)": simulation, tend, stepSize, outputSteps.
 const ANALYSES: &[(&str, Simulation, f64, f64, usize)] = &[
     ("kinematics", Simulation::Kinematics, 5.0, 0.01, 500),
     ("project1", Simulation::Kinematics, 5.0, 0.01, 300),
@@ -83,7 +83,7 @@ fn every_adm_parses_counts_and_emits() {
         let expected = COUNTS
             .iter()
             .find(|c| c.0 == name)
-            .unwrap_or_else(|| panic!("{name} is not in SIMENGINE2D.md's table"));
+            .unwrap_or_else(|| panic!("{name} is not in docs/src/simengine2d.md's table"));
         assert_eq!(
             (counts.bodies, counts.n, counts.m),
             (expected.1, expected.2, expected.3),

@@ -8,7 +8,7 @@
 //! (`.ci/run` installs it). `KINEMA_CHROMIUM` names another browser binary.
 //! Screenshots are written to `target/tmp/animate/`; with
 //! `KINEMA_SCREENSHOT=PATH` the slider-crank's is also copied to PATH (how
-//! `docs/animation.png` is made).
+//! `docs/src/animation.png` is made).
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

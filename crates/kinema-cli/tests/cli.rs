@@ -940,6 +940,6 @@ fn real_simengine2d_models() -> TestResult {
     println!(
         "simEngine2D: {ran} kinematic models ran, {dynamics} ran forward dynamics, {refused} refused"
     );
-    assert!(ran >= 9, "the kinematic models of SIMENGINE2D.md run");
+    assert!(ran >= 9, "the guide's simEngine2D kinematic models run");
     Ok(())
 }

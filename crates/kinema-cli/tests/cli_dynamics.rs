@@ -1,4 +1,4 @@
-//! `kinema run` of models with inertia: the columns of DYNAMICS.md, the
+//! `kinema run` of models with inertia: the columns of docs/src/dynamics.md, the
 //! driven simEngine2D files (λ, reactions, efforts, and the power balance
 //! effort × driven velocity = d(KE + PE)/dt at every row), and the refusal
 //! of a `PointForceFile`.

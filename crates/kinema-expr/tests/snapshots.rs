@@ -125,7 +125,7 @@ fn revolute(a: &mut Arena, si: [ExprId; 2], sj: [ExprId; 2]) -> String {
 
 #[test]
 fn revolute_joint_of_two_bodies_numeric_points() {
-    // CONSTRAINTS.md §7, rows 3–4: crank (0.15, 0) to rod (−0.5, 0).
+    // docs/src/constraints.md, the slider-crank, rows 3–4: crank (0.15, 0) to rod (−0.5, 0).
     let mut a = Arena::new();
     let si = [a.num(0.15), a.zero()];
     let sj = [a.num(-0.5), a.zero()];

@@ -3,7 +3,7 @@
 //! (see [`crate::check::ForceKind`]), its derivatives ∂Q_A/∂q and ∂Q_A/∂q̇
 //! by the expression engine, and for each element of Φ and each of its
 //! bodies the lever arm that turns the element's Lagrange multipliers into
-//! a reaction force and torque (DYNAMICS.md, "Reaction forces").
+//! a reaction force and torque (docs/src/dynamics.md, "Inverse dynamics").
 //!
 //! Nothing is derived by hand: a force F at a point P(q) contributes
 //! (∂P/∂q)ᵀ F, with ∂P/∂q from the engine; a spring's rate l̇ is the

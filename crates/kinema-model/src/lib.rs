@@ -110,7 +110,7 @@
 //! followers take it as `B.c` with a coordinate of its own, which they
 //! substitute for `u` ([`follower`]).
 //!
-//! Library constraints (CONSTRAINTS.md; P is a point `B(sx, sy)`, `B.name`
+//! Library constraints (docs/src/constraints.md; P is a point `B(sx, sy)`, `B.name`
 //! or `ground(x, y)`; B a body or `ground`; v, a body-fixed vectors `(vx, vy)`
 //! in the frame of the body of the point they follow; f, C, L, c, R, θ scalar
 //! expressions of params and `t`). Rows are named `name` for one row,

@@ -1,8 +1,8 @@
-//! The constraint library (CONSTRAINTS.md §1–5), written on the same vector
+//! The constraint library (docs/src/constraints.md), written on the same vector
 //! algebra a user has ([`crate::algebra`]). Each constraint is only its Φ:
 //! no derivative is written by hand anywhere; the engine derives Φ_q, ν, γ.
 //!
-//! Notation as in CONSTRAINTS.md: a point P on body i is `r_i + A_i s'`,
+//! Notation as in docs/src/constraints.md: a point P on body i is `r_i + A_i s'`,
 //! `d = r_j^P − r_i^P`, `A` rotates by the body angle, `perp` is `R`.
 
 use kinema_expr::{Arena, ExprId};

@@ -8,7 +8,7 @@
 //! - γ against a directional difference of Φ_q q̇:
 //!   γ = −d/dε [Φ_q(q + ε q̇) q̇] (no t in these rows), and ν = 0;
 //! - for the point-follower, γ also against Haug's closed form
-//!   (CONSTRAINTS.md §3, PF).
+//!   (docs/src/constraints.md, `point_follower`).
 //!
 //! Plus snapshots of each derivation.
 
@@ -201,7 +201,7 @@ fn point_follower_on_a_moving_curve() {
         let c = add(rj(s), rot(s.q[5], curve_b(&s.p, s.q[7])[0]));
         sub(pin, c).to_vec()
     });
-    // γ against CONSTRAINTS.md §3 (PF, i the pin's body, j the curve's):
+    // γ against docs/src/constraints.md (`point_follower`, i the pin's body, j the curve's):
     // γ = A_i s'_i φ̇_i² − A_j c' φ̇_j² + 2φ̇_j α̇ B_j c'_α + α̇² A_j c'_αα
     let mut rng = Rng(7);
     for _ in 0..100 {

@@ -1,4 +1,4 @@
-//! Every library constraint against the closed forms of CONSTRAINTS.md, at
+//! Every library constraint against the closed forms of docs/src/constraints.md, at
 //! 100 random off-manifold states (q, q̇, t, params) each: Φ_q, ν and γ from
 //! the engine must equal the closed forms to 1e-12 relative.
 //!

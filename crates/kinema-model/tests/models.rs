@@ -1,5 +1,5 @@
 //! The models of `models/`: DOF reports, derivation snapshots, and the worked
-//! examples of CONSTRAINTS.md §7 (slider-crank) and §8 (pendulum).
+//! examples of docs/src/constraints.md (the slider-crank and the pendulum).
 
 use std::path::PathBuf;
 
@@ -93,7 +93,7 @@ fn chain10_is_generated() {
 
 #[test]
 fn benchmark_structure() {
-    // nnz(Phi_q) of peers/README.md.
+    // nnz(Phi_q) of benches/peers/README.md.
     assert_eq!(load("slider_crank.kin").1.phi_q.entries.len(), 21);
     assert_eq!(load("four_bar.kin").1.phi_q.entries.len(), 25);
     let n = 10;
@@ -179,7 +179,7 @@ fn assert_close(what: &str, got: &[f64], want: &[f64]) {
     }
 }
 
-/// CONSTRAINTS.md §7, with rows 7–8 as TRA (the document's form) and as
+/// docs/src/constraints.md, the slider-crank, with rows 7–8 as TRA (the document's form) and as
 /// y3 = 0, phi3 = 0 (the benchmark's form): same q, q̇, γ, q̈.
 #[test]
 // The expected values are the document's 6-digit figures, not constants.
@@ -248,7 +248,7 @@ fn worked_example_slider_crank() {
     }
 }
 
-/// CONSTRAINTS.md §8: the driven pendulum at t = 0.5.
+/// docs/src/constraints.md: the driven pendulum at t = 0.5.
 #[test]
 fn worked_example_pendulum() {
     let (_, d) = load("pendulum.kin");

@@ -11,7 +11,7 @@
 //! reaction on each of its bodies, [F; (B s'P)ᵀF + T] = −Φ_q,bᵀ λ_c, as the
 //! force F (global) and the torque T about the element's point P on that
 //! body, and each driving row's effort −λ. The conventions are those of
-//! simEngine2D's `calcReaction` (DYNAMICS.md).
+//! simEngine2D's `calcReaction` (docs/src/dynamics.md, "Inverse dynamics").
 //!
 //! [`LinearSolver::solve_transpose_in_place`]: crate::linalg::LinearSolver::solve_transpose_in_place
 

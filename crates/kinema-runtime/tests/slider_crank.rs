@@ -1,5 +1,5 @@
 //! The hand-written slider-crank against its closed-form solution and the
-//! worked example of CONSTRAINTS.md §7.
+//! worked example of docs/src/constraints.md (the slider-crank).
 
 mod common;
 
@@ -137,7 +137,7 @@ fn predictor_and_modified_newton_save_work() -> Result<(), Error> {
     Ok(())
 }
 
-/// CONSTRAINTS.md §7, state at t = 0, to the printed 6 decimals.
+/// docs/src/constraints.md, the slider-crank's state at t = 0, to the printed 6 decimals.
 #[test]
 fn worked_example_at_t0() -> Result<(), Error> {
     let mut solver = Solver::<SliderCrank, DenseLu<9>>::new(SliderCrank::default())?;
@@ -226,7 +226,7 @@ fn worked_example_at_t0() -> Result<(), Error> {
     Ok(())
 }
 
-/// The Jacobian and γ agree with central differences of Φ (CONSTRAINTS.md §9)
+/// The Jacobian and γ agree with central differences of Φ (docs/src/constraints.md, "How the equations are tested")
 /// at an arbitrary off-manifold point.
 #[test]
 fn jacobian_and_gamma_agree_with_finite_differences() {
@@ -280,7 +280,7 @@ fn jacobian_and_gamma_agree_with_finite_differences() {
     }
 }
 
-/// The CSV contract of DESIGN.md: `t`, names, `_dot`, `_ddot`; N + 1 rows for
+/// The CSV contract of docs/src/cli.md: `t`, names, `_dot`, `_ddot`; N + 1 rows for
 /// N steps; numbers that parse back to the very same f64.
 #[test]
 fn csv_follows_the_command_line_contract() -> Result<(), Box<dyn std::error::Error>> {

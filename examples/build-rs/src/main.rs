@@ -31,7 +31,7 @@ mod tests {
     use super::Pendulum;
     use kinema::{LinearSolver, System};
 
-    /// CONSTRAINTS.md §8 at t = 0.5: q = (cos 1, sin 1, 1), q̈ = (−15.376605, −9.141117, 8).
+    /// docs/src/constraints.md, the driven pendulum at t = 0.5: q = (cos 1, sin 1, 1), q̈ = (−15.376605, −9.141117, 8).
     #[test]
     fn worked_example() -> Result<(), kinema::Error> {
         let mut solver = Pendulum::default().solver(kinema::Options::default())?;

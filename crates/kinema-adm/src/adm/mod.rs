@@ -1,6 +1,6 @@
 //! The typed ADM model and its reader.
 //!
-//! [`Model::parse`] reads the JSON text of an ADM file (see SIMENGINE2D.md),
+//! [`Model::parse`] reads the JSON text of an ADM file (see docs/src/simengine2d.md),
 //! checks it and reports every mistake at once, each naming the element (by
 //! name and id) and the field:
 //!
@@ -249,7 +249,7 @@ pub enum ConstraintKind {
         /// The `fun` text, ignored.
         fun: Option<String>,
     },
-    /// `RackPinion`: see SIMENGINE2D.md; 2 rows.
+    /// `RackPinion`: see docs/src/simengine2d.md; 2 rows.
     RackPinion {
         /// The rack, body i.
         body1: usize,

@@ -1,6 +1,6 @@
 //! The `fun` language of simEngine2D: MATLAB expressions in the variable `t`.
 //!
-//! Grammar (SIMENGINE2D.md, "The `fun` language"), from the lowest
+//! Grammar (docs/src/simengine2d.md, "The `fun` language"), from the lowest
 //! precedence to the highest:
 //!
 //! ```text

@@ -1,5 +1,5 @@
 //! `kinema run` of a model with inertia: λ, reactions and driver efforts
-//! after the kinematic columns (DYNAMICS.md, "CSV columns").
+//! after the kinematic columns (docs/src/dynamics.md, "Inverse dynamics").
 
 use kinema::{Auto, Error, InverseDynamics, Solver, System, TapeSystem};
 

@@ -1,8 +1,8 @@
-//! The table of library constraints (CONSTRAINTS.md §1–5, and the
-//! followers of §3 in [`crate::follower`]): names,
+//! The table of library constraints (docs/src/constraints.md, and the
+//! followers in [`crate::follower`]): names,
 //! argument kinds, signatures and row counts, read by the checker.
 
-/// The constraints of the library (CONSTRAINTS.md §1–5).
+/// The constraints of the library (docs/src/constraints.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LibKind {
     /// `abs_x(P, f)`

@@ -237,7 +237,7 @@ impl Equation {
     }
 }
 
-/// Degree-of-freedom counts (CONSTRAINTS.md §6).
+/// Degree-of-freedom counts (docs/src/constraints.md, "Degrees of freedom").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct DofReport {
     /// Number of coordinates, nc = 3·nb + the `coord` items.

@@ -1,4 +1,4 @@
-//! CSV output per the command-line contract of `DESIGN.md`: one number
+//! CSV output per the command-line contract of `docs/src/cli.md`: one number
 //! format and one row builder, [`CsvLine`], which every CSV of kinema is
 //! written with ([`CsvWriter`] here, [`Table::write_csv`], the command
 //! line's `run` and `sweep`).

@@ -1,5 +1,5 @@
 //! Hand-written reference mechanisms of the project benchmarks
-//! (`BENCHMARKS.md`, `peers/README.md`): exactly the peers' frames, equation
+//! (`BENCHMARKS.md`, `benches/peers/README.md`): exactly the peers' frames, equation
 //! order and initial guesses.
 //!
 //! They are the baselines that generated code and the tape interpreter are

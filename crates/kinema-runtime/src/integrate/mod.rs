@@ -1,5 +1,5 @@
 //! Forward dynamics: integrating M q̈ + Φ_qᵀλ = Q_A(q, q̇, t), Φ(q, t) = 0
-//! from initial conditions (DYNAMICS.md).
+//! from initial conditions (docs/src/dynamics.md).
 //!
 //! The integrators see the model through [`ForwardSystem`] (dense
 //! matrices for the models of the course engine, which have tens of
