@@ -344,7 +344,7 @@ fn run_kinematics(
     (times, outputs): (&[f64], &[bool]),
     options: RunOptions,
     adm: bool,
-    rows_n: usize,
+    (rows_n, nc): (usize, usize),
 ) -> Result<RunOutput, String> {
     let mut dynamics =
         DynamicsColumns::new(&system, rows_n, adm).filter(|_| !options.positions_only);
@@ -360,7 +360,12 @@ fn run_kinematics(
     let mut scratch = System::scratch(solver.system());
     let n_out = outputs.iter().filter(|&&o| o).count();
     let mut values: Vec<f64> = Vec::with_capacity(n_out * columns.len());
-    let mut row: Vec<f64> = Vec::with_capacity(columns.len());
+    // Whether the selection takes every coordinate and every result in
+    // order (then each block is one copy).
+    let whole = (
+        is_whole(&selection.coordinates, nc),
+        is_whole(&selection.outputs, m),
+    );
     let mut out = RunOutput {
         columns,
         values: Vec::new(),
@@ -447,29 +452,28 @@ fn run_kinematics(
                     .push((state.t(), name, kink.function.to_owned()));
             }
         }
-        row.clear();
-        row.push(state.t());
+        // The row straight into the table (one copy per block when the
+        // selection is whole, as by default).
+        let start = values.len();
+        values.push(state.t());
         let states = [state.q(), state.qd(), state.qdd()];
-        for values in &states[..orders] {
-            for &k in &selection.coordinates {
-                row.push(values.get(k).copied().unwrap_or(f64::NAN));
-            }
+        for v in &states[..orders] {
+            push_selected(&mut values, v, &selection.coordinates, whole.0);
         }
-        for values in &results[..orders] {
-            for &k in &selection.outputs {
-                row.push(values.get(k).copied().unwrap_or(f64::NAN));
-            }
+        for v in &results[..orders] {
+            push_selected(&mut values, v, &selection.outputs, whole.1);
         }
-        row.extend_from_slice(extra);
+        values.extend_from_slice(extra);
         // Never a silent NaN or ∞ (as the CLI's CSV).
-        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+        if let Some(j) = first_non_finite(&values[start..]) {
             out.error = Some(format!(
                 "at t = {t}: column `{}` is {} (it overflowed)",
-                out.columns[j], row[j]
+                out.columns[j],
+                values[start + j]
             ));
+            values.truncate(start);
             break;
         }
-        values.extend_from_slice(&row);
         out.rows += 1;
     }
     if out.error.is_none() {
@@ -485,6 +489,36 @@ fn backend_name(system: &TapeSystem) -> &'static str {
     match system.backend() {
         kinema::Backend::Jit => "jit",
         kinema::Backend::Tape => "tape",
+    }
+}
+
+/// Whether `picked` is 0, 1, …, `len` − 1: a whole block.
+fn is_whole(picked: &[usize], len: usize) -> bool {
+    picked.len() == len && picked.iter().enumerate().all(|(i, &k)| i == k)
+}
+
+/// Appends the entries `picked` of `source` to `row` (NaN for one out of
+/// range), or all of `source` by one copy when `whole`.
+fn push_selected(row: &mut Vec<f64>, source: &[f64], picked: &[usize], whole: bool) {
+    if whole {
+        row.extend_from_slice(source);
+    } else {
+        row.extend(
+            picked
+                .iter()
+                .map(|&k| source.get(k).copied().unwrap_or(f64::NAN)),
+        );
+    }
+}
+
+/// The first entry of `row` that is NaN or ±∞: a check of the whole row
+/// first that needs no branch per entry (it vectorizes), the search only
+/// when it fails.
+fn first_non_finite(row: &[f64]) -> Option<usize> {
+    if row.iter().fold(false, |bad, v| bad | !v.is_finite()) {
+        row.iter().position(|v| !v.is_finite())
+    } else {
+        None
     }
 }
 
@@ -906,20 +940,31 @@ impl NativeModel {
     /// all by default), as `kinema run`. Returns a dict: `columns`,
     /// `values` (rows × columns float64), `events`, `flagged`, `kinks`,
     /// `output_kinks`, `imprecise`, `error` (None, or why the run stopped:
-    /// the rows are those before it), `backend`.
+    /// the rows are those before it), `backend`. `times` None: the grid of
+    /// `t_end` and `steps` ([`NativeModel::grid`]), made here rather than
+    /// passed through Python lists.
     #[pyo3(signature = (times, outputs=None, columns=None, positions_only=false,
-                        stop_at_singular=false, backend="jit"))]
+                        stop_at_singular=false, backend="jit", t_end=None, steps=None))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
         py: Python<'py>,
-        times: Vec<f64>,
+        times: Option<Vec<f64>>,
         outputs: Option<Vec<bool>>,
         columns: Option<&str>,
         positions_only: bool,
         stop_at_singular: bool,
         backend: &str,
+        t_end: Option<f64>,
+        steps: Option<i64>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let (times, outputs) = match times {
+            Some(times) => (times, outputs),
+            None => {
+                let (times, outputs) = self.grid(t_end, steps)?;
+                (times, Some(outputs))
+            }
+        };
         check_times(&times)?;
         let outputs = outputs.unwrap_or_else(|| vec![true; times.len()]);
         if outputs.len() != times.len() {
@@ -956,7 +1001,7 @@ impl NativeModel {
             positions_only,
             stop_at_singular,
         };
-        let (adm, rows_n) = (self.is_adm(), d.rows.len());
+        let (adm, rows_n, nc) = (self.is_adm(), d.rows.len(), d.nc());
         let start = std::time::Instant::now();
         let out = py
             .detach(|| {
@@ -967,7 +1012,7 @@ impl NativeModel {
                     (&times, &outputs),
                     options,
                     adm,
-                    rows_n,
+                    (rows_n, nc),
                 )
             })
             .map_err(KinemaError::new_err)?;

@@ -615,16 +615,25 @@ class Model:
                 "step is for forward dynamics (a model with inertia and free degrees of freedom, "
                 "or a Dynamics ACF); a kinematic run takes t_end and steps"
             )
-        grid, outputs = self._grid(t_end, steps, times)
         if not isinstance(backend, str):
             raise TypeError(f"backend must be a str, found {type(backend).__name__}")
+        t_end = _check_real("t_end", t_end)
+        steps = _check_int("steps", steps)
+        if times is not None:
+            if t_end is not None or steps is not None:
+                raise TypeError("give either times= or t_end=/steps=, not both")
+            grid: Optional[List[float]] = _times(times)
+        else:
+            grid = None  # the grid of t_end and steps, made in Rust
         out = self._native.run(
             grid,
-            outputs,
+            None,
             _columns_spec(columns),
             bool(positions_only),
             bool(stop_at_singular),
             backend,
+            t_end,
+            steps,
         )
         _warn_run(out, stacklevel=3)
         return _raise_if_failed(out, _results_of_run(out))

@@ -48,12 +48,14 @@ class NativeModel:
     def columns(self, columns: Optional[str] = None, positions_only: bool = False) -> List[str]: ...
     def run(
         self,
-        times: List[float],
+        times: Optional[List[float]],
         outputs: Optional[List[bool]] = None,
         columns: Optional[str] = None,
         positions_only: bool = False,
         stop_at_singular: bool = False,
         backend: str = "jit",
+        t_end: Optional[float] = None,
+        steps: Optional[int] = None,
     ) -> Dict[str, Any]: ...
     def sweep(
         self,
