@@ -3,9 +3,11 @@
 //! Everything here goes through the facade crate `kinema` (and
 //! `kinema-adm` for simEngine2D files, as `kinema run` reads them): a run is
 //! the same sequence of library calls as `kinema run`'s kinematic analysis
-//! (crates/kinema-cli/src/cli/run.rs), a sweep the same as `kinema sweep`'s
-//! (crates/kinema-cli/src/cli/sweep.rs), so the numbers are the CLI's CSV
-//! numbers bit for bit. The Python layer (python/kinema/) shapes the API:
+//! (crates/kinema-cli/src/cli/run.rs), forward dynamics and the
+//! equilibrium the same as its dynamics runs ([`forward`], after
+//! crates/kinema-cli/src/cli/forward.rs and equilibrium.rs), a sweep the
+//! same as `kinema sweep`'s (crates/kinema-cli/src/cli/sweep.rs), so the
+//! numbers are the CLI's CSV numbers bit for bit. The Python layer (python/kinema/) shapes the API:
 //! results objects, warnings through `warnings`, pandas, Dask.
 //!
 //! The GIL is released while Rust runs ([`Python::detach`]); results come

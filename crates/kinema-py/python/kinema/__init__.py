@@ -517,8 +517,11 @@ class Model:
         equations (their names, the order of Phi's rows), kinematic and driving
         equation counts, ``kdof`` = nc - m_K, ``dof`` = nc - m_K - m_D (0 for
         kinematic analysis), result columns, parameters, whether the model has
-        inertia, and the warnings."""
-        return dict(self._native.check())
+        inertia, the warnings, and ``motion`` (:attr:`motion`: how
+        :meth:`run` moves it)."""
+        report = dict(self._native.check())
+        report["motion"] = self.motion
+        return report
 
     def columns(self, columns: Union[str, Sequence[str], None] = None, positions_only: bool = False) -> List[str]:
         """The column names :meth:`run` gives for these options."""
