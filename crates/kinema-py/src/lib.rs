@@ -63,6 +63,9 @@ struct NativeModel {
     analysis: Option<kinema_adm::Analysis>,
     /// A simEngine2D model's bodies' `qd0` (the start of forward dynamics).
     adm_qd0: Vec<Option<[f64; 3]>>,
+    /// How the model moves ([`NativeModel::dynamics_run`]), decided once:
+    /// for some models it takes an assembly and a rank decision.
+    motion: std::sync::OnceLock<Option<forward::DynamicsRun>>,
 }
 
 /// A [`kinema::ModelError`] as the Python `ModelError`: the rendered
@@ -126,6 +129,7 @@ impl NativeModel {
             file,
             analysis,
             adm_qd0: Vec::new(),
+            motion: std::sync::OnceLock::new(),
         }
     }
 
@@ -139,11 +143,13 @@ impl NativeModel {
     /// How the model moves when it has inertia (see
     /// [`forward::dynamics_run`]); a Dynamics analysis is forward dynamics.
     fn dynamics_run(&self) -> Option<forward::DynamicsRun> {
-        let (q0, _) = forward::start_state(&self.model, &self.system, &self.adm_qd0);
-        match forward::dynamics_run(&self.model, &self.system, &q0) {
-            None if self.adm_dynamics() => Some(forward::DynamicsRun::Forward),
-            kind => kind,
-        }
+        *self.motion.get_or_init(|| {
+            let (q0, _) = forward::start_state(&self.model, &self.system, &self.adm_qd0);
+            match forward::dynamics_run(&self.model, &self.system, &q0) {
+                None if self.adm_dynamics() => Some(forward::DynamicsRun::Forward),
+                kind => kind,
+            }
+        })
     }
 
     /// The system for a run on `backend` (`"jit"` or `"tape"`).
@@ -819,6 +825,8 @@ impl NativeModel {
             file: self.file.clone(),
             analysis: self.analysis.clone(),
             adm_qd0: self.adm_qd0.clone(),
+            // The parameters may change the rank at the start.
+            motion: std::sync::OnceLock::new(),
         })
     }
 
