@@ -3,9 +3,11 @@
 //! Everything here goes through the facade crate `kinema` (and
 //! `kinema-adm` for simEngine2D files, as `kinema run` reads them): a run is
 //! the same sequence of library calls as `kinema run`'s kinematic analysis
-//! (crates/kinema-cli/src/cli/run.rs), a sweep the same as `kinema sweep`'s
-//! (crates/kinema-cli/src/cli/sweep.rs), so the numbers are the CLI's CSV
-//! numbers bit for bit. The Python layer (python/kinema/) shapes the API:
+//! (crates/kinema-cli/src/cli/run.rs), forward dynamics and the
+//! equilibrium the same as its dynamics runs ([`forward`], after
+//! crates/kinema-cli/src/cli/forward.rs and equilibrium.rs), a sweep the
+//! same as `kinema sweep`'s (crates/kinema-cli/src/cli/sweep.rs), so the
+//! numbers are the CLI's CSV numbers bit for bit. The Python layer (python/kinema/) shapes the API:
 //! results objects, warnings through `warnings`, pandas, Dask.
 //!
 //! The GIL is released while Rust runs ([`Python::detach`]); results come
@@ -13,6 +15,8 @@
 //! filled (no per-element conversion through Python objects).
 
 use std::path::PathBuf;
+
+mod forward;
 
 use kinema::{Auto, Error, InverseDynamics, Options, SingularKind, Solver, System, TapeSystem};
 use numpy::ndarray::Array2;
@@ -57,6 +61,11 @@ struct NativeModel {
     file: String,
     /// A simEngine2D model: its analysis (the default grid) .
     analysis: Option<kinema_adm::Analysis>,
+    /// A simEngine2D model's bodies' `qd0` (the start of forward dynamics).
+    adm_qd0: Vec<Option<[f64; 3]>>,
+    /// How the model moves ([`NativeModel::dynamics_run`]), decided once:
+    /// for some models it takes an assembly and a rank decision.
+    motion: std::sync::OnceLock<Option<forward::DynamicsRun>>,
 }
 
 /// A [`kinema::ModelError`] as the Python `ModelError`: the rendered
@@ -119,7 +128,28 @@ impl NativeModel {
             system,
             file,
             analysis,
+            adm_qd0: Vec::new(),
+            motion: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Whether the model runs a simEngine2D Dynamics analysis.
+    fn adm_dynamics(&self) -> bool {
+        self.analysis
+            .as_ref()
+            .is_some_and(|a| a.simulation == kinema_adm::Simulation::Dynamics)
+    }
+
+    /// How the model moves when it has inertia (see
+    /// [`forward::dynamics_run`]); a Dynamics analysis is forward dynamics.
+    fn dynamics_run(&self) -> Option<forward::DynamicsRun> {
+        *self.motion.get_or_init(|| {
+            let (q0, _) = forward::start_state(&self.model, &self.system, &self.adm_qd0);
+            match forward::dynamics_run(&self.model, &self.system, &q0) {
+                None if self.adm_dynamics() => Some(forward::DynamicsRun::Forward),
+                kind => kind,
+            }
+        })
     }
 
     /// The system for a run on `backend` (`"jit"` or `"tape"`).
@@ -207,22 +237,7 @@ impl DynamicsColumns {
         if !system.has_dynamics() {
             return None;
         }
-        let mut names: Vec<String> = (0..rows)
-            .map(|i| format!("lambda.{}", system.equation_name(i)))
-            .collect();
-        for r in system.reaction_names() {
-            let body = if adm {
-                format!("body{}", r.slot + 1)
-            } else {
-                r.body.clone()
-            };
-            for c in ["Fx", "Fy", "T"] {
-                names.push(format!("reaction.{}.{body}.{c}", r.element));
-            }
-        }
-        for i in kinema::Dynamics::driving_start(system).min(rows)..rows {
-            names.push(format!("driver.{}", system.equation_name(i)));
-        }
+        let names = dynamics_column_names(system, rows, adm);
         let values = vec![0.0; names.len()];
         Some(DynamicsColumns {
             id: InverseDynamics::new(system),
@@ -244,6 +259,30 @@ impl DynamicsColumns {
         }
         Ok(&self.values)
     }
+}
+
+/// The dynamics columns of a model with `rows` rows of Φ, as `kinema run`
+/// names them (crates/kinema-cli/src/cli/dynamics.rs, `column_names`):
+/// `lambda.<row>`, `reaction.<element>.<body>.Fx/Fy/T` (an `.adm` model's
+/// bodies `body1`/`body2`), `driver.<row>`.
+fn dynamics_column_names(system: &TapeSystem, rows: usize, adm: bool) -> Vec<String> {
+    let mut names: Vec<String> = (0..rows)
+        .map(|i| format!("lambda.{}", system.equation_name(i)))
+        .collect();
+    for r in system.reaction_names() {
+        let body = if adm {
+            format!("body{}", r.slot + 1)
+        } else {
+            r.body.clone()
+        };
+        for c in ["Fx", "Fy", "T"] {
+            names.push(format!("reaction.{}.{body}.{c}", r.element));
+        }
+    }
+    for i in kinema::Dynamics::driving_start(system).min(rows)..rows {
+        names.push(format!("driver.{}", system.equation_name(i)));
+    }
+    names
 }
 
 /// A singular configuration met, as data.
@@ -313,7 +352,7 @@ fn run_kinematics(
     (times, outputs): (&[f64], &[bool]),
     options: RunOptions,
     adm: bool,
-    rows_n: usize,
+    (rows_n, nc): (usize, usize),
 ) -> Result<RunOutput, String> {
     let mut dynamics =
         DynamicsColumns::new(&system, rows_n, adm).filter(|_| !options.positions_only);
@@ -329,7 +368,12 @@ fn run_kinematics(
     let mut scratch = System::scratch(solver.system());
     let n_out = outputs.iter().filter(|&&o| o).count();
     let mut values: Vec<f64> = Vec::with_capacity(n_out * columns.len());
-    let mut row: Vec<f64> = Vec::with_capacity(columns.len());
+    // Whether the selection takes every coordinate and every result in
+    // order (then each block is one copy).
+    let whole = (
+        is_whole(&selection.coordinates, nc),
+        is_whole(&selection.outputs, m),
+    );
     let mut out = RunOutput {
         columns,
         values: Vec::new(),
@@ -416,40 +460,74 @@ fn run_kinematics(
                     .push((state.t(), name, kink.function.to_owned()));
             }
         }
-        row.clear();
-        row.push(state.t());
+        // The row straight into the table (one copy per block when the
+        // selection is whole, as by default).
+        let start = values.len();
+        values.push(state.t());
         let states = [state.q(), state.qd(), state.qdd()];
-        for values in &states[..orders] {
-            for &k in &selection.coordinates {
-                row.push(values.get(k).copied().unwrap_or(f64::NAN));
-            }
+        for v in &states[..orders] {
+            push_selected(&mut values, v, &selection.coordinates, whole.0);
         }
-        for values in &results[..orders] {
-            for &k in &selection.outputs {
-                row.push(values.get(k).copied().unwrap_or(f64::NAN));
-            }
+        for v in &results[..orders] {
+            push_selected(&mut values, v, &selection.outputs, whole.1);
         }
-        row.extend_from_slice(extra);
+        values.extend_from_slice(extra);
         // Never a silent NaN or ∞ (as the CLI's CSV).
-        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+        if let Some(j) = first_non_finite(&values[start..]) {
             out.error = Some(format!(
                 "at t = {t}: column `{}` is {} (it overflowed)",
-                out.columns[j], row[j]
+                out.columns[j],
+                values[start + j]
             ));
+            values.truncate(start);
             break;
         }
-        values.extend_from_slice(&row);
         out.rows += 1;
     }
     if out.error.is_none() {
         out.events = solver.close_events().iter().map(event_of).collect();
     }
-    out.backend = match solver.system().backend() {
-        kinema::Backend::Jit => "jit",
-        kinema::Backend::Tape => "tape",
-    };
+    out.backend = backend_name(solver.system());
     out.values = values;
     Ok(out)
+}
+
+/// The back end a system runs on.
+fn backend_name(system: &TapeSystem) -> &'static str {
+    match system.backend() {
+        kinema::Backend::Jit => "jit",
+        kinema::Backend::Tape => "tape",
+    }
+}
+
+/// Whether `picked` is 0, 1, …, `len` − 1: a whole block.
+fn is_whole(picked: &[usize], len: usize) -> bool {
+    picked.len() == len && picked.iter().enumerate().all(|(i, &k)| i == k)
+}
+
+/// Appends the entries `picked` of `source` to `row` (NaN for one out of
+/// range), or all of `source` by one copy when `whole`.
+fn push_selected(row: &mut Vec<f64>, source: &[f64], picked: &[usize], whole: bool) {
+    if whole {
+        row.extend_from_slice(source);
+    } else {
+        row.extend(
+            picked
+                .iter()
+                .map(|&k| source.get(k).copied().unwrap_or(f64::NAN)),
+        );
+    }
+}
+
+/// The first entry of `row` that is NaN or ±∞: a check of the whole row
+/// first that needs no branch per entry (it vectorizes), the search only
+/// when it fails.
+fn first_non_finite(row: &[f64]) -> Option<usize> {
+    if row.iter().fold(false, |bad, v| bad | !v.is_finite()) {
+        row.iter().position(|v| !v.is_finite())
+    } else {
+        None
+    }
 }
 
 /// The result of a sweep (the GIL released while it is made).
@@ -640,12 +718,6 @@ impl NativeModel {
                 )
             })?,
         };
-        if analysis.simulation == kinema_adm::Simulation::Dynamics {
-            return Err(KinemaError::new_err(format!(
-                "`{file}` with a Dynamics analysis: forward dynamics is not available from Python \
-                 yet (run it with `kinema run`)"
-            )));
-        }
         let text = kinema_adm::read_text(&path).map_err(|e| {
             file_error(
                 py,
@@ -658,14 +730,43 @@ impl NativeModel {
             let first = e.diagnostics().first().and_then(|d| d.pos);
             file_error(py, &file, e.to_string(), first.map(|p| (p.line, p.col)))
         })?;
-        kinema_adm::check_kinematic(&adm, &analysis)
-            .map_err(|r| file_error(py, &file, r.to_string(), None))?;
+        let dynamics = analysis.simulation == kinema_adm::Simulation::Dynamics;
+        if dynamics {
+            // As `kinema run`: a force the engine computes in MATLAB
+            // cannot run.
+            if let Some((name, id, mfile)) = kinema_adm::dynamics::point_force_files(&adm)
+                .into_iter()
+                .next()
+            {
+                return Err(file_error(
+                    py,
+                    &file,
+                    format!(
+                        "force \"{name}\" (id {id}, PointForceFile) of `{file}` computes its force \
+                         with the MATLAB function `{mfile}` ({mfile}.m), which kinema cannot run"
+                    ),
+                    None,
+                ));
+            }
+        } else {
+            kinema_adm::check_kinematic(&adm, &analysis)
+                .map_err(|r| file_error(py, &file, r.to_string(), None))?;
+        }
+        let adm_qd0: Vec<Option<[f64; 3]>> = adm.bodies.iter().map(|b| b.qd0).collect();
         let parsed = kinema_adm::build(&adm);
         // The syntax tree holds spans that stay on this thread: no detach
         // (an .adm model is small).
         let model =
             kinema::Model::from_parsed(parsed, &text, &file).map_err(|e| model_error(py, &e))?;
-        Ok(NativeModel::new(model, file, Some(analysis)))
+        if dynamics && model.derivation().dynamics.is_none() {
+            return Err(KinemaError::new_err(format!(
+                "`{file}` cannot run a Dynamics analysis: it has no inertia (every body needs \
+                 `mass` and `jbar`)"
+            )));
+        }
+        let mut native = NativeModel::new(model, file, Some(analysis));
+        native.adm_qd0 = adm_qd0;
+        Ok(native)
     }
 
     /// The file name (or the name given to the text).
@@ -723,6 +824,9 @@ impl NativeModel {
             system,
             file: self.file.clone(),
             analysis: self.analysis.clone(),
+            adm_qd0: self.adm_qd0.clone(),
+            // The parameters may change the rank at the start.
+            motion: std::sync::OnceLock::new(),
         })
     }
 
@@ -809,6 +913,14 @@ impl NativeModel {
                     )));
                 }
                 a.check_times().map_err(|e| value_error(e.to_string()))?;
+                if a.simulation == kinema_adm::Simulation::Dynamics {
+                    // Forward dynamics: the output times, the ACF's
+                    // stepSize the step between them (as `kinema run`).
+                    let times = a.output_times();
+                    check_times(&times)?;
+                    let outputs = vec![true; times.len()];
+                    return Ok((times, outputs));
+                }
                 let (times, outputs) = a.grid();
                 check_times(&times)?;
                 Ok((times, outputs))
@@ -838,20 +950,31 @@ impl NativeModel {
     /// all by default), as `kinema run`. Returns a dict: `columns`,
     /// `values` (rows × columns float64), `events`, `flagged`, `kinks`,
     /// `output_kinks`, `imprecise`, `error` (None, or why the run stopped:
-    /// the rows are those before it), `backend`.
+    /// the rows are those before it), `backend`. `times` None: the grid of
+    /// `t_end` and `steps` ([`NativeModel::grid`]), made here rather than
+    /// passed through Python lists.
     #[pyo3(signature = (times, outputs=None, columns=None, positions_only=false,
-                        stop_at_singular=false, backend="jit"))]
+                        stop_at_singular=false, backend="jit", t_end=None, steps=None))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
         py: Python<'py>,
-        times: Vec<f64>,
+        times: Option<Vec<f64>>,
         outputs: Option<Vec<bool>>,
         columns: Option<&str>,
         positions_only: bool,
         stop_at_singular: bool,
         backend: &str,
+        t_end: Option<f64>,
+        steps: Option<i64>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let (times, outputs) = match times {
+            Some(times) => (times, outputs),
+            None => {
+                let (times, outputs) = self.grid(t_end, steps)?;
+                (times, Some(outputs))
+            }
+        };
         check_times(&times)?;
         let outputs = outputs.unwrap_or_else(|| vec![true; times.len()]);
         if outputs.len() != times.len() {
@@ -871,10 +994,11 @@ impl NativeModel {
                 d.nc(),
                 d.rows.len(),
                 if d.dynamics.is_some() {
-                    "; forward dynamics is not available from Python yet (run it with `kinema \
-                     run`)"
+                    "; a model with inertia runs forward dynamics (Model.run, Model.forward) or \
+                     finds its equilibrium (Model.equilibrium)"
                 } else {
-                    ""
+                    "; with inertia (`mass` and `inertia` on every body) it would run forward \
+                     dynamics"
                 }
             )));
         }
@@ -887,7 +1011,7 @@ impl NativeModel {
             positions_only,
             stop_at_singular,
         };
-        let (adm, rows_n) = (self.is_adm(), d.rows.len());
+        let (adm, rows_n, nc) = (self.is_adm(), d.rows.len(), d.nc());
         let start = std::time::Instant::now();
         let out = py
             .detach(|| {
@@ -898,7 +1022,7 @@ impl NativeModel {
                     (&times, &outputs),
                     options,
                     adm,
-                    rows_n,
+                    (rows_n, nc),
                 )
             })
             .map_err(KinemaError::new_err)?;
@@ -927,6 +1051,220 @@ impl NativeModel {
         dict.set_item("imprecise", out.imprecise)?;
         dict.set_item("error", out.error)?;
         dict.set_item("backend", out.backend)?;
+        Ok(dict)
+    }
+
+    /// How the model moves: `"kinematic"` (kinematics, and inverse
+    /// dynamics with inertia), `"forward"` (forward dynamics: a model with
+    /// inertia and free degrees of freedom, or a Dynamics analysis), or
+    /// `"prescribed"` (fully driven with redundant rows: minimum-norm
+    /// solves), as `kinema run` decides.
+    #[getter]
+    fn motion(&self, py: Python<'_>) -> &'static str {
+        py.detach(|| self.dynamics_run())
+            .map_or("kinematic", forward::DynamicsRun::name)
+    }
+
+    /// The step of forward dynamics when none is given: a Dynamics
+    /// analysis's stepSize, 1e-3 s for a `.kin` model.
+    #[getter]
+    fn default_step(&self) -> f64 {
+        match &self.analysis {
+            Some(a) if self.adm_dynamics() => a.step_size,
+            _ => forward::DEFAULT_STEP,
+        }
+    }
+
+    /// Forward dynamics through `times` (increasing, from t0 = times[0]),
+    /// as `kinema run` of a model with inertia and free degrees of
+    /// freedom. Returns a dict as `run`, with `passages`, `redundancy`,
+    /// `consistency`, `integrator`, `energies`, `motion`.
+    #[pyo3(signature = (times, columns=None, integrator="hht", step=None, rtol=None,
+                        project_velocity=false, energy=false, backend="jit"))]
+    #[allow(clippy::too_many_arguments)]
+    fn forward<'py>(
+        &self,
+        py: Python<'py>,
+        times: Vec<f64>,
+        columns: Option<&str>,
+        integrator: &str,
+        step: Option<f64>,
+        rtol: Option<f64>,
+        project_velocity: bool,
+        energy: bool,
+        backend: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        check_times(&times)?;
+        let integrator = match integrator {
+            "hht" => forward::Integrator::Hht,
+            "accurate" => forward::Integrator::Accurate,
+            other => {
+                return Err(value_error(format!(
+                    "integrator must be \"hht\" or \"accurate\", found {other:?}"
+                )));
+            }
+        };
+        // The CLI's option checks (crates/kinema-cli/src/cli/forward.rs).
+        match integrator {
+            forward::Integrator::Hht if rtol.is_some() => {
+                return Err(value_error(
+                    "rtol is the tolerance of integrator=\"accurate\"; HHT takes step",
+                ));
+            }
+            forward::Integrator::Accurate if project_velocity => {
+                return Err(value_error(
+                    "project_velocity is for integrator=\"hht\": the accurate mode projects \
+                     positions and velocities after every step already",
+                ));
+            }
+            forward::Integrator::Accurate if step.is_some() => {
+                return Err(value_error(
+                    "step is HHT's; integrator=\"accurate\" chooses its steps to meet rtol",
+                ));
+            }
+            _ => {}
+        }
+        let rtol = rtol.unwrap_or(forward::DEFAULT_RTOL);
+        if !(rtol > 1e-14 && rtol < 1.0) {
+            return Err(value_error(format!(
+                "rtol must be in (1e-14, 1), not {rtol}"
+            )));
+        }
+        let h = step.unwrap_or(self.default_step());
+        if !(h.is_finite() && h > 0.0) {
+            return Err(value_error(format!(
+                "step must be a positive, finite time in seconds, not {h}"
+            )));
+        }
+        let d = self.model.derivation();
+        if d.dynamics.is_none() {
+            return Err(KinemaError::new_err(format!(
+                "`{}` has no inertia: forward dynamics needs `mass` and `inertia` on every body",
+                self.file
+            )));
+        }
+        let selection = kinema::columns::Selection::of_option(columns, d)
+            .map_err(|e| value_error(e.to_string()))?;
+        let system = self.system_for(backend)?;
+        let options = forward::ForwardOptions {
+            integrator,
+            step: h,
+            rtol,
+            project_velocity,
+            energy,
+            adm: self.is_adm(),
+        };
+        let start = std::time::Instant::now();
+        let out = py.detach(|| {
+            let kind = self.dynamics_run().unwrap_or(forward::DynamicsRun::Forward);
+            let (q0, qd0) = forward::start_state(&self.model, &system, &self.adm_qd0);
+            forward::run_forward(
+                &self.model,
+                &system,
+                &self.file,
+                kind,
+                [&q0, &qd0],
+                &times,
+                &selection,
+                &options,
+            )
+        });
+        let out = out.map_err(KinemaError::new_err)?;
+        let rust_seconds = start.elapsed().as_secs_f64();
+        let names = forward::columns(&self.model, &system, &selection, (self.is_adm(), energy));
+        let dict = PyDict::new(py);
+        dict.set_item("rust_seconds", rust_seconds)?;
+        dict.set_item("values", array(py, out.values, out.rows, names.len())?)?;
+        dict.set_item("columns", names)?;
+        let passages = PyList::empty(py);
+        for p in &out.passages {
+            let ev = PyDict::new(py);
+            ev.set_item("kind", "passage")?;
+            ev.set_item("t", p.t)?;
+            ev.set_item("sigma", p.sigma)?;
+            ev.set_item("equations", p.equations.clone())?;
+            ev.set_item("message", &p.message)?;
+            passages.append(ev)?;
+        }
+        dict.set_item("passages", passages)?;
+        dict.set_item("max_event_warnings", MAX_EVENT_WARNINGS)?;
+        dict.set_item("redundancy", out.redundancy)?;
+        let c = PyDict::new(py);
+        c.set_item("dq", out.consistency.dq)?;
+        c.set_item("phi", out.consistency.phi)?;
+        c.set_item("dqd", out.consistency.dqd)?;
+        c.set_item("velocity", out.consistency.velocity)?;
+        c.set_item("corrected", out.corrected)?;
+        dict.set_item("consistency", c)?;
+        dict.set_item("integrator", out.integrator)?;
+        let [ke, v, work, ke0, v0] = out.energies;
+        let e = PyDict::new(py);
+        e.set_item("kinetic", ke)?;
+        e.set_item("potential", v)?;
+        e.set_item("work", work)?;
+        e.set_item("kinetic0", ke0)?;
+        e.set_item("potential0", v0)?;
+        e.set_item("balance", (ke + v) - (ke0 + v0) - work)?;
+        dict.set_item("energies", e)?;
+        dict.set_item("imprecise", out.imprecise)?;
+        dict.set_item("error", out.error)?;
+        dict.set_item(
+            "motion",
+            if out.prescribed {
+                "prescribed"
+            } else {
+                "forward"
+            },
+        )?;
+        dict.set_item("backend", backend_name(&system))?;
+        Ok(dict)
+    }
+
+    /// The stable static equilibrium at t = 0, as `kinema run
+    /// --equilibrium`: a dict with `columns`, `values` (one row: q, q̇ =
+    /// q̈ = 0, points and outputs at rest, λ, reactions, efforts),
+    /// `stability`, `eigenvalues`, `residual`, `gradient`, `iterations`.
+    #[pyo3(signature = (columns=None, backend="jit"))]
+    fn equilibrium<'py>(
+        &self,
+        py: Python<'py>,
+        columns: Option<&str>,
+        backend: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let d = self.model.derivation();
+        if d.dynamics.is_none() {
+            return Err(KinemaError::new_err(format!(
+                "`{}` has no inertia, gravity or forces: the equilibrium needs a model with \
+                 dynamics (`mass`, `inertia`, `gravity`, `force`)",
+                self.file
+            )));
+        }
+        let selection = kinema::columns::Selection::of_option(columns, d)
+            .map_err(|e| value_error(e.to_string()))?;
+        let system = self.system_for(backend)?;
+        let (eq, row) = py
+            .detach(|| forward::equilibrium(&self.model, &system, &selection))
+            .map_err(|e| AnalysisError::new_err(format!("no equilibrium: {e}")))?;
+        let names = forward::columns(&self.model, &system, &selection, (self.is_adm(), false));
+        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+            return Err(AnalysisError::new_err(format!(
+                "at the equilibrium: column `{}` is {} (it overflowed)",
+                names.get(j).map_or("?", String::as_str),
+                row[j]
+            )));
+        }
+        let dict = PyDict::new(py);
+        dict.set_item("values", array(py, row, 1, names.len())?)?;
+        dict.set_item("columns", names)?;
+        dict.set_item("stability", eq.stability.to_string())?;
+        dict.set_item(
+            "stable",
+            eq.stability == kinema::equilibrium::Stability::Stable,
+        )?;
+        dict.set_item("eigenvalues", eq.eigenvalues.clone())?;
+        dict.set_item("residual", eq.residual)?;
+        dict.set_item("gradient", eq.gradient)?;
+        dict.set_item("iterations", eq.iterations)?;
         Ok(dict)
     }
 

@@ -17,7 +17,8 @@ def test_example_runs(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg", KINEMA_EXAMPLE_OUT=str(tmp_path))
     p = subprocess.run([sys.executable, str(script)], cwd=ROOT, env=env, capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
-    for name in ("path.png", "sweep.png"):
+    for name in ("path.png", "sweep.png", "dynamics.png"):
         f = tmp_path / name
         assert f.exists() and f.stat().st_size > 5000, name
     assert "stroke" in p.stdout
+    assert "motion: forward" in p.stdout and "equilibrium: stable" in p.stdout

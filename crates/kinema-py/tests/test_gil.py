@@ -38,6 +38,27 @@ def test_python_runs_while_a_model_runs():
     assert counter > 50_000 * max(result["seconds"], 0.01), (counter, result["seconds"])
 
 
+def test_python_runs_while_forward_dynamics_runs():
+    model = kinema.Model.from_file(ROOT / "models" / "iftomm" / "a01_pendulum.kin")
+    done = threading.Event()
+    result = {}
+
+    def work():
+        start = time.perf_counter()
+        result["res"] = model.forward(t_end=20.0, steps=200, step=1e-4)
+        result["seconds"] = time.perf_counter() - start
+        done.set()
+
+    counter = 0
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        counter += 1
+    t.join()
+    assert len(result["res"]) == 201
+    assert counter > 50_000 * max(result["seconds"], 0.01), (counter, result["seconds"])
+
+
 def test_threads_give_the_same_numbers():
     model = kinema.Model.from_file(ROOT / "models" / "slider_crank.kin")
     expected = model.run(steps=500).values

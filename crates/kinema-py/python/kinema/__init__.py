@@ -19,6 +19,17 @@ with inertia adds inverse dynamics: Lagrange multipliers ``lambda.*``, joint
 reactions ``reaction.*`` in newtons and newton-metres, driver efforts
 ``driver.*``.
 
+A model with inertia (mass m_i and polar moment J_i on every body) and free
+degrees of freedom runs forward dynamics instead (:meth:`Model.run` decides as
+``kinema run`` does; :meth:`Model.forward` says so explicitly): the index-3
+equations of motion
+
+* M q_ddot + Phi_q^T lambda = Q_A(q, q_dot, t),   Phi(q, t) = 0,
+
+integrated by HHT-alpha at a fixed step or by error-controlled Dormand-Prince
+5(4) on the index-1 form; :meth:`Model.equilibrium` finds the stable static
+equilibrium (Phi_q^T lambda = Q_A with q_dot = q_ddot = 0).
+
 The GIL is released while Rust computes, so threads (and Dask workers, see
 :mod:`kinema.dask`) run models in parallel.
 """
@@ -47,6 +58,9 @@ __all__ = [
     "SingularConfigurationWarning",
     "KinkWarning",
     "PrecisionWarning",
+    "RedundantConstraintsWarning",
+    "EnergyBalanceWarning",
+    "StabilityWarning",
     "SweepWarning",
 ]
 
@@ -78,6 +92,24 @@ class PrecisionWarning(KinemaWarning):
     does not determine (sin(1e30 * t), large numbers that cancel)."""
 
 
+class RedundantConstraintsWarning(KinemaWarning):
+    """Forward dynamics of a model whose equations are dependent at the start
+    (redundant constraints): the motion is determined, the constraint forces
+    of those equations (their lambda, reactions, driver efforts) are the
+    minimum-norm values."""
+
+
+class EnergyBalanceWarning(KinemaWarning):
+    """Forward dynamics whose energy balance, kinetic + potential - work of
+    the other forces, is off by more than 1 % of the energies: the results
+    are not accurate (a smaller ``step``, or ``integrator="accurate"``)."""
+
+
+class StabilityWarning(KinemaWarning):
+    """The equilibrium found is not stable: a small disturbance moves the
+    mechanism away."""
+
+
 class SweepWarning(KinemaWarning):
     """Variants of a sweep that failed (with ``errors="warn"``) or whose
     rows were flagged."""
@@ -91,7 +123,8 @@ class Event:
     """A singular configuration met during a run.
 
     Attributes:
-        kind: ``"bifurcation"``, ``"toggle"``, ``"lock-up"`` or ``"at-end"``.
+        kind: ``"bifurcation"``, ``"toggle"``, ``"lock-up"`` or ``"at-end"``
+            (kinematics), ``"passage"`` (forward dynamics went through it).
         t: the time in seconds.
         equations: the names of the dependent equations there.
         message: the CLI's warning text.
@@ -117,7 +150,11 @@ class Results:
     :meth:`to_pandas` makes a DataFrame. ``events`` lists the singular
     configurations met; ``flagged``, ``kinks``, ``output_kinks`` and
     ``imprecise`` the output times the CLI warns about; ``backend`` the
-    back end the run ended on (``"jit"`` or ``"tape"``).
+    back end the run ended on (``"jit"`` or ``"tape"``). ``info`` holds
+    what the CLI's summary says of a forward run or an equilibrium (the
+    integrator and its counters, the consistency corrections at the start,
+    the energies, the redundancy; the stability and the reduced Hessian's
+    eigenvalues), empty for a kinematic run.
     """
 
     def __init__(
@@ -132,6 +169,7 @@ class Results:
         failures: Optional[List[Tuple[int, str]]] = None,
         backend: Optional[str] = None,
         rust_seconds: Optional[float] = None,
+        info: Optional[Dict[str, Any]] = None,
     ) -> None:
         self.columns: List[str] = list(columns)
         self.values: np.ndarray = values
@@ -145,6 +183,7 @@ class Results:
         #: Seconds the run spent in Rust (the solver loop), for measuring
         #: the Python overhead around it; None for sweeps.
         self.rust_seconds = rust_seconds
+        self.info: Dict[str, Any] = info or {}
         self._index = {name: k for k, name in enumerate(self.columns)}
 
     @property
@@ -320,6 +359,74 @@ def _analysis_error(message: str, results: Results) -> AnalysisError:
     return err
 
 
+def _raise_if_failed(out: Mapping[str, Any], results: Results) -> Results:
+    if out["error"] is not None:
+        n = len(results)
+        rows = "no row was" if n == 0 else ("1 row was" if n == 1 else f"{n} rows were")
+        raise _analysis_error(
+            f"{out['error']}\n  = note: {rows} computed before the failure (in .results)",
+            results,
+        )
+    return results
+
+
+def _warn_forward(out: Mapping[str, Any], integrator: str, stacklevel: int) -> None:
+    """The CLI's forward-dynamics warnings, through :mod:`warnings`."""
+    if out["redundancy"] is not None:
+        warnings.warn(out["redundancy"][0], RedundantConstraintsWarning, stacklevel=stacklevel)
+    passages = out["passages"]
+    limit = out["max_event_warnings"]
+    for p in passages[:limit]:
+        warnings.warn(p["message"], SingularConfigurationWarning, stacklevel=stacklevel)
+    if len(passages) > limit:
+        warnings.warn(
+            f"... and {len(passages) - limit} more singular configurations passed, up to "
+            f"t = {passages[-1]['t']} (not listed one by one)",
+            SingularConfigurationWarning,
+            stacklevel=stacklevel,
+        )
+    if out["imprecise"]:
+        worst = out["imprecise"][0]
+        warnings.warn(
+            f"{len(out['imprecise'])} row(s) from t = {worst[0]}: {worst[2]}",
+            PrecisionWarning,
+            stacklevel=stacklevel,
+        )
+    if out["error"] is None:
+        e = out["energies"]
+        balance = e["balance"]
+        scale = max(abs(e[k]) for k in ("kinetic", "potential", "kinetic0", "potential0", "work"))
+        if math.isnan(balance) or abs(balance) > 1e-2 * scale:
+            hint = "try a smaller step or integrator=\"accurate\"" if integrator == "hht" else "try a smaller rtol"
+            warnings.warn(
+                f"the energy balance is off by {balance:.3e} "
+                f"({100 * abs(balance) / max(scale, 5e-324):.1f}% of the energies): the results "
+                f"are not accurate; {hint}",
+                EnergyBalanceWarning,
+                stacklevel=stacklevel,
+            )
+
+
+def _results_of_forward(out: Mapping[str, Any]) -> Results:
+    info = {
+        "motion": out["motion"],
+        "integrator": out["integrator"],
+        "consistency": dict(out["consistency"]),
+        "energies": dict(out["energies"]),
+        "redundant": list(out["redundancy"][1]) if out["redundancy"] is not None else [],
+    }
+    events = [Event(p["kind"], p["t"], list(p["equations"]), p["message"]) for p in out["passages"]]
+    return Results(
+        out["columns"],
+        out["values"],
+        events=events,
+        imprecise=list(out["imprecise"]),
+        backend=out["backend"],
+        rust_seconds=out["rust_seconds"],
+        info=info,
+    )
+
+
 class Model:
     """A mechanism read, checked and derived.
 
@@ -410,8 +517,11 @@ class Model:
         equations (their names, the order of Phi's rows), kinematic and driving
         equation counts, ``kdof`` = nc - m_K, ``dof`` = nc - m_K - m_D (0 for
         kinematic analysis), result columns, parameters, whether the model has
-        inertia, and the warnings."""
-        return dict(self._native.check())
+        inertia, the warnings, and ``motion`` (:attr:`motion`: how
+        :meth:`run` moves it)."""
+        report = dict(self._native.check())
+        report["motion"] = self.motion
+        return report
 
     def columns(self, columns: Union[str, Sequence[str], None] = None, positions_only: bool = False) -> List[str]:
         """The column names :meth:`run` gives for these options."""
@@ -436,11 +546,27 @@ class Model:
         positions_only: bool = False,
         stop_at_singular: bool = False,
         backend: str = "jit",
+        integrator: str = "hht",
+        step: Optional[float] = None,
+        rtol: Optional[float] = None,
+        project_velocity: bool = False,
+        energy: bool = False,
     ) -> Results:
-        """Kinematic analysis, as ``kinema run``: q (m, rad), q_dot (m/s,
+        """The model's motion, as ``kinema run``: q (m, rad), q_dot (m/s,
         rad/s), q_ddot (m/s^2, rad/s^2) of every coordinate, then the named
-        points and outputs with their rates, then inverse dynamics for a model
-        with inertia.
+        points and outputs with their rates, then for a model with inertia
+        the Lagrange multipliers ``lambda.<equation>``, the joints' reactions
+        ``reaction.<joint>.<body>.Fx/Fy`` (N) and ``.T`` (N m, about the
+        body's frame) and the drivers' efforts ``driver.<equation>`` (N or
+        N m).
+
+        Which motion: kinematic analysis (Newton-Raphson on Phi(q, t) = 0,
+        then Phi_q q_dot = nu, Phi_q q_ddot = gamma) when the model is
+        fully driven; forward dynamics (see :meth:`forward`, whose options
+        ``integrator``, ``step``, ``rtol``, ``project_velocity`` and
+        ``energy`` apply) for a model with inertia and free degrees of
+        freedom or a simEngine2D Dynamics analysis; :attr:`motion` says
+        which.
 
         Args:
             t_end: final time in seconds (1 s by default; an ``.adm`` model's
@@ -455,6 +581,8 @@ class Model:
                 no velocity or acceleration solves).
             stop_at_singular: stop at the first singular configuration.
             backend: ``"jit"`` (native code, the default) or ``"tape"``.
+            integrator, step, rtol, project_velocity, energy: forward
+                dynamics only (:meth:`forward`); refused for a kinematic run.
 
         Returns:
             :class:`Results`. Singular configurations and doubtful rows are
@@ -465,27 +593,208 @@ class Model:
             AnalysisError: a step failed; ``.results`` holds the rows before it.
             ValueError / TypeError: bad arguments.
         """
-        grid, outputs = self._grid(t_end, steps, times)
+        if self.motion != "kinematic":
+            if positions_only:
+                raise ValueError(
+                    "positions_only cannot be used with forward dynamics: its positions are "
+                    "integrated from the accelerations, which it must solve"
+                )
+            if stop_at_singular:
+                raise ValueError(
+                    "stop_at_singular is for kinematic runs: forward dynamics stops at a step "
+                    "that fails"
+                )
+            return self._forward(
+                t_end, steps, times, columns, backend, integrator, step, rtol,
+                project_velocity, energy, stacklevel=4,
+            )
+        if rtol is not None or integrator != "hht" or energy or project_velocity:
+            raise ValueError(
+                "integrator, rtol, project_velocity and energy are for forward dynamics (a model "
+                "with inertia and free degrees of freedom, or a Dynamics ACF)"
+            )
+        if step is not None:
+            raise ValueError(
+                "step is for forward dynamics (a model with inertia and free degrees of freedom, "
+                "or a Dynamics ACF); a kinematic run takes t_end and steps"
+            )
         if not isinstance(backend, str):
             raise TypeError(f"backend must be a str, found {type(backend).__name__}")
+        t_end = _check_real("t_end", t_end)
+        steps = _check_int("steps", steps)
+        if times is not None:
+            if t_end is not None or steps is not None:
+                raise TypeError("give either times= or t_end=/steps=, not both")
+            grid: Optional[List[float]] = _times(times)
+        else:
+            grid = None  # the grid of t_end and steps, made in Rust
         out = self._native.run(
             grid,
-            outputs,
+            None,
             _columns_spec(columns),
             bool(positions_only),
             bool(stop_at_singular),
             backend,
+            t_end,
+            steps,
         )
         _warn_run(out, stacklevel=3)
-        results = _results_of_run(out)
-        if out["error"] is not None:
-            n = len(results)
-            rows = "no row was" if n == 0 else ("1 row was" if n == 1 else f"{n} rows were")
-            raise _analysis_error(
-                f"{out['error']}\n  = note: {rows} computed before the failure (in .results)",
-                results,
+        return _raise_if_failed(out, _results_of_run(out))
+
+    @property
+    def motion(self) -> str:
+        """How :meth:`run` moves the model, as ``kinema run`` decides:
+        ``"kinematic"`` (fully driven: kinematics, and inverse dynamics with
+        inertia), ``"forward"`` (inertia and free degrees of freedom, or a
+        simEngine2D Dynamics analysis: forward dynamics) or ``"prescribed"``
+        (inertia, fully driven with redundant rows: minimum-norm solves of
+        the prescribed motion and its multipliers)."""
+        return self._native.motion
+
+    def forward(
+        self,
+        t_end: Optional[float] = None,
+        steps: Optional[int] = None,
+        *,
+        times: Optional[Sequence[float]] = None,
+        columns: Union[str, Sequence[str], None] = None,
+        integrator: str = "hht",
+        step: Optional[float] = None,
+        rtol: Optional[float] = None,
+        project_velocity: bool = False,
+        energy: bool = False,
+        backend: str = "jit",
+    ) -> Results:
+        """Forward dynamics, as ``kinema run`` of a model with inertia and
+        free degrees of freedom: from the declared configuration q0 (the
+        guesses) and velocities q_dot0 (``velocity`` items, an ``.adm``
+        body's ``qd0``), made consistent with Phi = 0 and Phi_q q_dot = nu
+        by minimum-norm projections (``info["consistency"]``), the equations
+        of motion M q_ddot + Phi_q^T lambda = Q_A, Phi(q, t) = 0 are
+        integrated and a row written at each output time: q, q_dot, q_ddot,
+        points and outputs, ``lambda.*``, ``reaction.*`` (N, N m),
+        ``driver.*`` (N or N m), and with ``energy`` the kinetic energy
+        ``energy.kinetic`` = 1/2 q_dot^T M q_dot, the gravity potential
+        ``energy.potential`` and the work of the other forces and drivers
+        since the start ``energy.work`` (J); kinetic + potential - work is
+        constant when the integration is exact. A model fully driven with
+        redundant rows runs its prescribed motion by minimum-norm solves.
+
+        Args:
+            t_end: final time in seconds (1 s; an ``.adm`` model's ``tend``).
+            steps: output intervals from 0 to ``t_end`` (100; ``outputSteps``).
+            times: the output times instead (strictly increasing, s; the
+                motion starts at ``times[0]``).
+            columns: as :meth:`run` (the dynamics columns always follow).
+            integrator: ``"hht"`` (HHT-alpha, alpha = -0.1, at a fixed step,
+                index-3, second order) or ``"accurate"`` (Dormand-Prince
+                5(4), error-controlled to ``rtol``, index-1 with projection).
+            step: HHT's largest step in seconds (1e-3; an ``.adm`` model's
+                ``stepSize``), shortened to land on every output time.
+            rtol: the accurate integrator's relative and absolute tolerance
+                (1e-8; in (1e-14, 1)).
+            project_velocity: HHT: report q_dot projected onto
+                Phi_q q_dot = nu at every step.
+            energy: three more columns, the energies (J).
+            backend: ``"jit"`` or ``"tape"`` for the points, outputs and
+                reactions (the integrator runs on tapes, as the CLI's).
+
+        Returns:
+            :class:`Results`; ``events`` lists the singular configurations
+            passed (kind ``"passage"``), ``info`` the integrator's counters,
+            the consistency corrections, the energies and their balance, the
+            redundant equations.
+
+        Warns:
+            SingularConfigurationWarning: a singular configuration passed.
+            RedundantConstraintsWarning: dependent equations at the start.
+            EnergyBalanceWarning: the balance is off by more than 1 %.
+
+        Raises:
+            AnalysisError: a step failed (an equation undefined ahead, no
+                convergence); ``.results`` holds the rows before it.
+            KinemaError: the model has no inertia, or is fully driven
+                (use :meth:`run`).
+            ValueError / TypeError: bad arguments.
+        """
+        if self.motion == "kinematic":
+            check = self._native.check()
+            why = (
+                "it has no inertia (`mass` and `inertia` on every body)"
+                if not check["inertia"]
+                else "it is fully driven (NDOF = 0): its motion is kinematic, with inverse dynamics"
             )
-        return results
+            raise KinemaError(f"{self.name} does not run forward dynamics: {why}; use Model.run")
+        return self._forward(
+            t_end, steps, times, columns, backend, integrator, step, rtol, project_velocity, energy,
+            stacklevel=4,
+        )
+
+    def _forward(
+        self,
+        t_end: Any,
+        steps: Any,
+        times: Any,
+        columns: Any,
+        backend: Any,
+        integrator: Any,
+        step: Any,
+        rtol: Any,
+        project_velocity: Any,
+        energy: Any,
+        stacklevel: int,
+    ) -> Results:
+        grid, _ = self._grid(t_end, steps, times)
+        for name, value in (("backend", backend), ("integrator", integrator)):
+            if not isinstance(value, str):
+                raise TypeError(f"{name} must be a str, found {type(value).__name__}")
+        out = self._native.forward(
+            grid,
+            _columns_spec(columns),
+            integrator,
+            _check_real("step", step),
+            _check_real("rtol", rtol),
+            bool(project_velocity),
+            bool(energy),
+            backend,
+        )
+        _warn_forward(out, integrator, stacklevel=stacklevel)
+        return _raise_if_failed(out, _results_of_forward(out))
+
+    def equilibrium(
+        self,
+        *,
+        columns: Union[str, Sequence[str], None] = None,
+        backend: str = "jit",
+    ) -> Results:
+        """The stable static equilibrium at t = 0, as ``kinema run
+        --equilibrium``: from the guess, descending the potential to q with
+        Phi(q, 0) = 0 and Phi_q^T lambda = Q_A (q_dot = q_ddot = 0). One row
+        with the columns of a dynamics run (q in m and rad, rates 0, points
+        and outputs at rest, ``lambda.*``, ``reaction.*`` in N and N m,
+        ``driver.*``); ``info`` has ``stability`` (``"stable"``, ...), the
+        reduced Hessian's ``eigenvalues`` (ascending), ``residual``
+        (max |Phi|), ``gradient`` (max |N^T Q_A|) and ``iterations``.
+
+        Warns:
+            StabilityWarning: the equilibrium found is not stable.
+
+        Raises:
+            KinemaError: the model has no inertia, gravity or forces.
+            AnalysisError: no equilibrium found.
+        """
+        if not isinstance(backend, str):
+            raise TypeError(f"backend must be a str, found {type(backend).__name__}")
+        out = self._native.equilibrium(_columns_spec(columns), backend)
+        info = {k: out[k] for k in ("stability", "eigenvalues", "residual", "gradient", "iterations")}
+        if not out["stable"]:
+            warnings.warn(
+                f"the equilibrium found is {out['stability']}: a small disturbance moves the "
+                "mechanism away",
+                StabilityWarning,
+                stacklevel=2,
+            )
+        return Results(out["columns"], out["values"], info=info)
 
     def sweep(
         self,

@@ -32,6 +32,13 @@ class NativeModel:
     def name(self) -> str: ...
     @property
     def is_adm(self) -> bool: ...
+    @property
+    def motion(self) -> str:
+        """"kinematic", "forward" or "prescribed", as `kinema run` decides."""
+    @property
+    def default_step(self) -> float:
+        """Forward dynamics' step when none is given (s): a Dynamics ACF's
+        stepSize, 1e-3 for a .kin model."""
     def param_names(self) -> List[str]: ...
     def param_values(self) -> List[float]: ...
     def warnings(self) -> List[str]: ...
@@ -41,12 +48,14 @@ class NativeModel:
     def columns(self, columns: Optional[str] = None, positions_only: bool = False) -> List[str]: ...
     def run(
         self,
-        times: List[float],
+        times: Optional[List[float]],
         outputs: Optional[List[bool]] = None,
         columns: Optional[str] = None,
         positions_only: bool = False,
         stop_at_singular: bool = False,
         backend: str = "jit",
+        t_end: Optional[float] = None,
+        steps: Optional[int] = None,
     ) -> Dict[str, Any]: ...
     def sweep(
         self,
@@ -59,3 +68,20 @@ class NativeModel:
         backend: str = "jit",
         threads: Optional[int] = None,
     ) -> Dict[str, Any]: ...
+    def forward(
+        self,
+        times: List[float],
+        columns: Optional[str] = None,
+        integrator: str = "hht",
+        step: Optional[float] = None,
+        rtol: Optional[float] = None,
+        project_velocity: bool = False,
+        energy: bool = False,
+        backend: str = "jit",
+    ) -> Dict[str, Any]:
+        """Forward dynamics through `times` (s): columns, values, passages,
+        redundancy, consistency, integrator, energies (J), imprecise, error,
+        motion, backend, rust_seconds."""
+    def equilibrium(self, columns: Optional[str] = None, backend: str = "jit") -> Dict[str, Any]:
+        """The stable static equilibrium at t = 0: columns, values (one row),
+        stability, stable, eigenvalues, residual, gradient, iterations."""

@@ -1,0 +1,612 @@
+//! Forward dynamics and static equilibrium from Python, as `kinema run`
+//! does them (crates/kinema-cli/src/cli/forward.rs and equilibrium.rs):
+//! the same facade calls in the same order, so the rows are the CLI's CSV
+//! rows bit for bit.
+//!
+//! What is repeated from the CLI (it has no public function for it; each
+//! is marked "as the CLI's …" below): which motion a model with inertia
+//! runs (`dynamics_run`), the reaction forces and driver efforts from λ at
+//! an integrator's state (`RowBuffers::fill`) and at an equilibrium
+//! (`dynamics_row`), and the bisection for an equation undefined in a
+//! step's bracket (`undefined_between`). The rest — integrators, the
+//! passage monitor, the equilibrium search, column selection and names —
+//! are the facade's.
+
+use kinema::equilibrium::{Equilibrium, EquilibriumError};
+use kinema::forward::TapeForward;
+use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
+use kinema::{
+    Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
+    TapeSystem,
+};
+
+/// Default step of a `.kin` model's forward dynamics (as `kinema run`).
+pub const DEFAULT_STEP: f64 = 1e-3;
+/// Default tolerance of the accurate integrator (as `kinema run`).
+pub const DEFAULT_RTOL: f64 = 1e-8;
+/// The columns `energy=True` adds after the dynamics columns.
+pub const ENERGY_COLUMNS: [&str; 3] = ["energy.kinetic", "energy.potential", "energy.work"];
+
+/// How a model with inertia moves (as the CLI's `DynamicsRun`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DynamicsRun {
+    /// Forward dynamics: free degrees of freedom.
+    Forward,
+    /// Fully driven with redundant rows: minimum-norm solves.
+    Prescribed,
+}
+
+impl DynamicsRun {
+    /// The name Python sees.
+    pub fn name(self) -> &'static str {
+        match self {
+            DynamicsRun::Forward => "forward",
+            DynamicsRun::Prescribed => "prescribed",
+        }
+    }
+}
+
+/// The start of a motion: q₀ and q̇₀ as the model declares them at the
+/// system's parameter values. At the declared values these are the
+/// derivation's own numbers (what `kinema run` starts from); with other
+/// values the guess and `velocity` expressions are evaluated at them.
+/// `adm_qd0`: a simEngine2D body's `qd0`, which overrides.
+pub fn start_state(
+    model: &kinema::Model,
+    system: &TapeSystem,
+    adm_qd0: &[Option<[f64; 3]>],
+) -> (Vec<f64>, Vec<f64>) {
+    let d = model.derivation();
+    let params = system.params();
+    let (q0, mut qd0) = if params == d.param_values().as_slice() {
+        (model.initial_configuration(), model.initial_velocities())
+    } else {
+        let q0 = d
+            .coordinates
+            .iter()
+            .map(|c| d.eval(c.guess, &[], &[], 0.0, params))
+            .collect();
+        let qd0 = d
+            .coordinates
+            .iter()
+            .map(|c| {
+                c.initial_velocity
+                    .map_or(0.0, |e| d.eval(e, &[], &[], 0.0, params))
+            })
+            .collect();
+        (q0, qd0)
+    };
+    qd0.resize(d.nc(), 0.0);
+    for (k, v) in adm_qd0.iter().enumerate() {
+        if let (Some(v), Some(slot)) = (v, qd0.get_mut(3 * k..3 * k + 3)) {
+            slot.copy_from_slice(v);
+        }
+    }
+    (q0, qd0)
+}
+
+/// How a model with inertia runs, or `None` (kinematics and inverse
+/// dynamics), as the CLI's `dynamics_run`: NDOF > 0 is forward dynamics;
+/// NDOF = 0 with drivers is kinematic; otherwise the rank of Φ_q at the
+/// assembled start decides.
+pub fn dynamics_run(model: &kinema::Model, system: &TapeSystem, q0: &[f64]) -> Option<DynamicsRun> {
+    let d = model.derivation();
+    d.dynamics.as_ref()?;
+    let dof = d.dof;
+    if dof.ndof() > 0 {
+        return Some(DynamicsRun::Forward);
+    }
+    if dof.ndof() == 0 && dof.driving > 0 {
+        return None;
+    }
+    let over = (dof.ndof() < 0).then_some(DynamicsRun::Prescribed);
+    let mut fwd = TapeForward::new(d, system.params())?;
+    let mut q = q0.to_vec();
+    if kinema::integrate::assemble(&mut fwd, &mut q, 0.0).is_err() {
+        return over;
+    }
+    let Some(rank) = Monitor::new(&mut fwd, &q, 0.0, 0.0).rank() else {
+        return over;
+    };
+    if rank < q.len() {
+        Some(DynamicsRun::Forward)
+    } else if dof.ndof() < 0 {
+        Some(DynamicsRun::Prescribed)
+    } else {
+        None
+    }
+}
+
+/// The integrator of a forward run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integrator {
+    /// HHT-α at a fixed step.
+    Hht,
+    /// Dormand–Prince 5(4) on the index-1 form, projected.
+    Accurate,
+}
+
+/// The options of a forward run, checked.
+pub struct ForwardOptions {
+    pub integrator: Integrator,
+    /// The largest step (HHT).
+    pub step: f64,
+    pub rtol: f64,
+    pub project_velocity: bool,
+    pub energy: bool,
+    /// A simEngine2D model: reactions name their bodies `body1`/`body2`.
+    pub adm: bool,
+}
+
+/// A singular configuration passed, as data.
+pub struct PassageOut {
+    pub t: f64,
+    pub sigma: f64,
+    pub equations: Vec<String>,
+    pub message: String,
+}
+
+/// What a forward run produced (made with the GIL released).
+pub struct ForwardOutput {
+    pub values: Vec<f64>,
+    pub rows: usize,
+    pub passages: Vec<PassageOut>,
+    /// The redundancy at the start: (message, redundant equations).
+    pub redundancy: Option<(String, Vec<String>)>,
+    pub consistency: Consistency,
+    /// Whether the consistency corrections exceed rounding at the start.
+    pub corrected: bool,
+    /// (t, equation, message) of rows an equation's arithmetic does not
+    /// determine.
+    pub imprecise: Vec<(f64, String, String)>,
+    /// The integrator and its counters, as the CLI's summary line.
+    pub integrator: String,
+    /// [kinetic, potential, work of the other forces] at the end and
+    /// [kinetic, potential] at the start.
+    pub energies: [f64; 5],
+    pub error: Option<String>,
+    pub prescribed: bool,
+}
+
+/// The integrator of a run (as the CLI's `Engine`).
+struct Engine {
+    motion: Box<dyn MotionEngine<TapeForward>>,
+    head: String,
+    prescribed: bool,
+}
+
+/// Starts the motion as the CLI's `Motion::start`: HHT from (q₀, q̇₀) made
+/// consistent; the accurate mode from HHT's consistent state; the
+/// prescribed motion by minimum-norm solves.
+fn start(
+    fwd: TapeForward,
+    kind: DynamicsRun,
+    [q0, qd0]: [&[f64]; 2],
+    t0: f64,
+    o: &ForwardOptions,
+) -> Result<(Engine, Consistency), String> {
+    let start_failure = |e: IntegrateError| format!("forward dynamics cannot start: {e}");
+    if kind == DynamicsRun::Prescribed {
+        let p = Prescribed::new(fwd, q0, t0)
+            .map_err(|e| format!("the prescribed motion cannot start: {e}"))?;
+        return Ok((
+            Engine {
+                motion: Box::new(p),
+                head: "prescribed motion with redundant rows (minimum-norm solves at each output \
+                       time)"
+                    .to_owned(),
+                prescribed: true,
+            },
+            Consistency::default(),
+        ));
+    }
+    let accurate_system = (o.integrator == Integrator::Accurate).then(|| fwd.clone());
+    let options = HhtOptions {
+        project_velocity: o.project_velocity,
+        ..HhtOptions::default()
+    };
+    let (hht, consistency) = Hht::new(fwd, q0, qd0, t0, options).map_err(start_failure)?;
+    let engine = match accurate_system {
+        None => Engine {
+            head: format!(
+                "HHT-α (α = -0.1, β = 0.3025, γ = 0.6){}, step ≤ {:e}",
+                if o.project_velocity {
+                    " with velocity projection"
+                } else {
+                    ""
+                },
+                o.step
+            ),
+            motion: Box::new(hht),
+            prescribed: false,
+        },
+        Some(system) => Engine {
+            motion: Box::new(
+                Accurate::new(system, hht.q(), hht.qd(), t0, o.rtol).map_err(start_failure)?,
+            ),
+            head: format!(
+                "accurate (Dormand–Prince 5(4), index-1 with projection), rtol {:e}",
+                o.rtol
+            ),
+            prescribed: false,
+        },
+    };
+    Ok((engine, consistency))
+}
+
+/// Buffers of one row's derived values (as the CLI's `RowBuffers`).
+struct RowBuffers {
+    n: usize,
+    rows: usize,
+    q: Vec<f64>,
+    jac: Vec<f64>,
+    values: Vec<f64>,
+    results: [Vec<f64>; 3],
+    extra: Vec<f64>,
+    scratch: <TapeSystem as System>::Scratch,
+}
+
+impl RowBuffers {
+    fn new(system: &TapeSystem, n: usize, rows: usize, outputs: usize) -> RowBuffers {
+        RowBuffers {
+            n,
+            rows,
+            q: vec![0.0; n],
+            jac: vec![0.0; rows * n],
+            values: vec![0.0; system.dynamics_len()],
+            results: [vec![0.0; outputs], vec![0.0; outputs], vec![0.0; outputs]],
+            extra: Vec::new(),
+            scratch: system.scratch(),
+        }
+    }
+
+    /// Named points and outputs, λ, reactions and efforts at the state, as
+    /// the CLI's `RowBuffers::fill`: per reaction the force −Σ Φ_qᵀ λ over
+    /// its rows on its body and the torque about the body's frame
+    /// (g_φ − s × g with the arm s); the drivers' efforts −λ.
+    fn fill(&mut self, system: &TapeSystem, engine: &mut Engine) {
+        let (n, rows) = (self.n, self.rows);
+        let motion = &mut engine.motion;
+        let t = motion.t();
+        self.q.copy_from_slice(motion.q());
+        motion.system_mut().jacobian(&self.q, t, &mut self.jac);
+        let (q, qd, qdd, lambda) = (motion.q(), motion.qd(), motion.qdd(), motion.lambda());
+        {
+            let [y, yd, ydd] = &mut self.results;
+            kinema::Outputs::outputs(system, &mut self.scratch, t, q, qd, qdd, y, yd, ydd);
+        }
+        system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
+        self.extra.clear();
+        self.extra.extend_from_slice(lambda);
+        let arms = self.values.get(2 * n..).unwrap_or(&[]);
+        for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
+            let mut g = [0.0; 3];
+            let (r0, r1) = (spec.rows.0 as usize, (spec.rows.1 as usize).min(rows));
+            for (row, &l) in lambda.iter().enumerate().take(r1).skip(r0) {
+                for (c, gc) in g.iter_mut().enumerate() {
+                    let col = 3 * spec.body as usize + c;
+                    *gc -= self.jac.get(row * n + col).copied().unwrap_or(f64::NAN) * l;
+                }
+            }
+            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
+            self.extra.extend([g[0], g[1], torque]);
+        }
+        let start = system.driving_start().min(rows);
+        self.extra.extend(lambda[start..].iter().map(|l| -l));
+    }
+}
+
+/// The first equation undefined or unbounded between the last state and
+/// the output time not reached (as the CLI's `undefined_between`).
+fn undefined_between(
+    system: &TapeSystem,
+    scratch: &mut <TapeSystem as System>::Scratch,
+    q: &[f64],
+    (t0, t1, failed_at): (f64, f64, f64),
+) -> Option<kinema::Error> {
+    let at = |t: f64, u: kinema::Undefined| kinema::Error::Undefined {
+        t,
+        equation: system.equation_name(u.equation).to_owned(),
+        function: u.function,
+        domain: u.domain,
+        argument: u.argument,
+    };
+    if failed_at.is_finite()
+        && let Some(u) = system.undefined(scratch, q, failed_at, 0.0)
+    {
+        return Some(at(failed_at, u));
+    }
+    let (lo, hi) = (t0.min(t1), t0.max(t1));
+    let half = 0.5 * (hi - lo);
+    system.undefined(scratch, q, lo + half, half)?;
+    let (t, u) = kinema::locate_undefined(system, scratch, q, (lo, hi))?;
+    Some(at(t, u))
+}
+
+/// The error message of a run that stopped (as the CLI's `step_failure`,
+/// without the CSV's note).
+fn failure_message(
+    file: &str,
+    e: Option<&IntegrateError>,
+    undefined: Option<&kinema::Error>,
+    monitor: &Monitor,
+) -> String {
+    let mut message = format!("forward dynamics of `{file}`: ");
+    match (undefined, e) {
+        (Some(u), Some(e)) => {
+            message.push_str(&format!("{u}\n  = note: the integrator stopped: {e}"));
+        }
+        (Some(u), None) => message.push_str(&format!("{u}: no step can be taken through it")),
+        (None, Some(e)) => message.push_str(&e.to_string()),
+        (None, None) => message.push_str("the run stopped"),
+    }
+    if monitor.near_singular() {
+        message.push_str(&format!(
+            "\n  = note: the last state computed is at a singular configuration or next to one \
+             (smallest scaled singular value of Φ_q {:.1e}): the step failed there",
+            monitor.last_s()
+        ));
+    }
+    message
+}
+
+/// Forward dynamics (or the prescribed motion) through `outputs_t`
+/// (increasing, from t₀ = the first), a row at each, as `kinema run`:
+/// `selection`'s columns, then λ, reactions, efforts (and the energies).
+/// Setup failures are `Err`; a failed step is `Ok` with `error` set and
+/// the rows before it.
+#[allow(clippy::too_many_arguments)]
+pub fn run_forward(
+    model: &kinema::Model,
+    system: &TapeSystem,
+    file: &str,
+    kind: DynamicsRun,
+    [q0, qd0]: [&[f64]; 2],
+    outputs_t: &[f64],
+    selection: &kinema::columns::Selection,
+    o: &ForwardOptions,
+) -> Result<ForwardOutput, String> {
+    let d = model.derivation();
+    let Some(fwd) = TapeForward::new(d, system.params()) else {
+        return Err(format!(
+            "`{file}` has no inertia: forward dynamics needs `mass` and `inertia` on every body"
+        ));
+    };
+    let mut gravity_of = fwd.clone();
+    let t0 = outputs_t.first().copied().unwrap_or(0.0);
+    let (mut engine, consistency) = start(fwd, kind, [q0, qd0], t0, o)?;
+    // Corrections at the rounding of the start are not news (as the CLI).
+    let roundoff = 1e-12 * (1.0 + q0.iter().chain(qd0).fold(0.0_f64, |m, x| m.max(x.abs())));
+    let corrected = consistency.dq > roundoff || consistency.dqd > roundoff;
+    let redundancy = engine.motion.monitor().redundancy().map(|dep| {
+        (
+            format!(
+                "redundant constraints at the start: {dep}; the motion is determined, but the \
+                 constraint forces of these equations are not: their λ, reactions and driver \
+                 efforts are the minimum-norm values the solver gives"
+            ),
+            dep.redundant.clone(),
+        )
+    });
+    let v0 = gravity_of.gravity_potential(engine.motion.q()) + 0.0;
+    let ke0 = engine.motion.kinetic_energy();
+
+    let (n, rows) = (d.nc(), d.rows.len());
+    let mut row = RowBuffers::new(system, n, rows, d.outputs.len());
+    let orders = selection.orders();
+    let mut line: Vec<f64> = Vec::new();
+    let mut values: Vec<f64> = Vec::new();
+    let mut out = ForwardOutput {
+        values: Vec::new(),
+        rows: 0,
+        passages: Vec::new(),
+        redundancy,
+        consistency,
+        corrected,
+        imprecise: Vec::new(),
+        integrator: String::new(),
+        energies: [0.0; 5],
+        error: None,
+        prescribed: engine.prescribed,
+    };
+    let mut names: Option<Vec<String>> = None;
+    for (k, &t) in outputs_t.iter().enumerate() {
+        if k > 0 {
+            let interval = (engine.motion.t(), t, f64::NAN);
+            let ahead = undefined_between(system, &mut row.scratch, engine.motion.q(), interval);
+            let result = match ahead {
+                Some(u) => Err((None, Some(u))),
+                None => engine
+                    .motion
+                    .advance_to(t, o.step)
+                    .map_err(|e| (Some(e), None)),
+            };
+            if let Err((e, undefined)) = result {
+                let undefined = undefined.or_else(|| {
+                    let failed_at = match &e {
+                        Some(
+                            IntegrateError::NoConvergence { t, .. }
+                            | IntegrateError::Singular { t, .. }
+                            | IntegrateError::NonFinite { t, .. },
+                        ) => *t,
+                        _ => f64::NAN,
+                    };
+                    let bracket = (engine.motion.t(), t, failed_at);
+                    undefined_between(system, &mut row.scratch, engine.motion.q(), bracket)
+                });
+                out.error = Some(failure_message(
+                    file,
+                    e.as_ref(),
+                    undefined.as_ref(),
+                    engine.motion.monitor(),
+                ));
+                break;
+            }
+        }
+        row.fill(system, &mut engine);
+        let scope = if k == 0 {
+            PrecisionScope::All
+        } else {
+            PrecisionScope::Timed
+        };
+        if let Some(i) =
+            system.imprecision_at(&mut row.scratch, engine.motion.q(), t, 0.0, 1.0, scope)
+        {
+            let name = system.equation_name(i.equation).to_owned();
+            let message = format!(
+                "equation `{name}` is not determined by its own arithmetic: its rounding error, up \
+                 to {:.1e}, moves the coordinates by up to {:.1e} against their scale {:.1e}",
+                i.error, i.shift, i.scale
+            );
+            out.imprecise.push((t, name, message));
+        }
+        let motion = &mut engine.motion;
+        line.clear();
+        line.push(t);
+        let states = [motion.q(), motion.qd(), motion.qdd()];
+        for v in &states[..orders] {
+            for &c in &selection.coordinates {
+                line.push(v.get(c).copied().unwrap_or(f64::NAN));
+            }
+        }
+        for v in &row.results[..orders] {
+            for &c in &selection.outputs {
+                line.push(v.get(c).copied().unwrap_or(f64::NAN));
+            }
+        }
+        line.extend_from_slice(&row.extra);
+        if o.energy {
+            let v = gravity_of.gravity_potential(motion.q()) + 0.0;
+            let work = motion.work() - (v0 - v);
+            line.extend([motion.kinetic_energy(), v, work]);
+        }
+        // Never a silent NaN or ∞ (as the CLI's CSV).
+        if let Some(j) = line.iter().position(|v| !v.is_finite()) {
+            let names =
+                names.get_or_insert_with(|| columns(model, system, selection, (o.adm, o.energy)));
+            out.error = Some(format!(
+                "at t = {t}: column `{}` is {} (it overflowed)",
+                names.get(j).map_or("?", String::as_str),
+                line[j]
+            ));
+            break;
+        }
+        values.extend_from_slice(&line);
+        out.rows += 1;
+    }
+    let motion = &mut engine.motion;
+    out.passages = motion
+        .monitor()
+        .passages()
+        .iter()
+        .map(|p| PassageOut {
+            t: p.t,
+            sigma: p.sigma,
+            equations: p.dependency.equations.clone(),
+            message: p.to_string(),
+        })
+        .collect();
+    let v = gravity_of.gravity_potential(motion.q()) + 0.0;
+    let work = motion.work() - (v0 - v);
+    out.energies = [motion.kinetic_energy(), v, work, ke0, v0];
+    out.integrator = format!("{}: {}", engine.head, engine.motion.counters());
+    out.values = values;
+    Ok(out)
+}
+
+/// The columns of a forward run or an equilibrium: `t`, the selection,
+/// λ, reactions, efforts (as the CLI's `dynamics::column_names`), the
+/// energies with `energy`.
+pub fn columns(
+    model: &kinema::Model,
+    system: &TapeSystem,
+    selection: &kinema::columns::Selection,
+    (adm, energy): (bool, bool),
+) -> Vec<String> {
+    let d = model.derivation();
+    let mut names = vec!["t".to_owned()];
+    names.extend(selection.header(d));
+    names.extend(crate::dynamics_column_names(system, d.rows.len(), adm));
+    if energy {
+        names.extend(ENERGY_COLUMNS.map(String::from));
+    }
+    names
+}
+
+/// The stable static equilibrium at t = 0 from the guess at the system's
+/// parameters, as `kinema run --equilibrium`: its row (t, q, q̇ = q̈ = 0,
+/// named points and outputs at rest, λ, reactions, efforts).
+pub fn equilibrium(
+    model: &kinema::Model,
+    system: &TapeSystem,
+    selection: &kinema::columns::Selection,
+) -> Result<(Equilibrium, Vec<f64>), EquilibriumError> {
+    let d = model.derivation();
+    let params = system.params();
+    let eq = if params == d.param_values().as_slice() {
+        model.equilibrium(0.0)?
+    } else {
+        let mut guess = vec![0.0; d.nc()];
+        System::initial_guess(system, &mut guess);
+        kinema::equilibrium::equilibrium_from(d, params, &guess, 0.0)?
+    };
+    let zeros = vec![0.0; d.nc()];
+    let m = d.outputs.len();
+    let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    kinema::Outputs::outputs(
+        system,
+        &mut system.scratch(),
+        eq.t,
+        &eq.q,
+        &zeros,
+        &zeros,
+        &mut y,
+        &mut yd,
+        &mut ydd,
+    );
+    let mut row = vec![eq.t];
+    let (states, results) = ([&eq.q, &zeros, &zeros], [&y, &yd, &ydd]);
+    for v in &states[..selection.orders()] {
+        row.extend(selection.coordinates.iter().map(|&c| v[c]));
+    }
+    for v in &results[..selection.orders()] {
+        row.extend(selection.outputs.iter().map(|&c| v[c]));
+    }
+    row.extend(equilibrium_dynamics_row(model, system, &eq));
+    Ok((eq, row))
+}
+
+/// The dynamics columns at an equilibrium, as the CLI's
+/// `equilibrium::dynamics_row` (the sparse Φ_q entries of the kinematic
+/// system, summed row by row).
+fn equilibrium_dynamics_row(
+    model: &kinema::Model,
+    system: &TapeSystem,
+    eq: &Equilibrium,
+) -> Vec<f64> {
+    let d = model.derivation();
+    let (n, rows) = (d.nc(), d.rows.len());
+    let mut values = vec![0.0; system.dynamics_len()];
+    let zeros = vec![0.0; n];
+    system.dynamics(&mut system.scratch(), &eq.q, &zeros, eq.t, &mut values);
+    let mut jac = vec![0.0; d.phi_q.entries.len()];
+    system.jacobian(&mut system.scratch(), &eq.q, eq.t, &mut jac);
+    let mut out: Vec<f64> = eq.lambda.clone();
+    let arms = values.get(2 * n..).unwrap_or(&[]);
+    for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
+        let mut g = [0.0; 3];
+        for (e, v) in d.phi_q.entries.iter().zip(&jac) {
+            let (row, col) = (e.row as usize, e.col as usize);
+            if (spec.rows.0 as usize..spec.rows.1 as usize).contains(&row)
+                && col / 3 == spec.body as usize
+            {
+                g[col % 3] -= v * eq.lambda[row];
+            }
+        }
+        let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
+        out.extend([g[0], g[1], torque]);
+    }
+    let start = system.driving_start().min(rows);
+    out.extend(eq.lambda[start..].iter().map(|l| -l));
+    out
+}
