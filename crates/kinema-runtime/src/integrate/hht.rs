@@ -168,6 +168,8 @@ pub struct Hht<S> {
     eps: Vec<f64>,
     /// The largest |Φ_q| entry of each row at the iterate.
     row_max: Vec<f64>,
+    /// Scratch: 1 / |Mⱼⱼ| for the sparse regularization.
+    inv_mass: Vec<f64>,
     /// Φ_qᵀ Δλ of the last Newton correction (its convergence test).
     force: Vec<f64>,
     ys: Vec<f64>,
@@ -198,8 +200,19 @@ fn amax(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
 }
 
+/// Whether every entry is finite: x − x is 0 for a finite x and NaN
+/// otherwise, and a sum of those has no branch to take per entry.
 fn finite(v: &[f64]) -> bool {
-    v.iter().all(|x| x.is_finite())
+    let mut lanes = [0.0_f64; 4];
+    let chunks = v.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (l, &x) in lanes.iter_mut().zip(c) {
+            *l += x - x;
+        }
+    }
+    let tail: f64 = rest.iter().map(|&x| x - x).sum();
+    lanes.iter().sum::<f64>() + tail == 0.0
 }
 
 impl<S: ForwardSystem> Hht<S> {
@@ -269,6 +282,7 @@ impl<S: ForwardSystem> Hht<S> {
             ones: vec![1.0; n],
             eps: vec![0.0; m],
             row_max: vec![0.0; m],
+            inv_mass: vec![0.0; n],
             force: vec![0.0; n],
             ys: vec![0.0; n + m],
             monitor: Monitor::inactive(),
@@ -278,6 +292,7 @@ impl<S: ForwardSystem> Hht<S> {
         }
         let consistency = hht.make_consistent()?;
         hht.monitor = Monitor::new(&mut hht.system, &hht.q, t0, MONITOR_THRESHOLD);
+        hht.monitor.pace(true);
         hht.qd_out.copy_from_slice(&hht.qd);
         hht.index1()?;
         hht.prepare_sparse();
@@ -300,7 +315,12 @@ impl<S: ForwardSystem> Hht<S> {
         }
         if let Some(kkt) = &mut self.kkt {
             kkt.assemble(&self.mass, (1.0 + self.alpha, 0.0, 0.0));
-            kkt.regularize(&self.mass, 1.0 + self.alpha);
+            kkt.regularize(
+                &self.mass,
+                1.0 + self.alpha,
+                &mut self.inv_mass,
+                &mut self.row_max,
+            );
             if finite(&kkt.values) {
                 // An error here is met again, and reported, by the step.
                 let _ = kkt.lu.factor(&kkt.values, 1e-14);
@@ -565,6 +585,11 @@ impl<S: ForwardSystem> Hht<S> {
             iterations += 1;
             self.predict(h);
             self.evaluate(t1, refactor)?;
+            if refactor {
+                // Φ's roundoff scale moves with the factors: between
+                // refactorizations the iterates differ by less than it.
+                self.row_scale();
+            }
             worst = self.residual(bh2);
             if refactor {
                 self.factor_newton(h)?;
@@ -595,13 +620,14 @@ impl<S: ForwardSystem> Hht<S> {
                 });
             }
             let correction = amax(&self.rhs[..n]);
-            let force = self.multiplier_force();
             // Modified Newton keeps the factors while they halve the
             // correction; full Newton refactors every iteration.
             refactor = !self.options.modified || correction > 0.5 * last_correction;
             last_correction = correction;
+            // The multipliers' convergence, by their force, only once the
+            // accelerations' has (a pass over Φ_q saved per iteration).
             if bh2 * correction <= tol * (1.0 + amax(&self.q))
-                && force <= tol.sqrt() * (1.0 + amax(&self.f))
+                && self.multiplier_force() <= tol.sqrt() * (1.0 + amax(&self.f))
             {
                 break;
             }
@@ -677,8 +703,11 @@ impl<S: ForwardSystem> Hht<S> {
         // With the sparse Newton matrix, the sparse values are checked
         // where they are read: the assembled matrix (factor_newton) and
         // the residual and correction (step).
-        let checked =
-            self.kkt.is_none() || !(finite(&self.mass) && finite(&self.qa) && finite(&self.phi));
+        let checked = !(finite(&self.mass) && finite(&self.qa) && finite(&self.phi))
+            || (self.kkt.is_none()
+                && !(finite(&self.jac)
+                    && (!refactor
+                        || (finite(&self.kq) && finite(&self.cqd) && finite(&self.hess)))));
         match checked.then(|| self.first_non_finite()).flatten() {
             Some(what) => Err(IntegrateError::NonFinite { t: t1, what }),
             None => Ok(()),
@@ -707,8 +736,8 @@ impl<S: ForwardSystem> Hht<S> {
         // A row of Φ within its own roundoff is zero: near a singular
         // configuration Newton's matrix turns that noise into corrections
         // of ε/σ_min along the weakly constrained direction, step after
-        // step, and the iteration could never meet its tolerance.
-        self.row_scale();
+        // step, and the iteration could never meet its tolerance. (The
+        // rows' scales are those of the last factorization's iterate.)
         let q_scale = 1.0 + amax(&self.qn);
         for ((x, &p), &g) in self.rhs[n..].iter_mut().zip(&self.phi).zip(&self.row_max) {
             let floor = ROUNDOFF_ROWS * f64::EPSILON * q_scale * g;
@@ -723,11 +752,17 @@ impl<S: ForwardSystem> Hht<S> {
     }
 
     /// `row_max` ← the largest |Φ_q| entry of each row at the iterate
-    /// (the scale of Φ's roundoff).
+    /// (the scale of Φ's roundoff); on the sparse path, in the same pass,
+    /// the regularization of the Newton matrix about to be factored.
     fn row_scale(&mut self) {
         let n = self.n;
-        match &self.kkt {
-            Some(kkt) => kkt.row_maxima(&mut self.row_max),
+        match &mut self.kkt {
+            Some(kkt) => kkt.regularize(
+                &self.mass,
+                1.0 + self.alpha,
+                &mut self.inv_mass,
+                &mut self.row_max,
+            ),
             None => {
                 for (r, e) in self.row_max.iter_mut().enumerate() {
                     *e = amax(&self.jac[r * n..(r + 1) * n]);
@@ -741,8 +776,8 @@ impl<S: ForwardSystem> Hht<S> {
         let (n, m, alpha) = (self.n, self.m, self.alpha);
         let (bh2, gh) = (self.beta * h * h, self.gamma * h);
         if let Some(kkt) = &mut self.kkt {
+            // Regularized by `row_scale`, at this iterate.
             kkt.assemble(&self.mass, (1.0 + alpha, bh2, gh));
-            kkt.regularize(&self.mass, 1.0 + alpha);
             if !finite(&kkt.values) {
                 let what = self
                     .first_non_finite()
@@ -859,6 +894,9 @@ impl<S: ForwardSystem> Hht<S> {
     /// The monitor's step at the accepted state, with the step's last
     /// factorization of Newton's matrix.
     fn watch(&mut self) {
+        if !self.monitor.due(self.t) {
+            return;
+        }
         let scale = 1.0 + self.alpha;
         let state = (self.t, &self.q[..], &self.qd[..]);
         match &mut self.kkt {

@@ -56,6 +56,24 @@ const INVOLVED: f64 = 1e-3;
 /// Steps of inverse (subspace) iteration per integration step.
 const TRACKING_ITERATIONS: usize = 2;
 
+/// Below this scaled s the monitor runs at every accepted step (a long
+/// chain's s is 10⁻² and less all along its regular motion: the rule on
+/// the rate of fall covers the approach to a passage).
+const NEAR: f64 = LOW;
+
+/// Elsewhere it runs often enough to see s at least this many times
+/// before it could reach zero at its current rate of fall …
+const SAMPLES_BEFORE_ZERO: f64 = 8.0;
+
+/// … and at least once every `MAX_SKIP + 1` accepted steps (at every
+/// step, its solves were a third of a small model's step).
+const MAX_SKIP: u32 = 15;
+
+/// Above this s an evaluation makes one step of inverse iteration, not
+/// [`TRACKING_ITERATIONS`]: far from a singular configuration the estimate
+/// only paces the evaluations.
+const FAR: f64 = 0.1;
+
 /// Size of the perturbation added to the tracked vectors every step.
 const PERTURBATION: f64 = 1e-2;
 
@@ -132,6 +150,15 @@ pub struct Monitor {
     active: bool,
     /// The start's scaled s, for the failure messages.
     last_s: f64,
+    /// Whether evaluations are paced by s (see [`pace`](Self::pace)).
+    paced: bool,
+    /// Accepted steps to let pass before the next evaluation.
+    skip: u32,
+    /// Evaluations of s so far.
+    evaluations: u64,
+    /// The time of the last accepted step seen, and the step before it.
+    last_t: f64,
+    step_h: f64,
     /// Work of the dense decompositions.
     mass: Vec<f64>,
     jac: Vec<f64>,
@@ -169,6 +196,11 @@ impl Monitor {
             passages: Vec::with_capacity(16),
             active: m > 0 && m * n <= MAX_DENSE,
             last_s: f64::NAN,
+            paced: false,
+            skip: 0,
+            evaluations: 0,
+            last_t: t0,
+            step_h: f64::NAN,
             mass: vec![0.0; n],
             jac: vec![0.0; m * n],
             qi: vec![0.0; n],
@@ -242,6 +274,11 @@ impl Monitor {
             passages: Vec::new(),
             active: false,
             last_s: f64::NAN,
+            paced: false,
+            skip: 0,
+            evaluations: 0,
+            last_t: f64::NAN,
+            step_h: f64::NAN,
             mass: Vec::new(),
             jac: Vec::new(),
             qi: Vec::new(),
@@ -276,10 +313,68 @@ impl Monitor {
         self.active && self.last_s <= LOW
     }
 
+    /// How many accepted steps s was evaluated at (see
+    /// [`due`](Self::due)).
+    #[must_use]
+    pub fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
     /// The last step's estimate of s.
     #[must_use]
     pub fn last_s(&self) -> f64 {
         self.last_s
+    }
+
+    /// Paces the evaluations by s (see [`due`](Self::due)): for an
+    /// integrator of many short steps (HHT's fixed step, where the
+    /// monitor's solves were a third of a small model's step). Without it
+    /// (the default, and the accurate mode's: few long steps, each of many
+    /// evaluations) s is evaluated at every accepted step.
+    pub fn pace(&mut self, on: bool) {
+        self.paced = on;
+    }
+
+    /// Whether the monitor evaluates s at the accepted step that ends at
+    /// `t` (call once per accepted step, then [`step`](Self::step) when
+    /// true). It does at every step where s is below 10⁻³ or falling fast
+    /// enough to reach zero within eight steps; elsewhere every few steps
+    /// (at most sixteen apart), so a regular motion pays for its solves on
+    /// one step in sixteen while a passage is still seen step by step.
+    pub fn due(&mut self, t: f64) -> bool {
+        if !self.active {
+            return false;
+        }
+        self.step_h = t - self.last_t;
+        self.last_t = t;
+        if self.paced && self.skip > 0 {
+            self.skip -= 1;
+            return false;
+        }
+        true
+    }
+
+    /// The steps to let pass after an evaluation (see [`due`](Self::due)).
+    fn steps_to_skip(&self) -> u32 {
+        let [_, b, c] = &self.samples;
+        if self.count < 2 || c.s <= NEAR || !(self.step_h > 0.0) {
+            return 0;
+        }
+        let slope = (c.s - b.s) / (c.t - b.t);
+        let steps_to_zero = if slope < 0.0 {
+            c.s / -slope / self.step_h
+        } else {
+            f64::INFINITY
+        };
+        let skip = (steps_to_zero / SAMPLES_BEFORE_ZERO).floor() - 1.0;
+        if skip >= f64::from(MAX_SKIP) {
+            MAX_SKIP
+        } else if skip >= 1.0 {
+            // In range: the cast keeps the value.
+            skip as u32
+        } else {
+            0
+        }
     }
 
     /// One step of the monitor at an accepted state (t, q, q̇): `solve`
@@ -312,7 +407,12 @@ impl Monitor {
         }
         orthonormalize(&mut self.x, k, m);
         let mut theta = f64::NAN;
-        for _ in 0..TRACKING_ITERATIONS {
+        let iterations = if self.paced && self.last_s > FAR {
+            1
+        } else {
+            TRACKING_ITERATIONS
+        };
+        for _ in 0..iterations {
             // Y = (Ĝ + ε)⁻¹ X: solve [A cΦᵀ; Φ −E][·; y] = [0; D^½ x], then
             // y ← −c D^½ y.
             for v in 0..k {
@@ -354,6 +454,7 @@ impl Monitor {
         };
         let s = mu.sqrt();
         self.last_s = s;
+        self.evaluations += 1;
 
         if !s.is_finite() {
             return;
@@ -362,6 +463,7 @@ impl Monitor {
         if self.count >= 3 {
             self.check(system);
         }
+        self.skip = self.steps_to_skip();
     }
 
     fn push(&mut self, t: f64, s: f64, q: &[f64], qd: &[f64]) {

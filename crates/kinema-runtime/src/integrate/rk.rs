@@ -454,7 +454,7 @@ impl<S: ForwardSystem> Accurate<S> {
     /// projection's factors (at that state).
     fn watch(&mut self) {
         let n = self.n;
-        if self.m == 0 {
+        if self.m == 0 || !self.monitor.due(self.t) {
             return;
         }
         let saddle = &self.saddle;

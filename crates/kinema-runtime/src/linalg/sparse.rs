@@ -97,9 +97,22 @@ impl std::fmt::Debug for SparseLu {
     }
 }
 
-impl LinearSolver for SparseLu {
-    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+impl SparseLu {
+    /// As [`analyze`](LinearSolver::analyze), with the fill-reducing
+    /// column ordering computed from `ordering` (entries of `pattern`)
+    /// instead of the whole pattern: for entries that are there for a
+    /// reason other than structure (a regularization's small diagonal,
+    /// which would otherwise change the ordering and add fill).
+    ///
+    /// # Errors
+    /// As [`analyze`](LinearSolver::analyze), for either pattern.
+    pub fn analyze_ordered_by(
+        n: usize,
+        pattern: &[(u32, u32)],
+        ordering: &[(u32, u32)],
+    ) -> Result<Self, LinalgError> {
         validate_pattern(n, pattern)?;
+        validate_pattern(n, ordering)?;
         let nnz = pattern.len();
         // Counting sort by column, then by row within a column.
         let mut col_ptr = vec![0usize; n + 1];
@@ -118,11 +131,12 @@ impl LinearSolver for SparseLu {
             slot[k] = pos;
         }
 
-        let symbolic = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let (order_ptr, order_rows) = compressed_columns(n, ordering);
+        let symbolic = SymbolicSparseColMatRef::new_checked(n, n, &order_ptr, None, &order_rows);
         let mut col_perm = vec![0usize; n];
         let mut col_perm_inv = vec![0usize; n];
         {
-            let req = colamd::order_scratch::<usize>(n, n, nnz);
+            let req = colamd::order_scratch::<usize>(n, n, order_rows.len());
             let mut mem =
                 MemBuffer::try_new(req).map_err(|e| LinalgError::Backend(format!("{e:?}")))?;
             colamd::order(
@@ -162,6 +176,30 @@ impl LinearSolver for SparseLu {
             perm_scratch: vec![0; n].into_boxed_slice(),
             active: Active::None,
         })
+    }
+}
+
+/// Column pointers and row indices (rows sorted in each column) of
+/// `pattern`.
+fn compressed_columns(n: usize, pattern: &[(u32, u32)]) -> (Vec<usize>, Vec<usize>) {
+    let mut col_ptr = vec![0usize; n + 1];
+    for &(_, c) in pattern {
+        col_ptr[c as usize + 1] += 1;
+    }
+    for j in 0..n {
+        col_ptr[j + 1] += col_ptr[j];
+    }
+    let mut sorted: Vec<(u32, u32)> = pattern.iter().map(|&(r, c)| (c, r)).collect();
+    sorted.sort_unstable();
+    (
+        col_ptr,
+        sorted.into_iter().map(|(_, r)| r as usize).collect(),
+    )
+}
+
+impl LinearSolver for SparseLu {
+    fn analyze(n: usize, pattern: &[(u32, u32)]) -> Result<Self, LinalgError> {
+        Self::analyze_ordered_by(n, pattern, pattern)
     }
 
     #[inline]
