@@ -168,8 +168,7 @@ pub struct Hht<S> {
     eps: Vec<f64>,
     /// The largest |Φ_q| entry of each row at the iterate.
     row_max: Vec<f64>,
-    /// Scratch: 1 / |Mⱼⱼ| for the sparse regularization.
-    inv_mass: Vec<f64>,
+
     /// Φ_qᵀ Δλ of the last Newton correction (its convergence test).
     force: Vec<f64>,
     ys: Vec<f64>,
@@ -282,7 +281,7 @@ impl<S: ForwardSystem> Hht<S> {
             ones: vec![1.0; n],
             eps: vec![0.0; m],
             row_max: vec![0.0; m],
-            inv_mass: vec![0.0; n],
+
             force: vec![0.0; n],
             ys: vec![0.0; n + m],
             monitor: Monitor::inactive(),
@@ -315,12 +314,7 @@ impl<S: ForwardSystem> Hht<S> {
         }
         if let Some(kkt) = &mut self.kkt {
             kkt.assemble(&self.mass, (1.0 + self.alpha, 0.0, 0.0));
-            kkt.regularize(
-                &self.mass,
-                1.0 + self.alpha,
-                &mut self.inv_mass,
-                &mut self.row_max,
-            );
+            kkt.regularize(&self.mass, 1.0 + self.alpha, &mut self.row_max);
             if finite(&kkt.values) {
                 // An error here is met again, and reported, by the step.
                 let _ = kkt.lu.factor(&kkt.values, 1e-14);
@@ -757,12 +751,7 @@ impl<S: ForwardSystem> Hht<S> {
     fn row_scale(&mut self) {
         let n = self.n;
         match &mut self.kkt {
-            Some(kkt) => kkt.regularize(
-                &self.mass,
-                1.0 + self.alpha,
-                &mut self.inv_mass,
-                &mut self.row_max,
-            ),
+            Some(kkt) => kkt.regularize(&self.mass, 1.0 + self.alpha, &mut self.row_max),
             None => {
                 for (r, e) in self.row_max.iter_mut().enumerate() {
                     *e = amax(&self.jac[r * n..(r + 1) * n]);

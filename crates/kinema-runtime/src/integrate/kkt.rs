@@ -57,6 +57,10 @@ pub(super) struct SparseKkt {
     block_values: [Vec<f64>; 3],
     /// Their sums per block entry.
     sums: [Vec<f64>; 3],
+    /// The M the regularization last saw, and 1 / |Mⱼⱼ| of it (0 where
+    /// Mⱼⱼ is 0).
+    mass_seen: Vec<f64>,
+    inverse_mass: Vec<f64>,
 }
 
 /// The names of the three block matrices, in `block_values`' order.
@@ -139,6 +143,8 @@ impl SparseKkt {
             sums: [(); 3].map(|()| vec![0.0; blocks]),
             to_block: [q, qd, h],
             structure,
+            mass_seen: Vec::with_capacity(n),
+            inverse_mass: vec![0.0; n],
         })
     }
 
@@ -223,23 +229,22 @@ impl SparseKkt {
     /// `saddle::regularization`; a row of zero gradient gets the largest
     /// of the others), and, in the same pass over Φ_q, each row's largest
     /// |Φ_q[r, j]| into `row_max` (m; the scale of Φ's roundoff).
-    /// `inverse_mass` (n) is scratch for 1 / |Mⱼⱼ| (0 where Mⱼⱼ is 0).
-    pub fn regularize(
-        &mut self,
-        mass: &[f64],
-        scale: f64,
-        inverse_mass: &mut [f64],
-        row_max: &mut [f64],
-    ) {
-        for (i, &w) in inverse_mass.iter_mut().zip(mass) {
-            *i = if w != 0.0 { 1.0 / w.abs() } else { 0.0 };
+    pub fn regularize(&mut self, mass: &[f64], scale: f64, row_max: &mut [f64]) {
+        // M is constant for most models: its inverse is taken again only
+        // when it changed (n divisions were a tenth of this pass).
+        if self.mass_seen.as_slice() != mass {
+            self.mass_seen.clear();
+            self.mass_seen.extend_from_slice(mass);
+            for (i, &w) in self.inverse_mass.iter_mut().zip(mass) {
+                *i = if w != 0.0 { 1.0 / w.abs() } else { 0.0 };
+            }
         }
         let tail = self.values.len() - self.m;
         let (_, eps) = self.values.split_at_mut(tail);
         eps.fill(0.0);
         row_max.fill(0.0);
         for (&(r, c), &v) in self.structure.jacobian.iter().zip(&self.jacobian) {
-            let w = inverse_mass.get(c as usize).copied().unwrap_or(0.0);
+            let w = self.inverse_mass.get(c as usize).copied().unwrap_or(0.0);
             if let (Some(e), Some(g)) = (eps.get_mut(r as usize), row_max.get_mut(r as usize)) {
                 *e += v * v * w;
                 *g = g.max(v.abs());
