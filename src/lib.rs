@@ -35,12 +35,12 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, Domain, DynDenseLu,
-    Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
-    InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
-    Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
-    SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
-    locate_undefined, point_kinematics,
+    Accurate, Auto, Axis, Body, Coord, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency,
+    Domain, DynDenseLu, Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht,
+    HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
+    ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
+    SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, Undefined,
+    diagnose, integrate, locate_undefined, point_kinematics,
 };
 pub use kinema_runtime::{Outputs, Table};
 

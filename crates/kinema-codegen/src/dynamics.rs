@@ -3,6 +3,7 @@
 //! sin/cos and functions of time reused where the kinematic methods have
 //! it), the reactions' rows and bodies as a constant table.
 
+use kinema_index::u32_of;
 use kinema_model::{Derivation, DynamicsDerivation, RowKind};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -50,9 +51,9 @@ pub(crate) fn dynamics_impl(
     let t = Method::arg(method.used.t, "t");
     let specs = dy.reactions.iter().map(|r| {
         let (a, b, k) = (
-            Literal::u32_unsuffixed(u32::try_from(r.rows.0).unwrap_or(u32::MAX)),
-            Literal::u32_unsuffixed(u32::try_from(r.rows.1).unwrap_or(u32::MAX)),
-            Literal::u32_unsuffixed(u32::try_from(r.body).unwrap_or(u32::MAX)),
+            Literal::u32_unsuffixed(u32_of(r.rows.0, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.rows.1, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.body, "a reaction's body")),
         );
         quote!(#rt::ReactionSpec { rows: (#a, #b), body: #k })
     });

@@ -5,6 +5,8 @@ use kinema_expr::{Arena, ExprId, Factor, Term};
 
 use crate::algebra::{Vec2, VecAlgebra};
 use crate::check::{BodyRef, CheckedModel, Comp, TExpr, TNode, Ty};
+use crate::idx;
+use kinema_index::{Axis, Body};
 
 /// A lowered value: scalar or vector.
 #[derive(Clone, Copy, Debug)]
@@ -56,12 +58,10 @@ impl<'m> Lowerer<'m> {
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let base = 3 * k;
-                [
-                    arena.coordinate(&format!("{}.x", b.name), idx(base)),
-                    arena.coordinate(&format!("{}.y", b.name), idx(base + 1)),
-                    arena.coordinate(&format!("{}.phi", b.name), idx(base + 2)),
-                ]
+                Axis::ALL.map(|a| {
+                    let q = Body::new(k).coord(a).index();
+                    arena.coordinate(&format!("{}.{}", b.name, a.name()), idx(q))
+                })
             })
             .collect();
         let nb = 3 * model.bodies.len();
@@ -79,12 +79,10 @@ impl<'m> Lowerer<'m> {
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let base = 3 * k;
-                [
-                    arena.velocity(&format!("{}.x_dot", b.name), idx(base)),
-                    arena.velocity(&format!("{}.y_dot", b.name), idx(base + 1)),
-                    arena.velocity(&format!("{}.phi_dot", b.name), idx(base + 2)),
-                ]
+                Axis::ALL.map(|a| {
+                    let q = Body::new(k).coord(a).index();
+                    arena.velocity(&format!("{}.{}_dot", b.name, a.name()), idx(q))
+                })
             })
             .collect();
         let mut me = Lowerer {
@@ -622,8 +620,4 @@ impl<'t> Chains<'t> {
     fn is_product(&self, i: usize) -> bool {
         self.t.types[i] == Ty::Scalar && !self.inner[i]
     }
-}
-
-fn idx(i: usize) -> u32 {
-    u32::try_from(i).unwrap_or(u32::MAX)
 }
