@@ -263,7 +263,17 @@ impl<'m> Lowerer<'m> {
             };
             if undefined(arena, v) && !reported {
                 let chain = chains.is_sum(i) || chains.is_product(i);
-                report_undefined(arena, n, i, &vals, &mut operands, chain, zero, report);
+                let lowered = Lowered {
+                    arena,
+                    vals: &vals,
+                    zero,
+                };
+                report_undefined(
+                    lowered,
+                    UndefinedNode { n, i, chain },
+                    &mut operands,
+                    report,
+                );
             }
             vals.push(v);
         }
@@ -478,22 +488,37 @@ fn operation(arena: &mut Arena, n: &TNode, vals: &[Value], zero: ExprId) -> Valu
     }
 }
 
+/// The nodes lowered so far (children before parents), in the arena their
+/// values live in, with that arena's 0.
+#[derive(Clone, Copy)]
+struct Lowered<'a> {
+    arena: &'a Arena,
+    vals: &'a [Value],
+    zero: ExprId,
+}
+
+/// A node whose value came out undefined: its kind, its index, and whether
+/// it is the root of a sum or product chain.
+#[derive(Clone, Copy)]
+struct UndefinedNode<'a> {
+    n: &'a TNode,
+    i: usize,
+    chain: bool,
+}
+
 /// Node `i` lowered to an undefined value: reported where it starts — at
 /// the node itself, or at a vector's divisor that is 0 — unless an operand
 /// already was undefined (reported there). A `chain` root's operands are
 /// its links: its divisor node, inside the chain, has no value of its own
 /// (a placeholder 0 that must not read as a zero divisor).
-#[allow(clippy::too_many_arguments)]
 fn report_undefined(
-    arena: &Arena,
-    n: &TNode,
-    i: usize,
-    vals: &[Value],
+    lowered: Lowered<'_>,
+    node: UndefinedNode<'_>,
     operands: &mut Vec<u32>,
-    chain: bool,
-    zero: ExprId,
     report: &mut dyn FnMut(u32, Undefined),
 ) {
+    let Lowered { arena, vals, zero } = lowered;
+    let UndefinedNode { n, i, chain } = node;
     if operands.is_empty() {
         children(n, operands);
     }

@@ -78,7 +78,7 @@ pub use linalg::{
 };
 pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
-pub use outputs::{Outputs, Table};
+pub use outputs::{Motion, Outputs, Table};
 pub use solver::{Solver, locate_undefined};
 pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;

@@ -65,16 +65,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     // Named points and measures at rest.
     let m = d.outputs.len();
     let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    let at = kinema::Motion {
+        t: eq.t,
+        q: &eq.q,
+        qd: &zeros,
+        qdd: &zeros,
+    };
     kinema::Outputs::outputs(
         &system,
         &mut system.scratch(),
-        eq.t,
-        &eq.q,
-        &zeros,
-        &zeros,
-        &mut y,
-        &mut yd,
-        &mut ydd,
+        at,
+        [&mut y, &mut yd, &mut ydd],
     );
     sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [&y, &yd, &ydd], &out)?;
     let destination = sink.destination().clone();
