@@ -5,7 +5,7 @@
 //!
 //! `cargo run --example custom_constraint`
 
-use kinema::Options;
+use kinema::{Body, Options};
 
 kinema::mechanism! {
     mechanism EllipticSlot {
@@ -55,7 +55,7 @@ fn main() -> Result<(), kinema::Error> {
         "t", "crank [°]", "P [m]", "P velocity [m/s]", "slot eq."
     );
     for (k, state) in trajectory.iter().enumerate() {
-        let rod = 3;
+        let rod = Body::new(1);
         let Some(p) = trajectory.point(k, rod, [half_rod, 0.0]) else {
             continue;
         };

@@ -5,7 +5,7 @@
 //!
 //! `cargo run --example four_bar`
 
-use kinema::Options;
+use kinema::{Axis, Body, Options};
 
 kinema::mechanism!(file = "models/four_bar.kin");
 
@@ -15,7 +15,7 @@ fn main() -> Result<(), kinema::Error> {
     let trajectory = solver.run(&times)?;
 
     // Body order in the model: crank, coupler, rocker.
-    let (coupler, rocker) = (3, 6);
+    let (coupler, rocker) = (Body::new(1), Body::new(2));
     println!(
         "{:>6}  {:>10}  {:>11}  {:>13}  {:>22}",
         "t [s]", "crank [°]", "rocker [°]", "rocker [°/s]", "coupler midpoint [m]"
@@ -28,8 +28,8 @@ fn main() -> Result<(), kinema::Error> {
             "{:>6.4}  {:>10.3}  {:>11.4}  {:>13.3}  ({:>9.6}, {:>9.6})",
             state.t(),
             state.q()[2].to_degrees(),
-            state.q()[rocker + 2].to_degrees(),
-            state.qd()[rocker + 2].to_degrees(),
+            state.q()[rocker.coord(Axis::Phi).index()].to_degrees(),
+            state.qd()[rocker.coord(Axis::Phi).index()].to_degrees(),
             mid[0],
             mid[1],
         );

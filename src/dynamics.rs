@@ -51,7 +51,7 @@ impl TapeDynamics {
             outputs.extend(r.arm);
         }
         let tape = Tape::compile(&d.arena, &outputs);
-        let u = |i: usize| u32::try_from(i).unwrap_or(u32::MAX);
+        let u = |i: usize| kinema_index::u32_of(i, "a reaction's row or body");
         TapeDynamics {
             tape: Some(tape),
             specs: dy

@@ -35,14 +35,14 @@
 
 pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
-    Accurate, Auto, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency, Domain, DynDenseLu,
-    Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
-    InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor, ModelDiagnostic, ModelError,
-    Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
-    SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
-    locate_undefined, point_kinematics,
+    Accurate, Auto, Axis, Body, Coord, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency,
+    Domain, DynDenseLu, Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht,
+    HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
+    ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
+    SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, Undefined,
+    diagnose, integrate, locate_undefined, point_kinematics,
 };
-pub use kinema_runtime::{Outputs, Table};
+pub use kinema_runtime::{Motion, Outputs, Table};
 
 #[cfg(feature = "model")]
 pub mod columns;
@@ -59,7 +59,7 @@ mod linkage;
 #[cfg(feature = "model")]
 mod model;
 #[cfg(feature = "model")]
-pub use model::{Backend, Model, ModelSolver, TapeSystem};
+pub use model::{Backend, Model, ModelSolver, TapeSystem, UnknownParam};
 #[cfg(feature = "model")]
 mod domains;
 #[cfg(feature = "model")]
@@ -81,7 +81,7 @@ pub mod __private {
     pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
         Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, LinalgError,
-        LinearSolver, LinearSolverFor, Options, Outputs, PivotReport, ReactionSpec, Solver,
+        LinearSolver, LinearSolverFor, Motion, Options, Outputs, PivotReport, ReactionSpec, Solver,
         SparseLu, State, System,
     };
 }

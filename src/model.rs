@@ -469,24 +469,37 @@ impl TapeSystem {
         &self.params
     }
 
-    /// Sets a parameter by name; returns `false` if there is no such parameter.
-    pub fn set_param(&mut self, name: &str, value: f64) -> bool {
+    /// Sets a parameter by name.
+    ///
+    /// # Errors
+    /// [`UnknownParam::Name`] (with the model's parameter names) if there is
+    /// no such parameter: a typo is an error, not a silent no-op.
+    pub fn set_param(&mut self, name: &str, value: f64) -> Result<(), UnknownParam> {
         match self.param_names.iter().position(|p| p == name) {
             Some(i) => self.set_param_at(i, value),
-            None => false,
+            None => Err(UnknownParam::Name {
+                name: name.to_owned(),
+                known: self.param_names.clone(),
+            }),
         }
     }
 
-    /// Sets the parameter at `index` (declaration order); returns `false`
-    /// if there is no such parameter.
-    pub fn set_param_at(&mut self, index: usize, value: f64) -> bool {
+    /// Sets the parameter at `index` (declaration order).
+    ///
+    /// # Errors
+    /// [`UnknownParam::Index`] (with the model's parameter names) if there
+    /// is no such parameter.
+    pub fn set_param_at(&mut self, index: usize, value: f64) -> Result<(), UnknownParam> {
         match self.params.get_mut(index) {
             Some(p) => {
                 *p = value;
                 self.replan();
-                true
+                Ok(())
             }
-            None => false,
+            None => Err(UnknownParam::Index {
+                index,
+                known: self.param_names.clone(),
+            }),
         }
     }
 
@@ -882,3 +895,46 @@ impl TapeSystem {
         }
     }
 }
+
+/// A parameter that [`TapeSystem::set_param`] or
+/// [`TapeSystem::set_param_at`] was asked to set and the model does not have.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum UnknownParam {
+    /// No parameter of that name.
+    Name {
+        /// The name asked for.
+        name: String,
+        /// The model's parameters, in declaration order.
+        known: Vec<String>,
+    },
+    /// No parameter at that index.
+    Index {
+        /// The index asked for (declaration order).
+        index: usize,
+        /// The model's parameters, in declaration order.
+        known: Vec<String>,
+    },
+}
+
+impl std::fmt::Display for UnknownParam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let known = match self {
+            Self::Name { name, known } => {
+                write!(f, "unknown parameter `{name}`")?;
+                known
+            }
+            Self::Index { index, known } => {
+                write!(f, "no parameter at index {index}")?;
+                known
+            }
+        };
+        if known.is_empty() {
+            write!(f, "; the model has no parameters")
+        } else {
+            write!(f, "; the model's parameters are: {}", known.join(", "))
+        }
+    }
+}
+
+impl std::error::Error for UnknownParam {}

@@ -2,7 +2,7 @@
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::Derivation;
-use kinema_runtime::Outputs;
+use kinema_runtime::{Motion, Outputs};
 
 use crate::model::TapeSystem;
 
@@ -109,17 +109,9 @@ impl Outputs for TapeSystem {
         self.outputs.names.get(i).map_or("", String::as_str)
     }
 
-    fn outputs(
-        &self,
-        registers: &mut Vec<f64>,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        qdd: &[f64],
-        y: &mut [f64],
-        yd: &mut [f64],
-        ydd: &mut [f64],
-    ) {
+    fn outputs(&self, registers: &mut Vec<f64>, at: Motion<'_>, out: [&mut [f64]; 3]) {
+        let Motion { t, q, qd, qdd } = at;
+        let [y, yd, ydd] = out;
         let o = &self.outputs;
         let m = o.names.len();
         let n = kinema_runtime::System::len(self);

@@ -68,8 +68,8 @@ pub struct TapeParams {
 impl SetParams<TapeSystem> for TapeParams {
     fn set(&self, system: &mut TapeSystem, row: &[f64]) {
         for (&i, &value) in self.indices.iter().zip(row) {
-            let known = system.set_param_at(i, value);
-            debug_assert!(known, "indices come from the model's parameter names");
+            let set = system.set_param_at(i, value);
+            debug_assert!(set.is_ok(), "indices come from the model's parameter names");
         }
     }
 }

@@ -661,7 +661,9 @@ fn kept_time_terms_follow_time_and_changed_parameters() {
     ];
     for (k, &(t, change)) in steps.iter().enumerate() {
         if let Some((name, value)) = change {
-            assert!(jit.set_param(name, value) && tape.set_param(name, value));
+            jit.set_param(name, value).unwrap_or_else(|e| panic!("{e}"));
+            tape.set_param(name, value)
+                .unwrap_or_else(|e| panic!("{e}"));
         }
         // The coordinates move a little at every call (Newton's iterates).
         q[2] += 1e-3;

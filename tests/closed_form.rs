@@ -239,7 +239,10 @@ fn a_changed_parameter_is_placed_at_its_new_value() {
         let mut rows = Vec::new();
         for (k, &t) in times.iter().enumerate() {
             if k == 50 {
-                assert!(solver.system_mut().set_param("l3", 0.85));
+                solver
+                    .system_mut()
+                    .set_param("l3", 0.85)
+                    .unwrap_or_else(|e| panic!("{e}"));
             }
             let state = solver.step(t).unwrap_or_else(|e| panic!("{e}"));
             rows.push((state.q().to_vec(), state.stats().closed_form));
@@ -263,6 +266,35 @@ fn a_changed_parameter_is_placed_at_its_new_value() {
         !closed[50].1 && after >= 45,
         "{after} of 51 rows after the change"
     );
+}
+
+/// A typo in a parameter name is an error that names the model's
+/// parameters, and changes nothing.
+#[test]
+fn an_unknown_parameter_is_an_error() {
+    let mut s = system("models/four_bar.kin");
+    let before = s.params().to_vec();
+    let e = s.set_param("l33", 1.0).expect_err("four_bar has no l33");
+    assert!(
+        matches!(&e, kinema::UnknownParam::Name { name, known }
+            if name == "l33" && known.iter().any(|k| k == "l3")),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string()
+            .starts_with("unknown parameter `l33`; the model's parameters are: l1, l2, l3"),
+        "{e}"
+    );
+    let e = s
+        .set_param_at(before.len(), 1.0)
+        .expect_err("past the last");
+    assert!(
+        matches!(e, kinema::UnknownParam::Index { index, .. } if index == before.len()),
+        "{e:?}"
+    );
+    assert_eq!(s.params(), &before[..]);
+    s.set_param("l3", 0.85).unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(s.params(), &before[..]);
 }
 
 /// The fuzzer's deterministic random source (SplitMix64): the same

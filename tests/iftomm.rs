@@ -676,12 +676,14 @@ fn a02_generated_code_starts_where_the_model_says_and_passes_the_singular_positi
     assert_eq!((tq, tqd), (q0.clone(), qd0.clone()));
     // A wrong length is NaN, not a panic or a partial write.
     let mut short = vec![0.0; 4];
-    sys.initial_state(&mut short, &mut vec![0.0; 9]);
+    sys.initial_state(&mut short, &mut [0.0; 9]);
     assert!(short.iter().all(|v| v.is_nan()));
 
     // The start follows the parameters: B0 at 2 m/s.
-    let mut fast = IftommA02FourBar1::default();
-    fast.v0 = 2.0;
+    let fast = IftommA02FourBar1 {
+        v0: 2.0,
+        ..Default::default()
+    };
     let mut fast = fast.forward();
     let (mut fq, mut fqd) = (vec![0.0; 9], vec![0.0; 9]);
     fast.initial_state(&mut fq, &mut fqd);

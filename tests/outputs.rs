@@ -6,7 +6,7 @@
 
 use std::f64::consts::{FRAC_PI_4, PI};
 
-use kinema::{Auto, Options, Outputs, Solver, System, Trajectory};
+use kinema::{Auto, Motion, Options, Outputs, Solver, System, Trajectory};
 
 mod generated {
     pub mod slider_crank {
@@ -204,31 +204,25 @@ fn wrong_lengths_give_nan() {
     let mech = FourBar::default();
     let mut scratch = mech.scratch();
     let (mut y, mut yd, mut ydd) = ([0.0; 3], [0.0; 3], [0.0; 3]);
-    mech.outputs(
-        &mut scratch,
-        0.0,
-        &[0.0; 2],
-        &[0.0; 9],
-        &[0.0; 9],
-        &mut y,
-        &mut yd,
-        &mut ydd,
-    );
+    let at = Motion {
+        t: 0.0,
+        q: &[0.0; 2],
+        qd: &[0.0; 9],
+        qdd: &[0.0; 9],
+    };
+    mech.outputs(&mut scratch, at, [&mut y, &mut yd, &mut ydd]);
     assert!(y.iter().chain(&yd).chain(&ydd).all(|v| v.is_nan()));
     let model = kinema::Model::from_file("models/four_bar.kin").unwrap_or_else(|e| panic!("{e}"));
     let system = model.system();
     let mut scratch = system.scratch();
     let (mut y, mut yd, mut ydd) = ([0.0; 2], [0.0; 3], [0.0; 3]);
-    system.outputs(
-        &mut scratch,
-        0.0,
-        &[0.0; 9],
-        &[0.0; 9],
-        &[0.0; 9],
-        &mut y,
-        &mut yd,
-        &mut ydd,
-    );
+    let at = Motion {
+        t: 0.0,
+        q: &[0.0; 9],
+        qd: &[0.0; 9],
+        qdd: &[0.0; 9],
+    };
+    system.outputs(&mut scratch, at, [&mut y, &mut yd, &mut ydd]);
     assert!(y.iter().chain(&yd).chain(&ydd).all(|v| v.is_nan()));
 }
 

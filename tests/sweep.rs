@@ -37,7 +37,8 @@ fn each_row_matches_a_run_of_its_own_in_row_order() {
         assert_eq!(results.len(), rows.len());
         for (row, result) in rows.iter().zip(results) {
             let mut system = model.system();
-            assert!(system.set_param("l1", row[0]) && system.set_param("l2", row[1]));
+            system.set_param("l1", row[0]).expect("l1 is a parameter");
+            system.set_param("l2", row[1]).expect("l2 is a parameter");
             let alone = Solver::<_, Auto>::new(system)
                 .expect("solver")
                 .run(&times)

@@ -22,6 +22,8 @@
 //! arithmetic (`1/100`). Outputs are at t_k = k·tend/outputSteps,
 //! k = 0..=outputSteps.
 
+use kinema_index::u32_of;
+
 use crate::error::{Diagnostic, Error, Pos, Source};
 use crate::fun::Expr;
 use crate::json::{self, Value};
@@ -324,14 +326,14 @@ fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
     let mut fields = Vec::new();
     let mut diags = Vec::new();
     for (i, raw) in source.text().split('\n').enumerate() {
-        let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
+        let line_no = u32_of(i + 1, "an ACF line");
         let line = raw.split('%').next().unwrap_or("");
         if line.trim().is_empty() {
             continue;
         }
         let at = |chars: usize| Pos {
             line: line_no,
-            col: u32::try_from(chars + 1).unwrap_or(u32::MAX),
+            col: u32_of(chars + 1, "an ACF column"),
             offset: 0,
         };
         let indent = line.chars().take_while(|c| c.is_whitespace()).count();

@@ -38,7 +38,7 @@ fn pair<S: Dynamics, L: LinearSolver>(
     mut solver: Solver<S, L>,
 ) {
     let times = grid();
-    let analyses = u32::try_from(times.len()).unwrap_or(u32::MAX);
+    let analyses = kinema_index::u32_of(times.len(), "the analyses per iteration");
     group.bench_function("kinematics", |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;

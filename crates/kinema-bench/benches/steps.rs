@@ -26,7 +26,7 @@ fn per_step<S: System, L: LinearSolver>(
     mut solver: Solver<S, L>,
 ) {
     let times = grid();
-    let analyses = u32::try_from(times.len()).unwrap_or(u32::MAX);
+    let analyses = kinema_index::u32_of(times.len(), "the analyses per iteration");
     group.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;

@@ -3,6 +3,7 @@
 //! sin/cos and functions of time reused where the kinematic methods have
 //! it), the reactions' rows and bodies as a constant table.
 
+use kinema_index::{Body, Coord, u32_of};
 use kinema_model::{Derivation, DynamicsDerivation, RowKind};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -50,9 +51,9 @@ pub(crate) fn dynamics_impl(
     let t = Method::arg(method.used.t, "t");
     let specs = dy.reactions.iter().map(|r| {
         let (a, b, k) = (
-            Literal::u32_unsuffixed(u32::try_from(r.rows.0).unwrap_or(u32::MAX)),
-            Literal::u32_unsuffixed(u32::try_from(r.rows.1).unwrap_or(u32::MAX)),
-            Literal::u32_unsuffixed(u32::try_from(r.body).unwrap_or(u32::MAX)),
+            Literal::u32_unsuffixed(u32_of(r.rows.0, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.rows.1, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.body, "a reaction's body")),
         );
         quote!(#rt::ReactionSpec { rows: (#a, #b), body: #k })
     });
@@ -113,10 +114,10 @@ fn reactions_method(d: &Derivation, dy: &DynamicsDerivation, driving: usize) -> 
     for (i, r) in dy.reactions.iter().enumerate() {
         let mut comps = [Vec::new(), Vec::new(), Vec::new()];
         for (k, e) in d.phi_q.entries.iter().enumerate() {
-            let (row, col) = (e.row as usize, e.col as usize);
-            if (r.rows.0..r.rows.1).contains(&row) && col / 3 == r.body {
+            let (row, col) = (e.row as usize, Coord::of_index(e.col as usize));
+            if (r.rows.0..r.rows.1).contains(&row) && col.body == Body::new(r.body) {
                 let (k, row) = (lit(k), lit(row));
-                comps[col % 3].push(quote!(- jac[#k] * lambda[#row]));
+                comps[col.axis.index()].push(quote!(- jac[#k] * lambda[#row]));
             }
         }
         let has = [0, 1, 2].map(|c| !comps[c].is_empty());

@@ -174,7 +174,9 @@ fn position_consts(sparse: &[Sparse; 4]) -> TokenStream {
     let names = ["JACOBIAN", "APPLIED_Q", "APPLIED_QD", "HESSIAN"];
     let consts = sparse.iter().zip(names).map(|(s, name)| {
         let items = s.positions.iter().map(|&(r, c)| {
-            let lit = |v: usize| Literal::u32_unsuffixed(u32::try_from(v).unwrap_or(u32::MAX));
+            let lit = |v: usize| {
+                Literal::u32_unsuffixed(kinema_index::u32_of(v, "a sparse pattern's row or column"))
+            };
             let (r, c) = (lit(r), lit(c));
             quote!((#r, #c))
         });

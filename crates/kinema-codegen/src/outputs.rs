@@ -257,14 +257,11 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
             fn outputs(
                 &self,
                 _scratch: &mut Self::Scratch,
-                t: f64,
-                q: &[f64],
-                qd: &[f64],
-                qdd: &[f64],
-                y: &mut [f64],
-                yd: &mut [f64],
-                ydd: &mut [f64],
+                at: #rt::Motion<'_>,
+                out: [&mut [f64]; 3],
             ) {
+                let #rt::Motion { t, q, qd, qdd } = at;
+                let [y, yd, ydd] = out;
                 y.fill(f64::NAN);
                 yd.fill(f64::NAN);
                 ydd.fill(f64::NAN);

@@ -188,7 +188,7 @@ impl Arena {
         if let Some(&s) = self.sym_lookup.get(&kind) {
             return self.sym_node[s.index()];
         }
-        let s = SymId(u32::try_from(self.symbols.len()).unwrap_or(u32::MAX));
+        let s = SymId::new(self.symbols.len());
         self.symbols.push(Symbol {
             name: name.to_owned(),
             kind,
@@ -254,7 +254,7 @@ impl Arena {
         self.symbols
             .iter()
             .enumerate()
-            .map(|(i, s)| (SymId(i as u32), s))
+            .map(|(i, s)| (SymId::new(i), s))
     }
 
     // ------------------------------------------------------------ views
@@ -450,7 +450,13 @@ impl Arena {
                 lead
             }
         };
-        let id = u32::try_from(self.nodes.len()).unwrap_or(NONE);
+        let e = ExprId::new(self.nodes.len());
+        // u32::MAX is the intern chains' end marker: it is never an id.
+        assert!(
+            e.0 != NONE,
+            "ExprId index {NONE} does not fit: the arena is full"
+        );
+        let id = e.0;
         let prev = self.intern.insert(h, id).unwrap_or(NONE);
         self.nodes.push(node);
         self.shash.push(h);
@@ -459,7 +465,7 @@ impl Arena {
         self.undefined.push(undefined);
         self.lead.push(lead);
         self.next.push(prev);
-        ExprId(id)
+        e
     }
 
     fn hash_and_mask(&self, node: &Node) -> (u64, u64) {

@@ -14,9 +14,10 @@ use rustc_hash::{FxHashMap, FxHashSet};
 use crate::arena::Arena;
 use crate::node::{ExprId, Factor, NodeRef, SymId, Term, UnaryOp};
 
-/// Identifier of a registered set of seeds (see [`Arena::seeds`]).
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub struct SeedsId(u32);
+kinema_index::entity! {
+    /// Identifier of a registered set of seeds (see [`Arena::seeds`]).
+    pub struct SeedsId; "seeds"
+}
 
 #[derive(Clone, Debug)]
 struct SeedSet {
@@ -104,7 +105,7 @@ impl Arena {
         let mask = key
             .iter()
             .fold(0u64, |m, &(s, _)| m | self.mask_of(self.sym_expr(s)));
-        let id = SeedsId(self.calc.seeds.len() as u32);
+        let id = SeedsId::new(self.calc.seeds.len());
         self.calc.seeds.push(SeedSet {
             pairs: key.clone(),
             mask,
@@ -201,7 +202,7 @@ impl Arena {
         if self.is_undefined(n) {
             return Some(n);
         }
-        let set = &self.calc.seeds[seeds.0 as usize];
+        let set = &self.calc.seeds[seeds.index()];
         if self.mask_of(n) & set.mask == 0 {
             return Some(self.zero);
         }
@@ -218,7 +219,7 @@ impl Arena {
         match self.node(n) {
             NodeRef::Num(_) => self.zero,
             NodeRef::Sym(s) => {
-                let set = &self.calc.seeds[seeds.0 as usize];
+                let set = &self.calc.seeds[seeds.index()];
                 match set.pairs.binary_search_by_key(&s, |&(k, _)| k) {
                     Ok(i) => set.pairs[i].1,
                     Err(_) => self.zero,

@@ -1,46 +1,18 @@
 //! The vocabulary of the arena: ids, symbols and node kinds.
 
-use std::fmt;
-
-/// Identifier of an expression node in an [`Arena`](crate::Arena).
-///
-/// Ids are small and `Copy`. Because the arena hash-conses its nodes, two ids
-/// are equal exactly when the expressions they denote are structurally equal
-/// (after canonicalization), so `==` on ids is expression equality in O(1).
-/// The numeric order of ids is construction order; it never influences output.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ExprId(pub(crate) u32);
-
-impl ExprId {
-    /// Position of the node in its arena (dense, starting at 0).
-    #[must_use]
-    pub fn index(self) -> usize {
-        self.0 as usize
-    }
+kinema_index::entity! {
+    /// Identifier of an expression node in an [`Arena`](crate::Arena).
+    ///
+    /// Ids are small and `Copy`. Because the arena hash-conses its nodes, two ids
+    /// are equal exactly when the expressions they denote are structurally equal
+    /// (after canonicalization), so `==` on ids is expression equality in O(1).
+    /// The numeric order of ids is construction order; it never influences output.
+    pub struct ExprId(pub(crate) u32); "e"
 }
 
-impl fmt::Debug for ExprId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "e{}", self.0)
-    }
-}
-
-/// Identifier of a symbol (a leaf that is not a number) in an [`Arena`](crate::Arena).
-#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct SymId(pub(crate) u32);
-
-impl SymId {
-    /// Position of the symbol in its arena's symbol table (dense, starting at 0).
-    #[must_use]
-    pub fn index(self) -> usize {
-        self.0 as usize
-    }
-}
-
-impl fmt::Debug for SymId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "s{}", self.0)
-    }
+kinema_index::entity! {
+    /// Identifier of a symbol (a leaf that is not a number) in an [`Arena`](crate::Arena).
+    pub struct SymId(pub(crate) u32); "s"
 }
 
 /// What a symbol stands for. The index is the symbol's slot in the input

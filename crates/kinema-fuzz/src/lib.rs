@@ -480,7 +480,8 @@ impl PlannedStep {
         if let Some(&p) = solver.system().params().first() {
             let changed = p * 1.001 + 1e-3;
             if changed.is_finite() {
-                solver.system_mut().set_param_at(0, changed);
+                // Parameter 0 exists: `params().first()` is `Some`.
+                let _ = solver.system_mut().set_param_at(0, changed);
             }
         }
         solver.assemble(self.t)

@@ -531,7 +531,16 @@ fn parent(args: &Args) -> Result<bool, String> {
                         *n += 1;
                         if *n <= 3 {
                             let origin = format!("seed {} batch {batch_no} input {k}", args.seed);
-                            save(args, target, signature, detail, input, &origin, known, *n);
+                            let finding = Finding {
+                                target,
+                                signature,
+                                detail,
+                                input,
+                                origin: &origin,
+                                known,
+                                n: *n,
+                            };
+                            save(args, &finding);
                         }
                     }
                 }
@@ -601,19 +610,35 @@ fn extension(target: Target) -> &'static str {
     }
 }
 
+/// A finding to save: what a target did with one input, and where it came
+/// from.
+struct Finding<'a> {
+    target: Target,
+    /// What went wrong, in the known-findings list's form.
+    signature: &'a str,
+    /// The child's message.
+    detail: &'a str,
+    input: &'a [u8],
+    /// Seed, batch and input number.
+    origin: &'a str,
+    /// In the known-findings list.
+    known: bool,
+    /// How many times this signature was saved, this one included.
+    n: usize,
+}
+
 /// Saves a finding: the input (minimised when the finding is reproducible
 /// in process) and a text file saying what happened.
-#[allow(clippy::too_many_arguments)]
-fn save(
-    args: &Args,
-    target: Target,
-    signature: &str,
-    detail: &str,
-    input: &[u8],
-    origin: &str,
-    known: bool,
-    n: usize,
-) {
+fn save(args: &Args, finding: &Finding<'_>) {
+    let &Finding {
+        target,
+        signature,
+        detail,
+        input,
+        origin,
+        known,
+        n,
+    } = finding;
     let base = format!("{}-{}-{n}", target.name(), slug(signature));
     let input_path = args.out.join(format!("{base}.{}", extension(target)));
     let _ = std::fs::write(&input_path, input);

@@ -1105,7 +1105,7 @@ impl<'p> FactorChunks<'p> {
                     b,
                     &mut v,
                     (written, p),
-                    u32::try_from(k).unwrap_or(u32::MAX),
+                    kinema_index::u32_of(k, "a folded LU's pivot"),
                 )?;
                 fold(b, k, x, &mut signs, &mut min_bits, &mut mult_bits)?;
             } else {

@@ -14,8 +14,10 @@ use kinema_expr::{Arena, Columns, Entry, ExprId, SparseMatrix, SymId};
 
 use crate::check::{CheckedModel, Comp, DofReport, Form, LibKind};
 use crate::diagnostic::{Diagnostic, Diagnostics};
+use crate::idx;
 use crate::lower::Lowerer;
 use crate::syntax::EquationKeyword;
+use kinema_index::{Axis, Body};
 
 /// The most arena entries (nodes, sum terms, product factors: see
 /// [`Arena::size`]) that the derivatives of one declared equation may add:
@@ -349,9 +351,10 @@ fn coordinates(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Vec
     let mut coordinates = Vec::with_capacity(3 * model.bodies.len());
     for (k, b) in model.bodies.iter().enumerate() {
         for (c, comp) in [Comp::X, Comp::Y, Comp::Phi].into_iter().enumerate() {
-            let i = 3 * k + c;
+            let axis = Axis::ALL[c];
+            let i = Body::new(k).coord(axis).index();
             let q = lo.coords[k][c];
-            let suffix = ["x", "y", "phi"][c];
+            let suffix = axis.name();
             let qd = arena.velocity(&format!("{}.{suffix}_dot", b.name), idx(i));
             let guess = lo.scalar(arena, &b.guess[c]);
             let initial_velocity = b.velocity.as_ref().map(|v| lo.scalar(arena, &v.exprs[c]));
@@ -554,8 +557,4 @@ fn sym(arena: &Arena, e: ExprId) -> SymId {
     arena
         .symbol_of(e)
         .unwrap_or_else(|| unreachable!("a symbol constructor returned a non-symbol"))
-}
-
-fn idx(i: usize) -> u32 {
-    u32::try_from(i).unwrap_or(u32::MAX)
 }

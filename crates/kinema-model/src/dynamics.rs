@@ -310,7 +310,7 @@ fn reactions(
             let arm = match local {
                 Some(t) => {
                     let l = lo.vector(arena, t);
-                    let v = lo.rotate(arena, BodyRef::Body(crate::check::idx_u32(body)), l);
+                    let v = lo.rotate(arena, BodyRef::Body(crate::idx(body)), l);
                     [v.x, v.y]
                 }
                 None => {

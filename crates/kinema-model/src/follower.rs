@@ -23,6 +23,7 @@ use syn::{Token, braced, parenthesized};
 
 use crate::algebra::{Vec2, VecAlgebra};
 use crate::check::{BodyRef, CheckedModel, Comp, LibArg, LibKind};
+use crate::idx;
 use crate::lower::Lowerer;
 use crate::syntax::{Expr, Item, expect, expected, kw, name};
 
@@ -216,8 +217,4 @@ pub(crate) fn rows(
         }
         _ => None,
     }
-}
-
-fn idx(i: usize) -> u32 {
-    u32::try_from(i).unwrap_or(u32::MAX)
 }

@@ -163,6 +163,14 @@ pub mod source;
 pub mod span;
 pub mod syntax;
 
+/// `i` as the `u32` a model counts its declarations, coordinates, rows and
+/// expression nodes in; past `u32::MAX` it panics with a message (a bug, never
+/// an alias of another index).
+#[track_caller]
+pub(crate) fn idx(i: usize) -> u32 {
+    kinema_index::u32_of(i, "a model's declaration, coordinate or node")
+}
+
 pub use check::{BodyRef, CheckedModel, Comp, Coord, Curve, DofReport, LibKind, Output};
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};

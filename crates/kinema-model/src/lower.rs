@@ -5,6 +5,8 @@ use kinema_expr::{Arena, ExprId, Factor, Term};
 
 use crate::algebra::{Vec2, VecAlgebra};
 use crate::check::{BodyRef, CheckedModel, Comp, TExpr, TNode, Ty};
+use crate::idx;
+use kinema_index::{Axis, Body};
 
 /// A lowered value: scalar or vector.
 #[derive(Clone, Copy, Debug)]
@@ -56,12 +58,10 @@ impl<'m> Lowerer<'m> {
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let base = 3 * k;
-                [
-                    arena.coordinate(&format!("{}.x", b.name), idx(base)),
-                    arena.coordinate(&format!("{}.y", b.name), idx(base + 1)),
-                    arena.coordinate(&format!("{}.phi", b.name), idx(base + 2)),
-                ]
+                Axis::ALL.map(|a| {
+                    let q = Body::new(k).coord(a).index();
+                    arena.coordinate(&format!("{}.{}", b.name, a.name()), idx(q))
+                })
             })
             .collect();
         let nb = 3 * model.bodies.len();
@@ -79,12 +79,10 @@ impl<'m> Lowerer<'m> {
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let base = 3 * k;
-                [
-                    arena.velocity(&format!("{}.x_dot", b.name), idx(base)),
-                    arena.velocity(&format!("{}.y_dot", b.name), idx(base + 1)),
-                    arena.velocity(&format!("{}.phi_dot", b.name), idx(base + 2)),
-                ]
+                Axis::ALL.map(|a| {
+                    let q = Body::new(k).coord(a).index();
+                    arena.velocity(&format!("{}.{}_dot", b.name, a.name()), idx(q))
+                })
             })
             .collect();
         let mut me = Lowerer {
@@ -265,7 +263,17 @@ impl<'m> Lowerer<'m> {
             };
             if undefined(arena, v) && !reported {
                 let chain = chains.is_sum(i) || chains.is_product(i);
-                report_undefined(arena, n, i, &vals, &mut operands, chain, zero, report);
+                let lowered = Lowered {
+                    arena,
+                    vals: &vals,
+                    zero,
+                };
+                report_undefined(
+                    lowered,
+                    UndefinedNode { n, i, chain },
+                    &mut operands,
+                    report,
+                );
             }
             vals.push(v);
         }
@@ -480,22 +488,37 @@ fn operation(arena: &mut Arena, n: &TNode, vals: &[Value], zero: ExprId) -> Valu
     }
 }
 
+/// The nodes lowered so far (children before parents), in the arena their
+/// values live in, with that arena's 0.
+#[derive(Clone, Copy)]
+struct Lowered<'a> {
+    arena: &'a Arena,
+    vals: &'a [Value],
+    zero: ExprId,
+}
+
+/// A node whose value came out undefined: its kind, its index, and whether
+/// it is the root of a sum or product chain.
+#[derive(Clone, Copy)]
+struct UndefinedNode<'a> {
+    n: &'a TNode,
+    i: usize,
+    chain: bool,
+}
+
 /// Node `i` lowered to an undefined value: reported where it starts — at
 /// the node itself, or at a vector's divisor that is 0 — unless an operand
 /// already was undefined (reported there). A `chain` root's operands are
 /// its links: its divisor node, inside the chain, has no value of its own
 /// (a placeholder 0 that must not read as a zero divisor).
-#[allow(clippy::too_many_arguments)]
 fn report_undefined(
-    arena: &Arena,
-    n: &TNode,
-    i: usize,
-    vals: &[Value],
+    lowered: Lowered<'_>,
+    node: UndefinedNode<'_>,
     operands: &mut Vec<u32>,
-    chain: bool,
-    zero: ExprId,
     report: &mut dyn FnMut(u32, Undefined),
 ) {
+    let Lowered { arena, vals, zero } = lowered;
+    let UndefinedNode { n, i, chain } = node;
     if operands.is_empty() {
         children(n, operands);
     }
@@ -622,8 +645,4 @@ impl<'t> Chains<'t> {
     fn is_product(&self, i: usize) -> bool {
         self.t.types[i] == Ty::Scalar && !self.inner[i]
     }
-}
-
-fn idx(i: usize) -> u32 {
-    u32::try_from(i).unwrap_or(u32::MAX)
 }

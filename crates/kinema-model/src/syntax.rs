@@ -294,8 +294,8 @@ struct ExprBuilder {
 impl ExprBuilder {
     fn push(&mut self, kind: ExprKind, span: Span) -> u32 {
         // Cannot overflow u32 in practice: a token stream that large does
-        // not fit in memory; saturate anyway rather than panic.
-        let id = u32::try_from(self.nodes.len()).unwrap_or(u32::MAX);
+        // not fit in memory; if it did, the panic names it (never an alias).
+        let id = crate::idx(self.nodes.len());
         self.nodes.push(ExprNode { kind, span });
         id
     }

@@ -15,6 +15,8 @@
 //!
 //! [`LinearSolver::solve_transpose_in_place`]: crate::linalg::LinearSolver::solve_transpose_in_place
 
+use kinema_index::{Axis, Body, Coord};
+
 use crate::error::{Error, Quantity};
 use crate::linalg::{LinearSolver, scale_and_finite};
 use crate::solver::Solver;
@@ -96,8 +98,8 @@ struct ReactionEntry {
     row: u32,
     /// The reaction it belongs to.
     reaction: u32,
-    /// Which coordinate of the body: 0, 1 or 2.
-    coord: u8,
+    /// Which coordinate of the body.
+    coord: Axis,
 }
 
 impl InverseDynamics {
@@ -108,16 +110,15 @@ impl InverseDynamics {
         let pattern = system.jacobian_pattern();
         let mut entries = Vec::new();
         for (reaction, r) in (0u32..).zip(system.reactions()) {
-            let in_reaction =
-                |&(row, col): &(u32, u32)| (r.rows.0..r.rows.1).contains(&row) && col / 3 == r.body;
+            let body = Body::new(r.body as usize);
             for (k, &(row, col)) in (0u32..).zip(pattern) {
-                if in_reaction(&(row, col)) {
+                let col = Coord::of_index(col as usize);
+                if (r.rows.0..r.rows.1).contains(&row) && col.body == body {
                     entries.push(ReactionEntry {
                         k,
                         row,
                         reaction,
-                        // col % 3 < 3.
-                        coord: (col % 3) as u8,
+                        coord: col.axis,
                     });
                 }
             }
@@ -249,7 +250,7 @@ fn sum_reactions(
     // [F; T_origin] = −Φ_q,bᵀ λ_c, all reactions in one pass.
     reactions.fill([0.0; 3]);
     for e in entries {
-        reactions[e.reaction as usize][usize::from(e.coord)] -=
+        reactions[e.reaction as usize][e.coord.index()] -=
             jac[e.k as usize] * lambda[e.row as usize];
     }
     // About P: T = T_origin − (B s'P)ᵀ F, B s'P = perp(arm).

@@ -1,5 +1,7 @@
 //! Kinematics of body-fixed points: [`PointKinematics`], [`point_kinematics`].
 
+use kinema_index::{Axis, Body};
+
 /// Global position, velocity and acceleration of a body-fixed point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointKinematics {
@@ -11,30 +13,39 @@ pub struct PointKinematics {
     pub acceleration: [f64; 2],
 }
 
-/// Kinematics of the point with local coordinates s′ = `s` on the body whose
-/// r = (x, y) and φ are at `q[x_index]`, `q[x_index + 1]`, `q[x_index + 2]`
-/// (likewise in q̇ and q̈), with A(φ) = [[cos φ, −sin φ], [sin φ, cos φ]] and
-/// B = dA/dφ:
+/// Kinematics of the point with local coordinates s′ = `s` on `body`, whose
+/// r = (x, y) and φ are its [`Coord`](kinema_index::Coord)s in q (likewise in
+/// q̇ and q̈), with A(φ) = [[cos φ, −sin φ], [sin φ, cos φ]] and B = dA/dφ:
 ///
 /// * position r + A s′,
 /// * velocity ṙ + B s′ φ̇,
 /// * acceleration r̈ + B s′ φ̈ − A s′ φ̇².
 ///
-/// `None` if an index is out of range of any of the three slices.
+/// `None` if the body's coordinates are out of range of any of the three
+/// slices.
+///
+/// ```
+/// use kinema_runtime::{Body, point_kinematics};
+///
+/// // Body 1 at (1, 2), turned a quarter turn, at rest.
+/// let q = [0.0, 0.0, 0.0, 1.0, 2.0, std::f64::consts::FRAC_PI_2];
+/// let zero = [0.0; 6];
+/// let p = point_kinematics(&q, &zero, &zero, Body::new(1), [1.0, 0.0]).unwrap();
+/// assert!((p.position[0] - 1.0).abs() < 1e-12 && (p.position[1] - 3.0).abs() < 1e-12);
+/// assert!(point_kinematics(&q, &zero, &zero, Body::new(2), [1.0, 0.0]).is_none());
+/// ```
 #[must_use]
 pub fn point_kinematics(
     q: &[f64],
     qd: &[f64],
     qdd: &[f64],
-    x_index: usize,
+    body: Body,
     s: [f64; 2],
 ) -> Option<PointKinematics> {
-    let end = x_index.checked_add(3)?;
-    let (&[x, y, phi], &[xd, yd, phid], &[xdd, ydd, phidd]) = (
-        q.get(x_index..end)?,
-        qd.get(x_index..end)?,
-        qdd.get(x_index..end)?,
-    ) else {
+    let at = body.coord(Axis::X).index()..body.coord(Axis::Phi).index() + 1;
+    let (&[x, y, phi], &[xd, yd, phid], &[xdd, ydd, phidd]) =
+        (q.get(at.clone())?, qd.get(at.clone())?, qdd.get(at)?)
+    else {
         return None;
     };
     let (sin, cos) = phi.sin_cos();
@@ -65,7 +76,7 @@ mod tests {
             &[0.0, 0.0, std::f64::consts::FRAC_PI_2],
             &[0.0, 0.0, w],
             &[0.0, 0.0, 0.0],
-            0,
+            Body::new(0),
             [l, 0.0],
         )
         .ok_or("in range")?;
@@ -75,11 +86,17 @@ mod tests {
         assert!(close(p.velocity, [-l * w, 0.0]), "{p:?}");
         assert!(close(p.acceleration, [0.0, -l * w * w]), "{p:?}");
         assert_eq!(
-            point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], 1, [0.0, 0.0]),
+            point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], Body::new(1), [0.0, 0.0]),
             None
         );
         assert_eq!(
-            point_kinematics(&[0.0; 3], &[0.0; 3], &[0.0; 3], usize::MAX, [0.0, 0.0]),
+            point_kinematics(
+                &[0.0; 3],
+                &[0.0; 3],
+                &[0.0; 3],
+                Body::new(u32::MAX as usize),
+                [0.0, 0.0]
+            ),
             None
         );
         Ok(())

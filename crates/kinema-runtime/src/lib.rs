@@ -28,13 +28,13 @@
 //!
 //! ```
 //! # #[cfg(feature = "handwritten")] {
-//! use kinema_runtime::{Options, Solver, handwritten::SliderCrank};
+//! use kinema_runtime::{Body, Options, Solver, handwritten::SliderCrank};
 //!
 //! let mut solver: Solver<SliderCrank> = Solver::with_options(SliderCrank::default(), Options::default())?;
 //! let times: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
 //! let trajectory = solver.run(&times)?;
 //! // Velocity of the crank pin A, at s′ = (0.15, 0) on the crank (body 0).
-//! let pin = trajectory.point(0, 0, [0.15, 0.0]).ok_or("in range")?;
+//! let pin = trajectory.point(0, Body::new(0), [0.15, 0.0]).ok_or("in range")?;
 //! let speed = pin.velocity[0].hypot(pin.velocity[1]);
 //! assert!((speed - 0.3 * 2.0 * std::f64::consts::PI).abs() < 1e-9);
 //! let mut csv = Vec::new();
@@ -70,6 +70,7 @@ pub use event::{SingularEvent, SingularKind};
 pub use integrate::{
     Accurate, DenseScratch, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,
 };
+pub use kinema_index::{Axis, Body, Coord};
 pub use kinematics::{PointKinematics, point_kinematics};
 pub use linalg::{
     Auto, CompiledSolves, DenseLu, DynDenseLu, FoldedLu, FoldedSolves, LinalgError, LinearSolver,
@@ -77,7 +78,7 @@ pub use linalg::{
 };
 pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
-pub use outputs::{Outputs, Table};
+pub use outputs::{Motion, Outputs, Table};
 pub use solver::{Solver, locate_undefined};
 pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;

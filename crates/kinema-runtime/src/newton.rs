@@ -279,28 +279,48 @@ pub(crate) struct Travel {
     pub(crate) later: f64,
 }
 
-/// Solves Φ(q, t) = 0 by Newton–Raphson from the guess in `q`, as described
-/// in [`Options`]. On success `q` holds the solution, `stats_out` and
-/// `travel_out` what it took, and the result says whether `ws.jac` holds
-/// Φ_q at that q; on failure the two are untouched.
+/// A system with the scratch its evaluations keep.
+pub(crate) struct Eval<'a, S: System> {
+    pub(crate) system: &'a S,
+    pub(crate) scratch: &'a mut S::Scratch,
+}
+
+/// The linear solver of Φ_q with what its factorization holds.
+pub(crate) struct Lu<'a, L> {
+    pub(crate) lu: &'a mut L,
+    pub(crate) factorization: &'a mut Factorization,
+}
+
+/// Where a position solve writes what it took (on success only).
 ///
-/// (They are written in place rather than returned: a returned struct is
-/// stored field by field and then copied in wider pieces, and such a load
-/// waits for the stores to reach the cache instead of taking their values
-/// in flight — measured: 2 % of the chain N = 2's generated step.)
-#[allow(clippy::too_many_arguments)]
+/// (Written in place rather than returned: a returned struct is stored
+/// field by field and then copied in wider pieces, and such a load waits for
+/// the stores to reach the cache instead of taking their values in flight —
+/// measured: 2 % of the chain N = 2's generated step.)
+pub(crate) struct Took<'a> {
+    pub(crate) stats: &'a mut StepStats,
+    pub(crate) travel: &'a mut Travel,
+}
+
+/// Solves Φ(q, t) = 0 by Newton–Raphson from the guess in `q`, as described
+/// in [`Options`]. On success `q` holds the solution, `took` what it took,
+/// and the result says whether `ws.jac` holds Φ_q at that q; on failure
+/// `took` is untouched.
 pub(crate) fn solve_position<S: System, L: LinearSolver>(
-    system: &S,
-    scratch: &mut S::Scratch,
-    lu: &mut L,
-    factorization: &mut Factorization,
+    eval: Eval<'_, S>,
+    lu: Lu<'_, L>,
     q: &mut [f64],
     t: f64,
     options: &Options,
     ws: &mut Workspace,
-    stats_out: &mut StepStats,
-    travel_out: &mut Travel,
+    took: Took<'_>,
 ) -> Result<bool, Error> {
+    let Eval { system, scratch } = eval;
+    let Lu { lu, factorization } = lu;
+    let Took {
+        stats: stats_out,
+        travel: travel_out,
+    } = took;
     let full = !options.modified_newton;
     let mut stats = StepStats::default();
     let mut have_lu = !full && *factorization == Factorization::Stale;

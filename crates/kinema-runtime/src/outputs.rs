@@ -7,6 +7,33 @@ use crate::state::State;
 use crate::system::System;
 use crate::trajectory::Trajectory;
 
+/// A time with the motion at it: positions q, velocities q̇ and
+/// accelerations q̈ (what [`Outputs::outputs`] evaluates at).
+#[derive(Clone, Copy, Debug)]
+pub struct Motion<'a> {
+    /// Time t.
+    pub t: f64,
+    /// Positions q.
+    pub q: &'a [f64],
+    /// Velocities q̇.
+    pub qd: &'a [f64],
+    /// Accelerations q̈.
+    pub qdd: &'a [f64],
+}
+
+impl<'a> Motion<'a> {
+    /// A solved state's time and motion.
+    #[must_use]
+    pub fn of(state: &'a State) -> Self {
+        Self {
+            t: state.t(),
+            q: state.q(),
+            qd: state.qd(),
+            qdd: state.qdd(),
+        }
+    }
+}
+
 /// A system whose model declares named results: m scalar columns y (points'
 /// components, then measures), evaluated at a solved state with their
 /// derivatives ẏ and ÿ.
@@ -21,21 +48,10 @@ pub trait Outputs: System {
     /// `"dir.y"`); the derivatives' columns add `_dot` and `_ddot`.
     fn output_name(&self, i: usize) -> &str;
 
-    /// Writes y, ẏ, ÿ (each of length m) at time `t`, positions `q`,
-    /// velocities `qd` and accelerations `qdd`. Slices of the wrong length
-    /// give NaN, never a panic.
-    #[allow(clippy::too_many_arguments)]
-    fn outputs(
-        &self,
-        scratch: &mut Self::Scratch,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        qdd: &[f64],
-        y: &mut [f64],
-        yd: &mut [f64],
-        ydd: &mut [f64],
-    );
+    /// Writes `[y, ẏ, ÿ]` (each of length m) at a state's time, positions,
+    /// velocities and accelerations (`at`). Slices of the wrong length give
+    /// NaN, never a panic.
+    fn outputs(&self, scratch: &mut Self::Scratch, at: Motion<'_>, out: [&mut [f64]; 3]);
 
     /// The index of the result column named `name`, if any.
     fn output_index(&self, name: &str) -> Option<usize> {
@@ -45,16 +61,7 @@ pub trait Outputs: System {
     /// y, ẏ, ÿ at a solved state into `out` (no allocation).
     fn outputs_of(&self, scratch: &mut Self::Scratch, state: &State, out: &mut [Vec<f64>; 3]) {
         let [y, yd, ydd] = out;
-        self.outputs(
-            scratch,
-            state.t(),
-            state.q(),
-            state.qd(),
-            state.qdd(),
-            y,
-            yd,
-            ydd,
-        );
+        self.outputs(scratch, Motion::of(state), [y, yd, ydd]);
     }
 
     /// y, ẏ, ÿ at a solved state (a fresh scratch: allocates, for one-off use).
@@ -111,16 +118,7 @@ impl Table {
                     data[(1 + block * n + i) * rows + r] = v;
                 }
             }
-            system.outputs(
-                &mut scratch,
-                s.t(),
-                s.q(),
-                s.qd(),
-                s.qdd(),
-                &mut y,
-                &mut yd,
-                &mut ydd,
-            );
+            system.outputs(&mut scratch, Motion::of(s), [&mut y, &mut yd, &mut ydd]);
             for (block, values) in [&y, &yd, &ydd].into_iter().enumerate() {
                 for (i, &v) in values.iter().enumerate() {
                     data[(1 + 3 * n + block * m + i) * rows + r] = v;

@@ -1,5 +1,7 @@
 //! The result of one step: [`State`] and [`StepStats`].
 
+use kinema_index::Body;
+
 use crate::kinematics::{PointKinematics, point_kinematics};
 
 /// Work done by one step's position analysis.
@@ -198,12 +200,11 @@ impl State {
     }
 
     /// Position, velocity and acceleration of the point with local
-    /// coordinates `s` (s′) on the body whose (x, y, φ) are at `x_index`,
-    /// `x_index + 1`, `x_index + 2` (3i for body i of a system made of
-    /// bodies); `None` if those indices are out of range. See
+    /// coordinates `s` (s′) on `body` (whose (x, y, φ) are its
+    /// [`Coord`](crate::Coord)s); `None` if the system has no such body. See
     /// [`point_kinematics`].
     #[must_use]
-    pub fn point(&self, x_index: usize, s: [f64; 2]) -> Option<PointKinematics> {
-        point_kinematics(&self.q, &self.qd, &self.qdd, x_index, s)
+    pub fn point(&self, body: Body, s: [f64; 2]) -> Option<PointKinematics> {
+        point_kinematics(&self.q, &self.qd, &self.qdd, body, s)
     }
 }

@@ -3,6 +3,8 @@
 use std::io;
 use std::ops::Index;
 
+use kinema_index::Body;
+
 use crate::csv::CsvWriter;
 use crate::event::SingularEvent;
 use crate::kinematics::PointKinematics;
@@ -95,10 +97,11 @@ impl Trajectory {
     }
 
     /// Kinematics of a body-fixed point at time index `k` (see
-    /// [`State::point`]); `None` if `k` or the indices are out of range.
+    /// [`State::point`]); `None` if `k` is out of range or the system has no
+    /// such body.
     #[must_use]
-    pub fn point(&self, k: usize, x_index: usize, s: [f64; 2]) -> Option<PointKinematics> {
-        self.states.get(k)?.point(x_index, s)
+    pub fn point(&self, k: usize, body: Body, s: [f64; 2]) -> Option<PointKinematics> {
+        self.states.get(k)?.point(body, s)
     }
 
     /// Writes the trajectory as CSV per the command-line contract: columns

@@ -6,7 +6,7 @@ mod common;
 use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::{Chain, FourBar};
 use kinema_runtime::{
-    Auto, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu,
+    Auto, Body, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu,
 };
 
 fn run<L: LinearSolverFor<Chain>>(
@@ -97,8 +97,8 @@ fn four_bar_same_algorithm_reproduces_the_peers_newton_counts() -> Result<(), Er
     // Loop closure: the rocker's pin at B coincides with the coupler's, and
     // the coupler keeps its length between A and B.
     for state in &trajectory {
-        let b_coupler = state.point(3, [0.5, 0.0]);
-        let b_rocker = state.point(6, [0.4, 0.0]);
+        let b_coupler = state.point(Body::new(1), [0.5, 0.0]);
+        let b_rocker = state.point(Body::new(2), [0.4, 0.0]);
         let (Some(p), Some(r)) = (b_coupler, b_rocker) else {
             unreachable!("bodies 1 and 2 exist");
         };

@@ -6,7 +6,7 @@ mod common;
 use common::{assert_close, benchmark_grid};
 use kinema_runtime::handwritten::SliderCrank;
 use kinema_runtime::{
-    Auto, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu, System,
+    Auto, Body, DenseLu, DynDenseLu, Error, LinearSolverFor, Options, Solver, SparseLu, System,
 };
 use std::f64::consts::{FRAC_PI_4, TAU};
 
@@ -318,7 +318,7 @@ fn rod_end_follows_the_slider() -> Result<(), Error> {
     let trajectory = solver.run(&benchmark_grid())?;
     for (k, state) in trajectory.iter().enumerate() {
         let [q, qd, qdd] = closed_form(solver.system(), state.t());
-        let Some(b) = trajectory.point(k, 3, [0.5, 0.0]) else {
+        let Some(b) = trajectory.point(k, Body::new(1), [0.5, 0.0]) else {
             unreachable!("body 1 exists");
         };
         assert_close("B", &b.position, &[q[6], 0.0], 1e-10);

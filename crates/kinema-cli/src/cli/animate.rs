@@ -24,7 +24,7 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 
-use kinema::System;
+use kinema::{Axis, Body, System};
 
 use super::Failure;
 use super::load::Loaded;
@@ -179,8 +179,9 @@ fn data(
         times.extend_from_slice(&t.to_le_bytes());
         let q = samples.positions(k).unwrap_or(&[]);
         for i in 0..nb {
-            let at = |j: usize| q.get(3 * i + j).copied().unwrap_or(f64::NAN);
-            let pose = [at(0) - centre[0], at(1) - centre[1], at(2)];
+            let at = |a: Axis| q.get(Body::new(i).coord(a).index());
+            let [x, y, phi] = Axis::ALL.map(|a| at(a).copied().unwrap_or(f64::NAN));
+            let pose = [x - centre[0], y - centre[1], phi];
             for v in pose {
                 // Narrowing to float32 is the format (see the module doc).
                 #[allow(clippy::cast_possible_truncation)]
@@ -431,8 +432,8 @@ fn view_bounds(
 /// Global position of local point `s` of body `i` in positions `q`; NaN
 /// if `q` is too short.
 fn global(q: &[f64], i: usize, s: [f64; 2]) -> [f64; 2] {
-    match (q.get(3 * i), q.get(3 * i + 1), q.get(3 * i + 2)) {
-        (Some(&x), Some(&y), Some(&phi)) => {
+    match Axis::ALL.map(|a| q.get(Body::new(i).coord(a).index())) {
+        [Some(&x), Some(&y), Some(&phi)] => {
             let (sn, c) = phi.sin_cos();
             [x + c * s[0] - sn * s[1], y + sn * s[0] + c * s[1]]
         }

@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 
 use kinema::equilibrium::{Equilibrium, Stability};
-use kinema::{Dynamics, System};
+use kinema::{Body, Coord, Dynamics, System};
 
 use super::args::RunArgs;
 use super::files::RunFiles;
@@ -65,16 +65,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     // Named points and measures at rest.
     let m = d.outputs.len();
     let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    let at = kinema::Motion {
+        t: eq.t,
+        q: &eq.q,
+        qd: &zeros,
+        qdd: &zeros,
+    };
     kinema::Outputs::outputs(
         &system,
         &mut system.scratch(),
-        eq.t,
-        &eq.q,
-        &zeros,
-        &zeros,
-        &mut y,
-        &mut yd,
-        &mut ydd,
+        at,
+        [&mut y, &mut yd, &mut ydd],
     );
     sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [&y, &yd, &ydd], &out)?;
     let destination = sink.destination().clone();
@@ -131,11 +132,11 @@ fn dynamics_row(loaded: &Loaded, system: &kinema::TapeSystem, eq: &Equilibrium) 
     for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
         let mut g = [0.0; 3];
         for (e, v) in d.phi_q.entries.iter().zip(&jac) {
-            let (row, col) = (e.row as usize, e.col as usize);
+            let (row, col) = (e.row as usize, Coord::of_index(e.col as usize));
             if (spec.rows.0 as usize..spec.rows.1 as usize).contains(&row)
-                && col / 3 == spec.body as usize
+                && col.body == Body::new(spec.body as usize)
             {
-                g[col % 3] -= v * eq.lambda[row];
+                g[col.axis.index()] -= v * eq.lambda[row];
             }
         }
         let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);

@@ -12,7 +12,8 @@ use std::time::Instant;
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
 use kinema::{
-    Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
+    Accurate, Axis, Body, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope,
+    System,
 };
 
 use super::args::{Integrator, RunArgs};
@@ -316,7 +317,9 @@ fn initial_velocities(loaded: &Loaded, n: usize) -> Vec<f64> {
     qd0.resize(n, 0.0);
     if let Some(adm) = &loaded.adm {
         for (k, b) in adm.model.bodies.iter().enumerate() {
-            if let (Some(v), Some(slot)) = (b.qd0, qd0.get_mut(3 * k..3 * k + 3)) {
+            let body = Body::new(k);
+            let slot = body.coord(Axis::X).index()..=body.coord(Axis::Phi).index();
+            if let (Some(v), Some(slot)) = (b.qd0, qd0.get_mut(slot)) {
                 slot.copy_from_slice(&v);
             }
         }
@@ -793,7 +796,8 @@ impl RowBuffers {
         let (q, qd, qdd, lambda) = (hht.q(), hht.qd(), hht.qdd(), hht.lambda());
         {
             let [y, yd, ydd] = &mut self.results;
-            kinema::Outputs::outputs(system, &mut self.scratch, t, q, qd, qdd, y, yd, ydd);
+            let at = kinema::Motion { t, q, qd, qdd };
+            kinema::Outputs::outputs(system, &mut self.scratch, at, [y, yd, ydd]);
         }
         system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
         self.extra.clear();
@@ -803,8 +807,8 @@ impl RowBuffers {
             let mut g = [0.0; 3];
             let (r0, r1) = (spec.rows.0 as usize, (spec.rows.1 as usize).min(rows));
             for (row, &l) in lambda.iter().enumerate().take(r1).skip(r0) {
-                for (c, gc) in g.iter_mut().enumerate() {
-                    let col = 3 * spec.body as usize + c;
+                for (axis, gc) in Axis::ALL.into_iter().zip(g.iter_mut()) {
+                    let col = Body::new(spec.body as usize).coord(axis).index();
                     *gc -= self.jac.get(row * n + col).copied().unwrap_or(f64::NAN) * l;
                 }
             }

@@ -37,6 +37,7 @@ use std::collections::HashMap;
 
 use crate::ctxt::Ctxt;
 use crate::diagnostic::{Diagnostic, Diagnostics};
+use crate::idx;
 use crate::span::Span;
 use crate::syntax::{self, ExprKind};
 
@@ -50,11 +51,6 @@ pub(crate) use model::{Form, LibArg, TExpr, TNode};
 pub use names::may_declare;
 pub use output::Output;
 pub(crate) use output::point_columns;
-
-/// `i` as a body index (declarations are counted in u32).
-pub(crate) fn idx_u32(i: usize) -> u32 {
-    idx(i)
-}
 
 pub(crate) use eval::eval_vector;
 
@@ -216,10 +212,6 @@ pub fn check(mech: &syntax::Mechanism) -> Result<CheckedModel, Diagnostics> {
     }
     model.warnings = diagnostics;
     Ok(model)
-}
-
-fn idx(i: usize) -> u32 {
-    u32::try_from(i).expect("a model's declarations and nodes are counted in u32")
 }
 
 fn show_nonfinite(v: f64) -> &'static str {

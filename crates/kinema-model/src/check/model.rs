@@ -94,13 +94,13 @@ pub(crate) struct TExpr {
 
 impl TExpr {
     pub(crate) fn root(&self) -> u32 {
-        u32::try_from(self.nodes.len().saturating_sub(1)).unwrap_or(u32::MAX)
+        crate::idx(self.nodes.len().saturating_sub(1))
     }
     pub(crate) fn ty(&self) -> Ty {
         self.types.last().copied().unwrap_or(Ty::Scalar)
     }
     pub(super) fn push(&mut self, node: TNode, ty: Ty) -> u32 {
-        let id = u32::try_from(self.nodes.len()).unwrap_or(u32::MAX);
+        let id = crate::idx(self.nodes.len());
         self.nodes.push(node);
         self.types.push(ty);
         id

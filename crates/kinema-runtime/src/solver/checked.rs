@@ -59,22 +59,27 @@ pub(super) fn velocity_overflow<S: System>(
     }
 }
 
+/// Φ_q's factorization, with the equilibration it was made with.
+pub(super) struct Factored<'a, L> {
+    pub(super) lu: &'a mut L,
+    pub(super) scaling: &'a Scaling,
+}
+
 /// Fills `x` with a right-hand side (`fill`), solves Φ_q x = rhs in place,
 /// and only if x is not finite evaluates the right-hand side again to name
 /// the culprit: a non-finite equation (`quantities.0`) or else a solution
 /// that overflowed (`quantities.1`).
-#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(super) fn solve_checked<S: System, L: LinearSolver>(
     system: &S,
     scratch: &mut S::Scratch,
-    lu: &mut L,
-    scaling: &Scaling,
+    factored: Factored<'_, L>,
     t: f64,
     x: &mut [f64],
     quantities: (Quantity, Quantity),
     mut fill: impl FnMut(&mut S::Scratch, &mut [f64]),
 ) -> Result<(), Error> {
+    let Factored { lu, scaling } = factored;
     fill(scratch, x);
     scaling.solve(lu, x)?;
     if !scale_and_finite(x).1 {

@@ -5,8 +5,8 @@ use crate::error::{Error, Quantity};
 use crate::event::{SingularEvent, SingularKind};
 use crate::linalg::{Auto, LinalgError, LinearSolver, LinearSolverFor};
 use crate::newton::{
-    DIAGNOSES_PER_STEP, Factorization, Travel, Workspace, check_coordinates, factor, inf_norm,
-    solve_position,
+    DIAGNOSES_PER_STEP, Eval, Factorization, Lu, Took, Travel, Workspace, check_coordinates,
+    factor, inf_norm, solve_position,
 };
 use crate::options::Options;
 use crate::state::{State, StepStats};
@@ -17,7 +17,7 @@ mod checked;
 mod closed;
 mod passage;
 
-use checked::{solve_checked, velocity_overflow};
+use checked::{Factored, solve_checked, velocity_overflow};
 
 use passage::Zone;
 
@@ -662,16 +662,22 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         };
         self.factored = 0;
         let _ = solve_position(
-            &self.system,
-            &mut self.scratch,
-            &mut self.lu,
-            &mut self.factorization,
+            Eval {
+                system: &self.system,
+                scratch: &mut self.scratch,
+            },
+            Lu {
+                lu: &mut self.lu,
+                factorization: &mut self.factorization,
+            },
             &mut self.next.q,
             t,
             &options,
             &mut self.ws,
-            &mut StepStats::default(),
-            &mut Travel::default(),
+            Took {
+                stats: &mut StepStats::default(),
+                travel: &mut Travel::default(),
+            },
         );
         self.system
             .phi(&mut self.scratch, &self.next.q, t, &mut self.ws.phi);
@@ -882,16 +888,22 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         self.factored = 0;
         let q = &mut self.next.q;
         let jacobian_current = solve_position(
-            &self.system,
-            &mut self.scratch,
-            &mut self.lu,
-            &mut self.factorization,
+            Eval {
+                system: &self.system,
+                scratch: &mut self.scratch,
+            },
+            Lu {
+                lu: &mut self.lu,
+                factorization: &mut self.factorization,
+            },
             q,
             t,
             &self.options,
             &mut self.ws,
-            &mut self.next.stats,
-            &mut self.travel,
+            Took {
+                stats: &mut self.next.stats,
+                travel: &mut self.travel,
+            },
         )?;
         self.next.t = t;
         if self.options.positions_only {
@@ -1014,15 +1026,18 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let (system, scratch) = (&self.system, &mut self.scratch);
         let (lu, scaling) = (&mut self.lu, &self.ws.scaling);
         let quantities = (Quantity::Nu, Quantity::Velocity);
-        solve_checked(system, scratch, lu, scaling, t, qd, quantities, |c, rhs| {
+        let factored = Factored {
+            lu: &mut *lu,
+            scaling,
+        };
+        solve_checked(system, scratch, factored, t, qd, quantities, |c, rhs| {
             system.nu(c, q, t, rhs);
         })?;
         let quantities = (Quantity::Gamma, Quantity::Acceleration);
         solve_checked(
             system,
             scratch,
-            lu,
-            scaling,
+            Factored { lu, scaling },
             t,
             qdd,
             quantities,

@@ -9,7 +9,9 @@ use crate::diagnose::MAX_DENSE_DIAGNOSIS;
 use crate::error::Error;
 use crate::event::{SingularEvent, SingularKind};
 use crate::linalg::LinearSolver;
-use crate::newton::{Factorization, Travel, check_jacobian, inf_norm, solve_position};
+use crate::newton::{
+    Eval, Factorization, Lu, Took, Travel, check_jacobian, inf_norm, solve_position,
+};
 use crate::options::Options;
 use crate::state::StepStats;
 use crate::system::System;
@@ -573,16 +575,22 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             q.copy_from_slice(&q_good);
             self.factored = 0;
             let solved = solve_position(
-                &self.system,
-                &mut self.scratch,
-                &mut self.lu,
-                &mut factorization,
+                Eval {
+                    system: &self.system,
+                    scratch: &mut self.scratch,
+                },
+                Lu {
+                    lu: &mut self.lu,
+                    factorization: &mut factorization,
+                },
                 &mut q,
                 mid,
                 &options,
                 &mut self.ws,
-                &mut StepStats::default(),
-                &mut Travel::default(),
+                Took {
+                    stats: &mut StepStats::default(),
+                    travel: &mut Travel::default(),
+                },
             );
             match solved {
                 Ok(_) => {

@@ -1,6 +1,7 @@
 //! The mechanism view: bodies at several instants, the paths of their
 //! joint points, ground pivots; equal aspect.
 
+use kinema::{Axis, Body};
 use plotters::prelude::*;
 
 use super::legend::{Swatch, draw_legend_column};
@@ -374,8 +375,14 @@ impl Mechanism<'_> {
             let grey = instant_color(j, m);
             let last = j + 1 == m;
             let width = if last { 3 } else { 2 };
+            let pen = Pen { grey, width, block };
             for (i, body) in self.scene.bodies.iter().enumerate() {
-                draw_body(chart, self.samples, k, i, body, grey, width, block, last)?;
+                let at = BodyAt {
+                    samples: self.samples,
+                    k,
+                    i,
+                };
+                draw_body(chart, at, body, pen, last)?;
             }
         }
         Ok(())
@@ -453,22 +460,37 @@ pub(super) fn rect_corners(loc: [f64; 2], size: [f64; 2]) -> [[f64; 2]; 4] {
 pub(super) type MechChart<'a, 'b> =
     ChartContext<'a, SVGBackend<'b>, Cartesian2d<SafeAxis, SafeAxis>>;
 
+/// Body `i` at state `k` of the samples: where a drawing of it is placed.
+#[derive(Clone, Copy)]
+pub(super) struct BodyAt<'a> {
+    pub(super) samples: &'a Samples,
+    pub(super) k: usize,
+    pub(super) i: usize,
+}
+
+/// How an instant's bodies are drawn: the instant's grey, the line width,
+/// and the size of a block (slider).
+#[derive(Clone, Copy)]
+pub(super) struct Pen {
+    pub(super) grey: RGBColor,
+    pub(super) width: u32,
+    pub(super) block: [f64; 2],
+}
+
 /// One body at state `k`: simEngine2D rectangles if it has any; then the
 /// link between its joint points (a bar for two, a plate for more, a block
-/// for a single point at its origin), and its joints as small circles.
-#[allow(clippy::too_many_arguments)] // drawing parameters, all distinct
+/// for a single point at its origin), and its joints as small circles;
+/// `last`: the latest instant, drawn strongest.
 pub(super) fn draw_body(
     chart: &mut MechChart<'_, '_>,
-    samples: &Samples,
-    k: usize,
-    i: usize,
+    at: BodyAt<'_>,
     body: &BodyShape,
-    grey: RGBColor,
-    width: u32,
-    block: [f64; 2],
+    pen: Pen,
     last: bool,
 ) -> Drawn {
-    let phi = samples.coordinate(0, k, 3 * i + 2);
+    let BodyAt { samples, k, i } = at;
+    let Pen { grey, width, .. } = pen;
+    let phi = samples.coordinate(0, k, Body::new(i).coord(Axis::Phi).index());
     let to = |p: [f64; 2]| -> (f64, f64) {
         let g = global(samples, k, i, p);
         (g[0], g[1])
@@ -494,11 +516,11 @@ pub(super) fn draw_body(
     let origin = [0.0, 0.0];
     match points.len() {
         0 => {
-            draw_block(chart, samples, k, i, phi, block, grey, width)?;
+            draw_block(chart, at, phi, pen)?;
         }
         1 => {
             if points[0] == origin {
-                draw_block(chart, samples, k, i, phi, block, grey, width)?;
+                draw_block(chart, at, phi, pen)?;
             } else {
                 chart.draw_series(std::iter::once(PathElement::new(
                     vec![to(points[0]), to(origin)],
@@ -536,18 +558,15 @@ pub(super) fn draw_body(
     Ok(())
 }
 
-/// A block (slider) centred on the body's origin, turned with it.
-#[allow(clippy::too_many_arguments)] // drawing parameters, all distinct
+/// A block (slider) centred on the body's origin, turned with it (`phi`).
 pub(super) fn draw_block(
     chart: &mut MechChart<'_, '_>,
-    samples: &Samples,
-    k: usize,
-    i: usize,
+    at: BodyAt<'_>,
     phi: f64,
-    block: [f64; 2],
-    grey: RGBColor,
-    width: u32,
+    pen: Pen,
 ) -> Drawn {
+    let BodyAt { samples, k, i } = at;
+    let Pen { grey, width, block } = pen;
     let r = global(samples, k, i, [0.0, 0.0]);
     if !(phi.is_finite() && r[0].is_finite() && r[1].is_finite()) {
         return Ok(());

@@ -14,7 +14,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::Path;
 
-use kinema::{PointKinematics, State, point_kinematics};
+use kinema::{Body, PointKinematics, State, point_kinematics};
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
@@ -179,7 +179,7 @@ impl Samples {
             self.q.get(r.clone())?,
             self.qd.get(r.clone())?,
             self.qdd.get(r)?,
-            3 * body,
+            Body::new(body),
             local,
         )
     }

@@ -1,7 +1,7 @@
 //! The model's measures (`output NAME: EXPR;`) against time: value, first
 //! and second time derivative, side by side, below the joint points.
 
-use kinema::Outputs;
+use kinema::{Motion, Outputs};
 use kinema_model::{Derivation, OutputSource};
 
 use super::charts::{Lines, time_chart};
@@ -58,7 +58,11 @@ impl Measures {
             ) else {
                 continue;
             };
-            system.outputs(&mut scratch, t, q, qd, qdd, &mut y, &mut yd, &mut ydd);
+            system.outputs(
+                &mut scratch,
+                Motion { t, q, qd, qdd },
+                [&mut y, &mut yd, &mut ydd],
+            );
             for (order, values) in [&y, &yd, &ydd].into_iter().enumerate() {
                 for (k, &c) in columns.iter().enumerate() {
                     let v = values.get(c).copied().unwrap_or(f64::NAN);
