@@ -273,7 +273,8 @@ impl RowBuffers {
         let (q, qd, qdd, lambda) = (motion.q(), motion.qd(), motion.qdd(), motion.lambda());
         {
             let [y, yd, ydd] = &mut self.results;
-            kinema::Outputs::outputs(system, &mut self.scratch, t, q, qd, qdd, y, yd, ydd);
+            let at = kinema::Motion { t, q, qd, qdd };
+            kinema::Outputs::outputs(system, &mut self.scratch, at, [y, yd, ydd]);
         }
         system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
         self.extra.clear();
@@ -553,16 +554,17 @@ pub fn equilibrium(
     let zeros = vec![0.0; d.nc()];
     let m = d.outputs.len();
     let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    let at = kinema::Motion {
+        t: eq.t,
+        q: &eq.q,
+        qd: &zeros,
+        qdd: &zeros,
+    };
     kinema::Outputs::outputs(
         system,
         &mut system.scratch(),
-        eq.t,
-        &eq.q,
-        &zeros,
-        &zeros,
-        &mut y,
-        &mut yd,
-        &mut ydd,
+        at,
+        [&mut y, &mut yd, &mut ydd],
     );
     let mut row = vec![eq.t];
     let (states, results) = ([&eq.q, &zeros, &zeros], [&y, &yd, &ydd]);

@@ -163,7 +163,9 @@ impl NativeModel {
                     .with_backend(kinema::Backend::Tape)
                     .system();
                 for (i, &v) in self.system.params().iter().enumerate() {
-                    system.set_param_at(i, v);
+                    system
+                        .set_param_at(i, v)
+                        .map_err(|e| value_error(e.to_string()))?;
                 }
                 Ok(system)
             }
@@ -555,7 +557,9 @@ fn run_sweep(
     let width = indices.len();
     let set = move |s: &mut TapeSystem, row: &[f64]| {
         for (&i, &v) in indices.iter().zip(row) {
-            s.set_param_at(i, v);
+            // `indices` are positions of the model's own parameters,
+            // resolved from their names before the sweep starts.
+            let _ = s.set_param_at(i, v);
         }
     };
     let mut sweep = kinema::sweep::Sweep::new(system, set)
@@ -811,7 +815,7 @@ impl NativeModel {
                     "parameter `{name}` must be a finite number, found {value}"
                 )));
             }
-            if !system.set_param(name, *value) {
+            if system.set_param(name, *value).is_err() {
                 return Err(value_error(format!(
                     "`{name}` is not a parameter of {}: its parameters are {}",
                     self.model.derivation().name,
