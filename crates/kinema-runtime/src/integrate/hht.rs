@@ -199,7 +199,7 @@ fn amax(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
 }
 
-/// Whether every entry is finite: x − x is 0 for a finite x and NaN
+/// Whether every entry is finite: 0 · x is 0 for a finite x and NaN
 /// otherwise, and a sum of those has no branch to take per entry.
 fn finite(v: &[f64]) -> bool {
     let mut lanes = [0.0_f64; 4];
@@ -207,10 +207,10 @@ fn finite(v: &[f64]) -> bool {
     let rest = chunks.remainder();
     for c in chunks {
         for (l, &x) in lanes.iter_mut().zip(c) {
-            *l += x - x;
+            *l += 0.0 * x;
         }
     }
-    let tail: f64 = rest.iter().map(|&x| x - x).sum();
+    let tail: f64 = rest.iter().map(|&x| 0.0 * x).sum();
     lanes.iter().sum::<f64>() + tail == 0.0
 }
 

@@ -357,7 +357,7 @@ impl Monitor {
     /// The steps to let pass after an evaluation (see [`due`](Self::due)).
     fn steps_to_skip(&self) -> u32 {
         let [_, b, c] = &self.samples;
-        if self.count < 2 || c.s <= NEAR || !(self.step_h > 0.0) {
+        if self.count < 2 || c.s <= NEAR || self.step_h.is_nan() || self.step_h <= 0.0 {
             return 0;
         }
         let slope = (c.s - b.s) / (c.t - b.t);
