@@ -4,7 +4,7 @@
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::{Derivation, RowKind};
-use kinema_runtime::{Dynamics, ReactionSpec, System};
+use kinema_runtime::{Dynamics, Error, InverseDynamics, Motion, Outputs, ReactionSpec, System};
 
 use crate::model::TapeSystem;
 
@@ -93,6 +93,32 @@ impl TapeSystem {
     pub fn reaction_names(&self) -> &[ReactionName] {
         &self.dynamics_part().names
     }
+
+    /// The dynamics columns of a model with `rows` rows of Φ, as the CSV
+    /// contract names them (docs/src/cli.md): `lambda.<row>`,
+    /// `reaction.<element>.<body>.Fx/Fy/T`, `driver.<row>`; with
+    /// `by_slot`, a reaction's body is named by its place among the
+    /// element's bodies (`body1`, `body2`: a simEngine2D file's naming).
+    #[must_use]
+    pub fn dynamics_column_names(&self, rows: usize, by_slot: bool) -> Vec<String> {
+        let mut names: Vec<String> = (0..rows)
+            .map(|i| format!("lambda.{}", self.equation_name(i)))
+            .collect();
+        for r in self.reaction_names() {
+            let body = if by_slot {
+                format!("body{}", r.slot + 1)
+            } else {
+                r.body.clone()
+            };
+            for c in ["Fx", "Fy", "T"] {
+                names.push(format!("reaction.{}.{body}.{c}", r.element));
+            }
+        }
+        for i in self.driving_start().min(rows)..rows {
+            names.push(format!("driver.{}", self.equation_name(i)));
+        }
+        names
+    }
 }
 
 impl Dynamics for TapeSystem {
@@ -117,5 +143,84 @@ impl Dynamics for TapeSystem {
 
     fn driving_start(&self) -> usize {
         self.dynamics_part().driving_start.min(self.len())
+    }
+}
+
+/// One output row's derived values at a state with multipliers (forward
+/// dynamics, a prescribed motion): the named points and outputs y, ẏ, ÿ,
+/// and after them λ, the reactions and the driving efforts, in the order
+/// of [`TapeSystem::dynamics_column_names`]. The command line and the
+/// Python package fill their rows with it. Buffers sized once; a row
+/// allocates nothing.
+#[derive(Debug)]
+pub struct DynamicsRow {
+    outputs: [Vec<f64>; 3],
+    id: InverseDynamics,
+    jac: Vec<f64>,
+    values: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
+impl DynamicsRow {
+    /// Buffers for `system` with `rows` rows of Φ (allocates; once).
+    #[must_use]
+    pub fn new(system: &TapeSystem, rows: usize) -> DynamicsRow {
+        let m = system.output_len();
+        let id = InverseDynamics::with_rows(system, rows);
+        let width = id.lambda().len() + 3 * id.reactions().len() + id.efforts().len();
+        DynamicsRow {
+            outputs: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
+            id,
+            jac: vec![0.0; system.jacobian_pattern().len()],
+            values: Vec::with_capacity(width),
+            scratch: system.scratch(),
+        }
+    }
+
+    /// The row at the state `at` with multipliers `lambda` (one per row of
+    /// Φ).
+    ///
+    /// # Errors
+    /// As [`InverseDynamics::of_multipliers`]: a wrong length, a
+    /// non-finite M, Q_A or arm (named).
+    pub fn fill(
+        &mut self,
+        system: &TapeSystem,
+        at: Motion<'_>,
+        lambda: &[f64],
+    ) -> Result<(), Error> {
+        let [y, yd, ydd] = &mut self.outputs;
+        system.outputs(&mut self.scratch, at, [y, yd, ydd]);
+        self.id.of_multipliers(
+            system,
+            &mut self.scratch,
+            (at.t, at.q, at.qd),
+            lambda,
+            &mut self.jac,
+        )?;
+        self.values.clear();
+        self.values.extend_from_slice(self.id.lambda());
+        self.values.extend(self.id.reactions().iter().flatten());
+        self.values.extend_from_slice(self.id.efforts());
+        Ok(())
+    }
+
+    /// y, ẏ, ÿ of the named points and outputs at the last state filled.
+    #[must_use]
+    pub fn outputs(&self) -> &[Vec<f64>; 3] {
+        &self.outputs
+    }
+
+    /// λ, the reactions (Fx, Fy, T each) and the efforts at the last state
+    /// filled.
+    #[must_use]
+    pub fn dynamics(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The evaluation scratch, for other evaluations of the same system
+    /// between rows.
+    pub fn scratch(&mut self) -> &mut Vec<f64> {
+        &mut self.scratch
     }
 }

@@ -15,10 +15,7 @@
 use kinema::equilibrium::{Equilibrium, EquilibriumError};
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
-use kinema::{
-    Accurate, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
-    TapeSystem,
-};
+use kinema::{Accurate, Hht, HhtOptions, IntegrateError, PrecisionScope, System, TapeSystem};
 
 /// Default step of a `.kin` model's forward dynamics (as `kinema run`).
 pub const DEFAULT_STEP: f64 = 1e-3;
@@ -234,69 +231,6 @@ fn start(
     Ok((engine, consistency))
 }
 
-/// Buffers of one row's derived values (as the CLI's `RowBuffers`).
-struct RowBuffers {
-    n: usize,
-    rows: usize,
-    q: Vec<f64>,
-    jac: Vec<f64>,
-    values: Vec<f64>,
-    results: [Vec<f64>; 3],
-    extra: Vec<f64>,
-    scratch: <TapeSystem as System>::Scratch,
-}
-
-impl RowBuffers {
-    fn new(system: &TapeSystem, n: usize, rows: usize, outputs: usize) -> RowBuffers {
-        RowBuffers {
-            n,
-            rows,
-            q: vec![0.0; n],
-            jac: vec![0.0; rows * n],
-            values: vec![0.0; system.dynamics_len()],
-            results: [vec![0.0; outputs], vec![0.0; outputs], vec![0.0; outputs]],
-            extra: Vec::new(),
-            scratch: system.scratch(),
-        }
-    }
-
-    /// Named points and outputs, λ, reactions and efforts at the state, as
-    /// the CLI's `RowBuffers::fill`: per reaction the force −Σ Φ_qᵀ λ over
-    /// its rows on its body and the torque about the body's frame
-    /// (g_φ − s × g with the arm s); the drivers' efforts −λ.
-    fn fill(&mut self, system: &TapeSystem, engine: &mut Engine) {
-        let (n, rows) = (self.n, self.rows);
-        let motion = &mut engine.motion;
-        let t = motion.t();
-        self.q.copy_from_slice(motion.q());
-        motion.system_mut().jacobian(&self.q, t, &mut self.jac);
-        let (q, qd, qdd, lambda) = (motion.q(), motion.qd(), motion.qdd(), motion.lambda());
-        {
-            let [y, yd, ydd] = &mut self.results;
-            let at = kinema::Motion { t, q, qd, qdd };
-            kinema::Outputs::outputs(system, &mut self.scratch, at, [y, yd, ydd]);
-        }
-        system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
-        self.extra.clear();
-        self.extra.extend_from_slice(lambda);
-        let arms = self.values.get(2 * n..).unwrap_or(&[]);
-        for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
-            let mut g = [0.0; 3];
-            let (r0, r1) = (spec.rows.0 as usize, (spec.rows.1 as usize).min(rows));
-            for (row, &l) in lambda.iter().enumerate().take(r1).skip(r0) {
-                for (c, gc) in g.iter_mut().enumerate() {
-                    let col = 3 * spec.body as usize + c;
-                    *gc -= self.jac.get(row * n + col).copied().unwrap_or(f64::NAN) * l;
-                }
-            }
-            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
-            self.extra.extend([g[0], g[1], torque]);
-        }
-        let start = system.driving_start().min(rows);
-        self.extra.extend(lambda[start..].iter().map(|l| -l));
-    }
-}
-
 /// The first equation undefined or unbounded between the last state and
 /// the output time not reached (as the CLI's `undefined_between`).
 fn undefined_between(
@@ -392,8 +326,7 @@ pub fn run_forward(
     let v0 = gravity_of.gravity_potential(engine.motion.q()) + 0.0;
     let ke0 = engine.motion.kinetic_energy();
 
-    let (n, rows) = (d.nc(), d.rows.len());
-    let mut row = RowBuffers::new(system, n, rows, d.outputs.len());
+    let mut row = kinema::dynamics::DynamicsRow::new(system, d.rows.len());
     let orders = selection.orders();
     let mut line: Vec<f64> = Vec::new();
     let mut values: Vec<f64> = Vec::new();
@@ -414,7 +347,7 @@ pub fn run_forward(
     for (k, &t) in outputs_t.iter().enumerate() {
         if k > 0 {
             let interval = (engine.motion.t(), t, f64::NAN);
-            let ahead = undefined_between(system, &mut row.scratch, engine.motion.q(), interval);
+            let ahead = undefined_between(system, row.scratch(), engine.motion.q(), interval);
             let result = match ahead {
                 Some(u) => Err((None, Some(u))),
                 None => engine
@@ -433,7 +366,7 @@ pub fn run_forward(
                         _ => f64::NAN,
                     };
                     let bracket = (engine.motion.t(), t, failed_at);
-                    undefined_between(system, &mut row.scratch, engine.motion.q(), bracket)
+                    undefined_between(system, row.scratch(), engine.motion.q(), bracket)
                 });
                 out.error = Some(failure_message(
                     file,
@@ -444,14 +377,26 @@ pub fn run_forward(
                 break;
             }
         }
-        row.fill(system, &mut engine);
+        let motion = &engine.motion;
+        let at = kinema::Motion {
+            t: motion.t(),
+            q: motion.q(),
+            qd: motion.qd(),
+            qdd: motion.qdd(),
+        };
+        if let Err(e) = row.fill(system, at, motion.lambda()) {
+            out.error = Some(format!(
+                "forward dynamics of `{file}`: the reactions at t = {}: {e}",
+                at.t
+            ));
+            break;
+        }
         let scope = if k == 0 {
             PrecisionScope::All
         } else {
             PrecisionScope::Timed
         };
-        if let Some(i) =
-            system.imprecision_at(&mut row.scratch, engine.motion.q(), t, 0.0, 1.0, scope)
+        if let Some(i) = system.imprecision_at(row.scratch(), engine.motion.q(), t, 0.0, 1.0, scope)
         {
             let name = system.equation_name(i.equation).to_owned();
             let message = format!(
@@ -470,12 +415,12 @@ pub fn run_forward(
                 line.push(v.get(c).copied().unwrap_or(f64::NAN));
             }
         }
-        for v in &row.results[..orders] {
+        for v in &row.outputs()[..orders] {
             for &c in &selection.outputs {
                 line.push(v.get(c).copied().unwrap_or(f64::NAN));
             }
         }
-        line.extend_from_slice(&row.extra);
+        line.extend_from_slice(row.dynamics());
         if o.energy {
             let v = gravity_of.gravity_potential(motion.q()) + 0.0;
             let work = motion.work() - (v0 - v);
@@ -527,7 +472,7 @@ pub fn columns(
     let d = model.derivation();
     let mut names = vec!["t".to_owned()];
     names.extend(selection.header(d));
-    names.extend(crate::dynamics_column_names(system, d.rows.len(), adm));
+    names.extend(system.dynamics_column_names(d.rows.len(), adm));
     if energy {
         names.extend(ENERGY_COLUMNS.map(String::from));
     }
@@ -552,63 +497,28 @@ pub fn equilibrium(
         kinema::equilibrium::equilibrium_from(d, params, &guess, 0.0)?
     };
     let zeros = vec![0.0; d.nc()];
-    let m = d.outputs.len();
-    let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    let mut dynamics = kinema::dynamics::DynamicsRow::new(system, d.rows.len());
     let at = kinema::Motion {
         t: eq.t,
         q: &eq.q,
         qd: &zeros,
         qdd: &zeros,
     };
-    kinema::Outputs::outputs(
-        system,
-        &mut system.scratch(),
-        at,
-        [&mut y, &mut yd, &mut ydd],
-    );
+    // M and Q_A were finite for the equilibrium's own test: only an arm
+    // can fail here.
+    dynamics
+        .fill(system, at, &eq.lambda)
+        .map_err(|_| EquilibriumError::NonFinite {
+            what: "a reaction's arm",
+        })?;
     let mut row = vec![eq.t];
-    let (states, results) = ([&eq.q, &zeros, &zeros], [&y, &yd, &ydd]);
+    let (states, results) = ([&eq.q, &zeros, &zeros], dynamics.outputs());
     for v in &states[..selection.orders()] {
         row.extend(selection.coordinates.iter().map(|&c| v[c]));
     }
     for v in &results[..selection.orders()] {
         row.extend(selection.outputs.iter().map(|&c| v[c]));
     }
-    row.extend(equilibrium_dynamics_row(model, system, &eq));
+    row.extend_from_slice(dynamics.dynamics());
     Ok((eq, row))
-}
-
-/// The dynamics columns at an equilibrium, as the CLI's
-/// `equilibrium::dynamics_row` (the sparse Φ_q entries of the kinematic
-/// system, summed row by row).
-fn equilibrium_dynamics_row(
-    model: &kinema::Model,
-    system: &TapeSystem,
-    eq: &Equilibrium,
-) -> Vec<f64> {
-    let d = model.derivation();
-    let (n, rows) = (d.nc(), d.rows.len());
-    let mut values = vec![0.0; system.dynamics_len()];
-    let zeros = vec![0.0; n];
-    system.dynamics(&mut system.scratch(), &eq.q, &zeros, eq.t, &mut values);
-    let mut jac = vec![0.0; d.phi_q.entries.len()];
-    system.jacobian(&mut system.scratch(), &eq.q, eq.t, &mut jac);
-    let mut out: Vec<f64> = eq.lambda.clone();
-    let arms = values.get(2 * n..).unwrap_or(&[]);
-    for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
-        let mut g = [0.0; 3];
-        for (e, v) in d.phi_q.entries.iter().zip(&jac) {
-            let (row, col) = (e.row as usize, e.col as usize);
-            if (spec.rows.0 as usize..spec.rows.1 as usize).contains(&row)
-                && col / 3 == spec.body as usize
-            {
-                g[col % 3] -= v * eq.lambda[row];
-            }
-        }
-        let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
-        out.extend([g[0], g[1], torque]);
-    }
-    let start = system.driving_start().min(rows);
-    out.extend(eq.lambda[start..].iter().map(|l| -l));
-    out
 }

@@ -239,7 +239,7 @@ impl DynamicsColumns {
         if !system.has_dynamics() {
             return None;
         }
-        let names = dynamics_column_names(system, rows, adm);
+        let names = system.dynamics_column_names(rows, adm);
         let values = vec![0.0; names.len()];
         Some(DynamicsColumns {
             id: InverseDynamics::new(system),
@@ -261,30 +261,6 @@ impl DynamicsColumns {
         }
         Ok(&self.values)
     }
-}
-
-/// The dynamics columns of a model with `rows` rows of Φ, as `kinema run`
-/// names them (crates/kinema-cli/src/cli/dynamics.rs, `column_names`):
-/// `lambda.<row>`, `reaction.<element>.<body>.Fx/Fy/T` (an `.adm` model's
-/// bodies `body1`/`body2`), `driver.<row>`.
-fn dynamics_column_names(system: &TapeSystem, rows: usize, adm: bool) -> Vec<String> {
-    let mut names: Vec<String> = (0..rows)
-        .map(|i| format!("lambda.{}", system.equation_name(i)))
-        .collect();
-    for r in system.reaction_names() {
-        let body = if adm {
-            format!("body{}", r.slot + 1)
-        } else {
-            r.body.clone()
-        };
-        for c in ["Fx", "Fy", "T"] {
-            names.push(format!("reaction.{}.{body}.{c}", r.element));
-        }
-    }
-    for i in kinema::Dynamics::driving_start(system).min(rows)..rows {
-        names.push(format!("driver.{}", system.equation_name(i)));
-    }
-    names
 }
 
 /// A singular configuration met, as data.

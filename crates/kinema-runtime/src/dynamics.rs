@@ -106,7 +106,15 @@ impl InverseDynamics {
     /// Buffers for `system` (allocates; once).
     #[must_use]
     pub fn new<S: Dynamics>(system: &S) -> Self {
-        let n = system.len();
+        Self::with_rows(system, system.len())
+    }
+
+    /// Buffers for `system` with `rows` rows of Φ, for
+    /// [`of_multipliers`](Self::of_multipliers) (forward dynamics and
+    /// equilibrium, where Φ need not be square; allocates, once).
+    #[must_use]
+    pub fn with_rows<S: Dynamics>(system: &S, rows: usize) -> Self {
+        let n = rows;
         let pattern = system.jacobian_pattern();
         let mut entries = Vec::new();
         for (reaction, r) in (0u32..).zip(system.reactions()) {
@@ -152,6 +160,60 @@ impl InverseDynamics {
     #[must_use]
     pub fn efforts(&self) -> &[f64] {
         &self.efforts
+    }
+
+    /// The reactions and driving efforts of given multipliers `lambda`
+    /// (one per row of Φ, as [`with_rows`](Self::with_rows) was told) at
+    /// (t, q, q̇): where λ comes from forward dynamics or an equilibrium
+    /// instead of this solve. λ is kept, the arms and Φ_q (into `jac`, in
+    /// [`System::jacobian_pattern`] order) evaluated, and the reactions
+    /// and efforts summed as [`Solver::inverse_dynamics`] sums them. No
+    /// allocation.
+    ///
+    /// # Errors
+    /// A slice of the wrong length; a non-finite M, Q_A or arm (named).
+    pub fn of_multipliers<S: Dynamics>(
+        &mut self,
+        system: &S,
+        scratch: &mut S::Scratch,
+        (t, q, qd): (f64, &[f64], &[f64]),
+        lambda: &[f64],
+        jac: &mut [f64],
+    ) -> Result<(), Error> {
+        let n = system.len();
+        let lengths = [
+            (lambda.len(), self.lambda.len()),
+            (jac.len(), system.jacobian_pattern().len()),
+            (q.len(), n),
+            (qd.len(), n),
+        ];
+        if let Some(&(got, want)) = lengths.iter().find(|(got, want)| got != want) {
+            return Err(Error::Setup(crate::linalg::LinalgError::Dimension {
+                what: "an argument of inverse dynamics of given multipliers",
+                expected: want,
+                found: got,
+            }));
+        }
+        self.lambda.copy_from_slice(lambda);
+        system.dynamics(scratch, q, qd, t, &mut self.values);
+        system.jacobian(scratch, q, t, jac);
+        let arms = self.values.get(2 * n..).unwrap_or(&[]);
+        if system
+            .reactions_and_efforts(jac, lambda, arms, &mut self.reactions, &mut self.efforts)
+            .is_none()
+        {
+            sum_reactions(
+                &self.entries,
+                lambda,
+                (jac, arms),
+                &mut self.reactions,
+                &mut self.efforts,
+            );
+        }
+        if !scale_and_finite(self.reactions.as_flattened()).1 || !scale_and_finite(&self.values).1 {
+            return Err(non_finite_value(system, t, n, &self.values));
+        }
+        Ok(())
     }
 
     /// diag M, Q_A and the arms, as last evaluated (see

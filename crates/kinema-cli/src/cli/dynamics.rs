@@ -1,7 +1,7 @@
 //! `kinema run` of a model with inertia: λ, reactions and driver efforts
 //! after the kinematic columns (docs/src/dynamics.md, "Inverse dynamics").
 
-use kinema::{Auto, Error, InverseDynamics, Solver, System, TapeSystem};
+use kinema::{Auto, Error, InverseDynamics, Solver, TapeSystem};
 
 /// The extra columns of a dynamics run and the buffers that fill them.
 pub struct DynamicsColumns {
@@ -18,7 +18,7 @@ impl DynamicsColumns {
         if !system.has_dynamics() {
             return None;
         }
-        let names = column_names(system, rows, adm);
+        let names = system.dynamics_column_names(rows, adm);
         let values = vec![0.0; names.len()];
         Some(DynamicsColumns {
             id: InverseDynamics::new(system),
@@ -49,28 +49,6 @@ impl DynamicsColumns {
         }
         Ok(&self.values)
     }
-}
-
-/// The dynamics columns of a model with `rows` rows of Φ: `lambda.<row>`,
-/// `reaction.<element>.<body>.Fx/Fy/T`, `driver.<row>`.
-pub fn column_names(system: &TapeSystem, rows: usize, adm: bool) -> Vec<String> {
-    let mut names: Vec<String> = (0..rows)
-        .map(|i| format!("lambda.{}", system.equation_name(i)))
-        .collect();
-    for r in system.reaction_names() {
-        let body = if adm {
-            format!("body{}", r.slot + 1)
-        } else {
-            r.body.clone()
-        };
-        for c in ["Fx", "Fy", "T"] {
-            names.push(format!("reaction.{}.{body}.{c}", r.element));
-        }
-    }
-    for i in kinema::Dynamics::driving_start(system).min(rows)..rows {
-        names.push(format!("driver.{}", system.equation_name(i)));
-    }
-    names
 }
 
 /// Rule: a simEngine2D `PointForceFile` cannot be run (its force is a

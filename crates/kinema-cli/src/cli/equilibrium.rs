@@ -6,7 +6,6 @@
 use std::fmt::Write as _;
 
 use kinema::equilibrium::{Equilibrium, Stability};
-use kinema::{Body, Coord, Dynamics, System};
 
 use super::args::RunArgs;
 use super::files::RunFiles;
@@ -53,31 +52,26 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         )));
     }
     let system = loaded.model.system();
-    let dynamics = super::dynamics::column_names(&system, d.rows.len(), loaded.adm.is_some());
+    let dynamics = system.dynamics_column_names(d.rows.len(), loaded.adm.is_some());
     let mut sink = RunFiles::create(args, d, &dynamics)?.csv;
 
     let eq = loaded
         .model
         .equilibrium(0.0)
         .map_err(|e| Failure::analysis(format_args!("error: no equilibrium: {e}")))?;
+    // Named points and measures at rest, λ, reactions and efforts.
     let zeros = vec![0.0; d.nc()];
-    let out = dynamics_row(&loaded, &system, &eq);
-    // Named points and measures at rest.
-    let m = d.outputs.len();
-    let [mut y, mut yd, mut ydd] = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+    let mut row = kinema::dynamics::DynamicsRow::new(&system, d.rows.len());
     let at = kinema::Motion {
         t: eq.t,
         q: &eq.q,
         qd: &zeros,
         qdd: &zeros,
     };
-    kinema::Outputs::outputs(
-        &system,
-        &mut system.scratch(),
-        at,
-        [&mut y, &mut yd, &mut ydd],
-    );
-    sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [&y, &yd, &ydd], &out)?;
+    row.fill(&system, at, &eq.lambda)
+        .map_err(|e| Failure::analysis(format_args!("the reactions at the equilibrium: {e}")))?;
+    let [y, yd, ydd] = row.outputs();
+    sink.write_values(eq.t, [&eq.q, &zeros, &zeros], [y, yd, ydd], row.dynamics())?;
     let destination = sink.destination().clone();
     sink.finish()?;
 
@@ -113,38 +107,6 @@ fn refuse_motion_options(args: &RunArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
-}
-
-/// The dynamics columns at the equilibrium, as a dynamics run computes
-/// them: λ; per reaction the force −Σ Φ_q[row, body]ᵀ λ[row] over its rows
-/// on its body and the torque about the body's frame (g_φ − s × g with the
-/// arm s); the drivers' efforts −λ.
-fn dynamics_row(loaded: &Loaded, system: &kinema::TapeSystem, eq: &Equilibrium) -> Vec<f64> {
-    let d = loaded.model.derivation();
-    let (n, rows) = (d.nc(), d.rows.len());
-    let mut values = vec![0.0; system.dynamics_len()];
-    let zeros = vec![0.0; n];
-    system.dynamics(&mut system.scratch(), &eq.q, &zeros, eq.t, &mut values);
-    let mut jac = vec![0.0; d.phi_q.entries.len()];
-    system.jacobian(&mut system.scratch(), &eq.q, eq.t, &mut jac);
-    let mut out: Vec<f64> = eq.lambda.clone();
-    let arms = values.get(2 * n..).unwrap_or(&[]);
-    for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
-        let mut g = [0.0; 3];
-        for (e, v) in d.phi_q.entries.iter().zip(&jac) {
-            let (row, col) = (e.row as usize, Coord::of_index(e.col as usize));
-            if (spec.rows.0 as usize..spec.rows.1 as usize).contains(&row)
-                && col.body == Body::new(spec.body as usize)
-            {
-                g[col.axis.index()] -= v * eq.lambda[row];
-            }
-        }
-        let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
-        out.extend([g[0], g[1], torque]);
-    }
-    let start = system.driving_start().min(rows);
-    out.extend(eq.lambda[start..].iter().map(|l| -l));
-    out
 }
 
 /// The summary: descent steps, stability with the reduced Hessian's

@@ -12,8 +12,7 @@ use std::time::Instant;
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
 use kinema::{
-    Accurate, Axis, Body, Dynamics, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope,
-    System,
+    Accurate, Axis, Body, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
 };
 
 use super::args::{Integrator, RunArgs};
@@ -218,7 +217,7 @@ pub fn run(
     let qd0 = initial_velocities(loaded, n);
 
     let system = loaded.model.system();
-    let dyn_names = super::dynamics::column_names(&system, d.rows.len(), loaded.adm.is_some());
+    let dyn_names = system.dynamics_column_names(d.rows.len(), loaded.adm.is_some());
     let mut extra = dyn_names.clone();
     if args.energy {
         extra.extend(ENERGY_COLUMNS.map(String::from));
@@ -464,8 +463,8 @@ impl Motion {
         samples: &mut Option<super::plot::Samples>,
     ) -> Result<CsvSink, Failure> {
         let d = loaded.model.derivation();
-        let (n, rows) = (d.nc(), d.rows.len());
-        let mut row = RowBuffers::new(system, n, rows, d.phi_q.entries.len(), d.outputs.len());
+        let rows = d.rows.len();
+        let mut row = kinema::dynamics::DynamicsRow::new(system, rows);
         let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
         // The row's extra columns with the energies appended (`--energy`).
         let mut extra = Vec::new();
@@ -479,7 +478,7 @@ impl Motion {
                 // size follows it, and one stepping over it would print
                 // numbers of a model that does not exist there.
                 let interval = (self.engine.t(), t, f64::NAN);
-                let ahead = undefined_between(system, &mut row.scratch, self.engine.q(), interval);
+                let ahead = undefined_between(system, row.scratch(), self.engine.q(), interval);
                 let result = match ahead {
                     Some(u) => Err((None, Some(u))),
                     None => self.engine.advance_to(t, h).map_err(|e| (Some(e), None)),
@@ -497,7 +496,7 @@ impl Motion {
                             _ => f64::NAN,
                         };
                         let bracket = (self.engine.t(), t, failed_at);
-                        undefined_between(system, &mut row.scratch, self.engine.q(), bracket)
+                        undefined_between(system, row.scratch(), self.engine.q(), bracket)
                     });
                     let cause = Cause {
                         monitor: self.engine.monitor(),
@@ -506,7 +505,15 @@ impl Motion {
                     return Err(step_failure(sink, e.as_ref(), loaded, &cause));
                 }
             }
-            row.fill(system, &mut self.engine)?;
+            let at = kinema::Motion {
+                t: self.engine.t(),
+                q: self.engine.q(),
+                qd: self.engine.qd(),
+                qdd: self.engine.qdd(),
+            };
+            row.fill(system, at, self.engine.lambda()).map_err(|e| {
+                Failure::analysis(format_args!("the reactions at t = {}: {e}", at.t))
+            })?;
             let scope = if k == 0 {
                 PrecisionScope::All
             } else {
@@ -516,12 +523,12 @@ impl Motion {
             // roundoff at the unit size is the floor (as a kinematic run
             // of a model of size 1 or more).
             if let Some(i) =
-                system.imprecision_at(&mut row.scratch, self.engine.q(), t, 0.0, 1.0, scope)
+                system.imprecision_at(row.scratch(), self.engine.q(), t, 0.0, 1.0, scope)
             {
                 imprecise.push((t, i));
             }
             extra.clear();
-            extra.extend_from_slice(&row.extra);
+            extra.extend_from_slice(row.dynamics());
             let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
             let energy = (args.energy || (samples.is_some() && sampled)).then(|| self.energies());
             if args.energy
@@ -530,13 +537,13 @@ impl Motion {
                 extra.extend(e);
             }
             let (q, qd, qdd) = (self.engine.q(), self.engine.qd(), self.engine.qdd());
-            let [y, yd, ydd] = &row.results;
+            let [y, yd, ydd] = row.outputs();
             sink.write_values(t, [q, qd, qdd], [y, yd, ydd], &extra)?;
             if let Some(samples) = samples
                 && sampled
             {
                 samples.push_values(t, [q, qd, qdd]);
-                samples.push_dynamics(&row.extra);
+                samples.push_dynamics(row.dynamics());
                 if let Some([kinetic, potential, work]) = energy {
                     samples.push_energy(kinetic, potential, work);
                 }
@@ -753,70 +760,4 @@ fn step_failure(
     }
     message.push_str(&note);
     Failure::Analysis(message)
-}
-
-/// Buffers of one CSV row's derived values.
-struct RowBuffers {
-    n: usize,
-    rows: usize,
-    q: Vec<f64>,
-    jac: Vec<f64>,
-    values: Vec<f64>,
-    results: [Vec<f64>; 3],
-    extra: Vec<f64>,
-    scratch: <kinema::TapeSystem as System>::Scratch,
-}
-
-impl RowBuffers {
-    fn new(
-        system: &kinema::TapeSystem,
-        n: usize,
-        rows: usize,
-        _nnz: usize,
-        outputs: usize,
-    ) -> RowBuffers {
-        RowBuffers {
-            n,
-            rows,
-            q: vec![0.0; n],
-            jac: vec![0.0; rows * n],
-            values: vec![0.0; system.dynamics_len()],
-            results: [vec![0.0; outputs], vec![0.0; outputs], vec![0.0; outputs]],
-            extra: Vec::new(),
-            scratch: system.scratch(),
-        }
-    }
-
-    /// Named points and outputs, λ, reactions and efforts at the state.
-    fn fill(&mut self, system: &kinema::TapeSystem, hht: &mut Engine) -> Result<(), Failure> {
-        let (n, rows) = (self.n, self.rows);
-        let t = hht.t();
-        self.q.copy_from_slice(hht.q());
-        hht.system_mut().jacobian(&self.q, t, &mut self.jac);
-        let (q, qd, qdd, lambda) = (hht.q(), hht.qd(), hht.qdd(), hht.lambda());
-        {
-            let [y, yd, ydd] = &mut self.results;
-            let at = kinema::Motion { t, q, qd, qdd };
-            kinema::Outputs::outputs(system, &mut self.scratch, at, [y, yd, ydd]);
-        }
-        system.dynamics(&mut self.scratch, q, qd, t, &mut self.values);
-        self.extra.clear();
-        self.extra.extend_from_slice(lambda);
-        let arms = self.values.get(2 * n..).unwrap_or(&[]);
-        for (spec, arm) in system.reactions().iter().zip(arms.chunks_exact(2)) {
-            let mut g = [0.0; 3];
-            let (r0, r1) = (spec.rows.0 as usize, (spec.rows.1 as usize).min(rows));
-            for (row, &l) in lambda.iter().enumerate().take(r1).skip(r0) {
-                for (axis, gc) in Axis::ALL.into_iter().zip(g.iter_mut()) {
-                    let col = Body::new(spec.body as usize).coord(axis).index();
-                    *gc -= self.jac.get(row * n + col).copied().unwrap_or(f64::NAN) * l;
-                }
-            }
-            let torque = g[2] - (-arm[1] * g[0] + arm[0] * g[1]);
-            self.extra.extend([g[0], g[1], torque]);
-        }
-        let start = system.driving_start().min(rows);
-        self.extra.extend(lambda[start..].iter().map(|l| -l));
-        Ok(())
-    }
 }
