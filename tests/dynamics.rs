@@ -173,3 +173,62 @@ fn generated_inverse_dynamics_matches_the_tapes() -> Result<(), Error> {
     assert_eq!(generated.linear_solver().fallback_count(), 0);
     Ok(())
 }
+
+/// The reactions and efforts of given multipliers
+/// (`InverseDynamics::of_multipliers`, what forward dynamics and the
+/// equilibrium report with) equal inverse dynamics' own at the same state
+/// and λ, bit for bit; `DynamicsRow` lays them out as the CSV does; a
+/// wrong length is an error, not a panic.
+#[test]
+fn given_multipliers_give_inverse_dynamics_reactions() -> Result<(), Error> {
+    let model = Model::from_source(PENDULUM, "pendulum.kin")?;
+    let mut solver = model.solver(Options::default())?;
+    let system = solver.system().clone();
+    let mut id = InverseDynamics::new(&system);
+    let mut given = InverseDynamics::with_rows(&system, 3);
+    let mut row = kinema::dynamics::DynamicsRow::new(&system, 3);
+    let mut jac = vec![0.0; kinema::System::jacobian_pattern(&system).len()];
+    let mut scratch = kinema::System::scratch(&system);
+    for k in 0..=10 {
+        let t = 0.1 * f64::from(k);
+        solver.step(t)?;
+        solver.inverse_dynamics(&mut id)?;
+        let state = solver.state().expect("a state after a step");
+        let (q, qd, qdd) = (
+            state.q().to_vec(),
+            state.qd().to_vec(),
+            state.qdd().to_vec(),
+        );
+        given.of_multipliers(&system, &mut scratch, (t, &q, &qd), id.lambda(), &mut jac)?;
+        assert_eq!(given.reactions(), id.reactions(), "t = {t}");
+        assert_eq!(given.efforts(), id.efforts(), "t = {t}");
+        let at = kinema::Motion {
+            t,
+            q: &q,
+            qd: &qd,
+            qdd: &qdd,
+        };
+        row.fill(&system, at, id.lambda())?;
+        let flat: Vec<f64> = id
+            .lambda()
+            .iter()
+            .chain(id.reactions().iter().flatten())
+            .chain(id.efforts())
+            .copied()
+            .collect();
+        assert_eq!(row.dynamics(), flat.as_slice(), "t = {t}");
+        assert_eq!(
+            row.dynamics().len(),
+            system.dynamics_column_names(3, false).len()
+        );
+    }
+    let short = given.of_multipliers(
+        &system,
+        &mut scratch,
+        (0.0, &[0.0; 3], &[0.0; 3]),
+        &[0.0; 2],
+        &mut jac,
+    );
+    assert!(short.is_err(), "{short:?}");
+    Ok(())
+}
