@@ -40,7 +40,7 @@ pub use kinema_runtime::{
     HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
     ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
     SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, Undefined,
-    diagnose, integrate, locate_undefined, point_kinematics,
+    diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
 };
 pub use kinema_runtime::{Motion, Outputs, Table};
 

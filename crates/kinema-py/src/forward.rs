@@ -3,14 +3,13 @@
 //! the same facade calls in the same order, so the rows are the CLI's CSV
 //! rows bit for bit.
 //!
-//! What is repeated from the CLI (it has no public function for it; each
-//! is marked "as the CLI's …" below): which motion a model with inertia
-//! runs (`dynamics_run`), the reaction forces and driver efforts from λ at
-//! an integrator's state (`RowBuffers::fill`) and at an equilibrium
-//! (`dynamics_row`), and the bisection for an equation undefined in a
-//! step's bracket (`undefined_between`). The rest — integrators, the
-//! passage monitor, the equilibrium search, column selection and names —
-//! are the facade's.
+//! What is still repeated from the CLI (each marked "as the CLI's …"
+//! below): which motion a model with inertia runs (`dynamics_run`), the
+//! integrator's start, the option checks and the failure message. The
+//! rest — integrators, the passage monitor, the equilibrium search, a
+//! row's λ, reactions and efforts (`kinema::dynamics::DynamicsRow`), the
+//! search for an equation undefined in a step (`kinema::undefined_between`),
+//! column selection and names — is the facade's.
 
 use kinema::equilibrium::{Equilibrium, EquilibriumError};
 use kinema::forward::TapeForward;
@@ -231,33 +230,6 @@ fn start(
     Ok((engine, consistency))
 }
 
-/// The first equation undefined or unbounded between the last state and
-/// the output time not reached (as the CLI's `undefined_between`).
-fn undefined_between(
-    system: &TapeSystem,
-    scratch: &mut <TapeSystem as System>::Scratch,
-    q: &[f64],
-    (t0, t1, failed_at): (f64, f64, f64),
-) -> Option<kinema::Error> {
-    let at = |t: f64, u: kinema::Undefined| kinema::Error::Undefined {
-        t,
-        equation: system.equation_name(u.equation).to_owned(),
-        function: u.function,
-        domain: u.domain,
-        argument: u.argument,
-    };
-    if failed_at.is_finite()
-        && let Some(u) = system.undefined(scratch, q, failed_at, 0.0)
-    {
-        return Some(at(failed_at, u));
-    }
-    let (lo, hi) = (t0.min(t1), t0.max(t1));
-    let half = 0.5 * (hi - lo);
-    system.undefined(scratch, q, lo + half, half)?;
-    let (t, u) = kinema::locate_undefined(system, scratch, q, (lo, hi))?;
-    Some(at(t, u))
-}
-
 /// The error message of a run that stopped (as the CLI's `step_failure`,
 /// without the CSV's note).
 fn failure_message(
@@ -347,7 +319,8 @@ pub fn run_forward(
     for (k, &t) in outputs_t.iter().enumerate() {
         if k > 0 {
             let interval = (engine.motion.t(), t, f64::NAN);
-            let ahead = undefined_between(system, row.scratch(), engine.motion.q(), interval);
+            let ahead =
+                kinema::undefined_between(system, row.scratch(), engine.motion.q(), interval);
             let result = match ahead {
                 Some(u) => Err((None, Some(u))),
                 None => engine
@@ -366,7 +339,7 @@ pub fn run_forward(
                         _ => f64::NAN,
                     };
                     let bracket = (engine.motion.t(), t, failed_at);
-                    undefined_between(system, row.scratch(), engine.motion.q(), bracket)
+                    kinema::undefined_between(system, row.scratch(), engine.motion.q(), bracket)
                 });
                 out.error = Some(failure_message(
                     file,

@@ -79,7 +79,7 @@ pub use linalg::{
 pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
 pub use outputs::{Motion, Outputs, Table};
-pub use solver::{Solver, locate_undefined};
+pub use solver::{Solver, locate_undefined, undefined_between};
 pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;
 pub use trajectory::Trajectory;

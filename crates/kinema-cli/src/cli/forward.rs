@@ -12,7 +12,7 @@ use std::time::Instant;
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
 use kinema::{
-    Accurate, Axis, Body, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope, System,
+    Accurate, Axis, Body, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope,
 };
 
 use super::args::{Integrator, RunArgs};
@@ -478,7 +478,8 @@ impl Motion {
                 // size follows it, and one stepping over it would print
                 // numbers of a model that does not exist there.
                 let interval = (self.engine.t(), t, f64::NAN);
-                let ahead = undefined_between(system, row.scratch(), self.engine.q(), interval);
+                let ahead =
+                    kinema::undefined_between(system, row.scratch(), self.engine.q(), interval);
                 let result = match ahead {
                     Some(u) => Err((None, Some(u))),
                     None => self.engine.advance_to(t, h).map_err(|e| (Some(e), None)),
@@ -496,7 +497,7 @@ impl Motion {
                             _ => f64::NAN,
                         };
                         let bracket = (self.engine.t(), t, failed_at);
-                        undefined_between(system, row.scratch(), self.engine.q(), bracket)
+                        kinema::undefined_between(system, row.scratch(), self.engine.q(), bracket)
                     });
                     let cause = Cause {
                         monitor: self.engine.monitor(),
@@ -684,37 +685,6 @@ struct Cause<'a> {
     monitor: &'a Monitor,
     /// An equation undefined or unbounded in the failed step's bracket.
     undefined: Option<kinema::Error>,
-}
-
-/// The first equation of Φ that is undefined or unbounded (a function of
-/// time outside its domain or at a pole, [`System::undefined`]) between
-/// the last state computed and the output time not reached, narrowed by
-/// bisection to rounding of t (the earlier half first), as the kinematic
-/// run reports it.
-fn undefined_between(
-    system: &kinema::TapeSystem,
-    scratch: &mut <kinema::TapeSystem as System>::Scratch,
-    q: &[f64],
-    (t0, t1, failed_at): (f64, f64, f64),
-) -> Option<kinema::Error> {
-    let at = |t: f64, u: kinema::Undefined| kinema::Error::Undefined {
-        t,
-        equation: system.equation_name(u.equation).to_owned(),
-        function: u.function,
-        domain: u.domain,
-        argument: u.argument,
-    };
-    // The time the integrator failed at first (a pole met exactly).
-    if failed_at.is_finite()
-        && let Some(u) = system.undefined(scratch, q, failed_at, 0.0)
-    {
-        return Some(at(failed_at, u));
-    }
-    let (lo, hi) = (t0.min(t1), t0.max(t1));
-    let half = 0.5 * (hi - lo);
-    system.undefined(scratch, q, lo + half, half)?;
-    let (t, u) = kinema::locate_undefined(system, scratch, q, (lo, hi))?;
-    Some(at(t, u))
 }
 
 /// The error of a run that stopped: the integrator's `e` (none when the

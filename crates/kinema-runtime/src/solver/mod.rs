@@ -1152,3 +1152,34 @@ pub fn locate_undefined<S: System>(
     }
     None
 }
+
+/// The first equation undefined or unbounded in time ([`System::undefined`])
+/// between a state reached at `t0` and the time `t1` not reached, as the
+/// error a run reports: at `failed_at` first when it is finite (where an
+/// integrator failed: a pole met exactly), else over the bracket,
+/// narrowed by [`locate_undefined`]. `None` when every equation is
+/// defined there. For the failure and pre-step paths of a forward run.
+pub fn undefined_between<S: System>(
+    system: &S,
+    scratch: &mut S::Scratch,
+    q: &[f64],
+    (t0, t1, failed_at): (f64, f64, f64),
+) -> Option<Error> {
+    let at = |t: f64, u: crate::Undefined| Error::Undefined {
+        t,
+        equation: system.equation_name(u.equation).to_owned(),
+        function: u.function,
+        domain: u.domain,
+        argument: u.argument,
+    };
+    if failed_at.is_finite()
+        && let Some(u) = system.undefined(scratch, q, failed_at, 0.0)
+    {
+        return Some(at(failed_at, u));
+    }
+    let (lo, hi) = (t0.min(t1), t0.max(t1));
+    let half = 0.5 * (hi - lo);
+    system.undefined(scratch, q, lo + half, half)?;
+    let (t, u) = locate_undefined(system, scratch, q, (lo, hi))?;
+    Some(at(t, u))
+}
