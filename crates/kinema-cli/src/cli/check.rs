@@ -80,7 +80,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                 if let Some(kink) = kink {
                     // q̇ and q̈ at the start would be roundoff: a warning,
                     // not "ok".
-                    let equation = super::run::equation_of(solver.system(), kink);
+                    let equation = super::warnings::equation_of(solver.system(), kink);
                     let _ = write!(
                         report,
                         "warning: `{}` assembles with {equation} at a kink of its `{}`; \
@@ -115,7 +115,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
                     eprintln!(
                         "warning: at the assembled configuration (t = 0), {}: q, q̇ and q̈ \
                          there are the rounding errors' as much as the model's",
-                        super::run::imprecision_clause(system, &imprecision)
+                        super::warnings::imprecision_clause(system, &imprecision)
                     );
                     return print_stdout(&report);
                 }

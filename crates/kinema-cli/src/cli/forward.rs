@@ -486,7 +486,7 @@ impl Motion {
                 };
                 self.warn_passages();
                 if let Err((e, undefined)) = result {
-                    super::run::print_imprecision_warning(system, &imprecise);
+                    super::warnings::print_imprecision_warning(system, &imprecise);
                     let undefined = undefined.or_else(|| {
                         let failed_at = match &e {
                             Some(
@@ -550,7 +550,7 @@ impl Motion {
                 }
             }
         }
-        super::run::print_imprecision_warning(system, &imprecise);
+        super::warnings::print_imprecision_warning(system, &imprecise);
         Ok(sink)
     }
 }

@@ -38,6 +38,7 @@ pub mod progress;
 pub mod run;
 pub mod scene;
 pub mod sweep;
+pub mod warnings;
 
 use std::fmt;
 use std::io::Write;

@@ -12,9 +12,13 @@ use super::args::{Backend, RunArgs};
 use super::check::run_error;
 use super::files::RunFiles;
 use super::load::{Format, Loaded, load};
-use super::output::{CsvSink, Destination, duration, rows_at, time};
+use super::output::{CsvSink, Destination, duration, time};
 use super::plot::Samples;
 use super::progress::Progress;
+use super::warnings::{
+    equation_of, kink_function, print_imprecision_warning, print_kink_warning,
+    print_singular_warnings,
+};
 use super::{Failure, adm, animate};
 
 /// Default final time of a `.kin` run.
@@ -736,46 +740,6 @@ fn event_marker(event: &SingularEvent) -> animate::Marker {
     }
 }
 
-/// Most singular configurations warned about one by one; a run that meets
-/// more (a mechanism that lingers near singular, one event per step) gets
-/// the first ones and a count, so that stderr stays bounded.
-const MAX_EVENT_WARNINGS: usize = 20;
-
-/// One `warning:` line per singular configuration met (at most
-/// [`MAX_EVENT_WARNINGS`], then a count of the rest), and one for the
-/// output rows that hold branch limits instead of solves.
-fn print_singular_warnings(events: &[SingularEvent], flagged: &[f64]) {
-    for e in events.iter().take(MAX_EVENT_WARNINGS) {
-        eprintln!("warning: {e}");
-    }
-    if let Some(rest) = events.get(MAX_EVENT_WARNINGS..).filter(|r| !r.is_empty()) {
-        let last = rest.last().map_or(0.0, |e| e.t);
-        eprintln!(
-            "warning: … and {} more singular configurations, up to t = {} (not listed;              the motion lingers near singular: check the model's dimensions)",
-            rest.len(),
-            time(last)
-        );
-    }
-    if let (Some(first), Some(last)) = (flagged.first(), flagged.last()) {
-        let s = if flagged.len() == 1 { "" } else { "s" };
-        let at = if flagged.len() == 1 {
-            format!("t = {}", time(*first))
-        } else {
-            format!("t = {} … {}", time(*first), time(*last))
-        };
-        let (lie, their) = if flagged.len() == 1 {
-            ("lies", "its")
-        } else {
-            ("lie", "their")
-        };
-        eprintln!(
-            "warning: {} row{s} at {at} {lie} within the threshold of a singular configuration: \
-             {their} q̇ and q̈ are the limits along the branch, not solves",
-            flagged.len()
-        );
-    }
-}
-
 /// One `warning:` line for the output rows whose q puts a function of an
 /// equation at a point where it is not differentiable (named by the first
 /// such row: their q̇ and q̈ are roundoff), and one for those where a
@@ -803,77 +767,6 @@ fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
                  `{name}` is right"
             ),
         );
-    }
-}
-
-/// One `warning:` line for the output rows with an equation that its own
-/// arithmetic does not determine (named by the worst row).
-pub(super) fn print_imprecision_warning(
-    system: &TapeSystem,
-    imprecise: &[(f64, kinema::Imprecision)],
-) {
-    let times: Vec<f64> = imprecise.iter().map(|r| r.0).collect();
-    let (Some(at), Some((_, worst))) = (
-        rows_at(&times),
-        imprecise
-            .iter()
-            .max_by(|a, b| a.1.shift.total_cmp(&b.1.shift)),
-    ) else {
-        return;
-    };
-    let their = if times.len() == 1 { "its" } else { "their" };
-    eprintln!(
-        "warning: {at}: {}; {their} q, q̇ and q̈ are the rounding errors' as much as the model's",
-        imprecision_clause(system, worst)
-    );
-}
-
-/// What a [`kinema::Imprecision`] is, in words.
-pub(super) fn imprecision_clause(system: &TapeSystem, i: &kinema::Imprecision) -> String {
-    format!(
-        "equation `{}` is not determined by its own arithmetic: its rounding error, up to \
-         {:.1e}, moves the coordinates by up to {:.1e} against their scale {:.1e} (an argument \
-         beyond f64's precision, as in sin(1e30 * t), or large numbers that cancel)",
-        kinema::System::equation_name(system, i.equation),
-        i.error,
-        i.shift,
-        i.scale,
-    )
-}
-
-/// "equation `NAME`" for the equation of a kink ("an equation" when the
-/// system could not tell which).
-pub(super) fn equation_of(system: &TapeSystem, kink: kinema::Kink) -> String {
-    kink.equation.map_or_else(
-        || "an equation".to_owned(),
-        |e| format!("equation `{}`", kinema::System::equation_name(system, e)),
-    )
-}
-
-/// `warning: N rows at t = a … b: SUBJECT has FUNCTION where it is not
-/// differentiable (…): their CONSEQUENCE`.
-fn print_kink_warning(times: &[f64], subject: &str, function: &str, consequence: &str) {
-    let Some(rows) = rows_at(times) else {
-        return;
-    };
-    let their = if times.len() == 1 { "its" } else { "their" };
-    let (function, argument) = kink_function(function);
-    eprintln!(
-        "warning: {rows}: {subject} has {function} where it is not differentiable \
-         ({argument} within roundoff): {their} {consequence}"
-    );
-}
-
-/// A kink's function ([`kinema::Kink::function`]) in words, and where it
-/// is not differentiable.
-fn kink_function(function: &str) -> (&str, &'static str) {
-    match function {
-        "atan2" => ("atan2", "its arguments are (0, 0)"),
-        "acos" | "asin" => (function, "its argument is ±1"),
-        "smoothstep" => ("a cubic step", "its argument is at an end of the step"),
-        "power" => ("a fractional power", "its base is 0"),
-        "sqrt" => ("a square root or norm", "its argument is 0"),
-        other => (other, "its argument is 0"),
     }
 }
 
@@ -980,35 +873,4 @@ fn summary(s: &SummaryInput<'_>) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn uniform_grid_ends_on_t_end() {
-        let g = Grid::uniform(0.3, 3).expect("increasing");
-        assert_eq!(g.times.len(), 4);
-        assert_eq!(g.times.last().copied(), Some(0.3));
-        assert!(g.output.iter().all(|&o| o));
-    }
-
-    #[test]
-    fn simengine_grid_marks_outputs() {
-        let a = Analysis {
-            tend: 1.0,
-            step_size: 0.1,
-            output_steps: 4,
-            ..Analysis::default()
-        };
-        let g = Grid::simengine(&a, &String::new).expect("increasing");
-        assert!(g.times.windows(2).all(|w| w[1] > w[0]));
-        let outs: Vec<f64> = g
-            .times
-            .iter()
-            .zip(&g.output)
-            .filter(|(_, o)| **o)
-            .map(|(t, _)| *t)
-            .collect();
-        assert_eq!(outs, a.output_times());
-        assert!(g.times.len() > outs.len());
-    }
-}
+mod tests;
