@@ -421,3 +421,65 @@ impl Model {
         self.derivation().initial_velocity_values()
     }
 }
+
+/// How a model with inertia moves when it is not the kinematic case (the
+/// answer of [`dynamics_run`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DynamicsRun {
+    /// Forward dynamics: free degrees of freedom (by the count, or left by
+    /// redundant constraints).
+    Forward,
+    /// A fully driven model whose rows outnumber its coordinates through
+    /// redundant constraints: kinematics and inverse dynamics by
+    /// minimum-norm solves ([`kinema_runtime::integrate::Prescribed`]).
+    Prescribed,
+}
+
+impl DynamicsRun {
+    /// Its name in messages and in the Python package (`"forward"`,
+    /// `"prescribed"`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            DynamicsRun::Forward => "forward",
+            DynamicsRun::Prescribed => "prescribed",
+        }
+    }
+}
+
+/// How the derivation `d` with inertia runs at the params `params` from
+/// the start `q0`: NDOF > 0 is forward dynamics; NDOF = 0 with drivers is
+/// the kinematic case (`None`: kinematics and inverse dynamics); otherwise
+/// the rank of Φ_q at the assembled start decides — degrees of freedom
+/// left free by redundant constraints are forward dynamics, a fully
+/// determined motion with redundant rows is [`DynamicsRun::Prescribed`].
+/// A start that does not assemble with more rows than coordinates is the
+/// prescribed motion's error to report. `None` for a model without
+/// inertia. Allocates (an assembly and an SVD); once per model.
+#[must_use]
+pub fn dynamics_run(d: &Derivation, params: &[f64], q0: &[f64]) -> Option<DynamicsRun> {
+    d.dynamics.as_ref()?;
+    let dof = d.dof;
+    if dof.ndof() > 0 {
+        return Some(DynamicsRun::Forward);
+    }
+    if dof.ndof() == 0 && dof.driving > 0 {
+        return None;
+    }
+    let over = (dof.ndof() < 0).then_some(DynamicsRun::Prescribed);
+    let mut fwd = TapeForward::new(d, params)?;
+    let mut q = q0.to_vec();
+    if kinema_runtime::integrate::assemble(&mut fwd, &mut q, 0.0).is_err() {
+        return over;
+    }
+    let Some(rank) = kinema_runtime::integrate::Monitor::new(&mut fwd, &q, 0.0, 0.0).rank() else {
+        return over;
+    };
+    if rank < q.len() {
+        Some(DynamicsRun::Forward)
+    } else if dof.ndof() < 0 {
+        Some(DynamicsRun::Prescribed)
+    } else {
+        None
+    }
+}

@@ -4,12 +4,12 @@
 //! rows bit for bit.
 //!
 //! What is still repeated from the CLI (each marked "as the CLI's …"
-//! below): which motion a model with inertia runs (`dynamics_run`), the
-//! integrator's start, the option checks and the failure message. The
-//! rest — integrators, the passage monitor, the equilibrium search, a
-//! row's λ, reactions and efforts (`kinema::dynamics::DynamicsRow`), the
-//! search for an equation undefined in a step (`kinema::undefined_between`),
-//! column selection and names — is the facade's.
+//! below): the integrator's start, the option checks and the failure
+//! message. The rest is the facade's: which motion a model runs
+//! (`kinema::forward::dynamics_run`), the integrators, the passage monitor,
+//! the equilibrium search, a row's λ, reactions and efforts
+//! (`kinema::dynamics::DynamicsRow`), the search for an equation undefined
+//! in a step (`kinema::undefined_between`), column selection and names.
 
 use kinema::equilibrium::{Equilibrium, EquilibriumError};
 use kinema::forward::TapeForward;
@@ -23,24 +23,7 @@ pub const DEFAULT_RTOL: f64 = 1e-8;
 /// The columns `energy=True` adds after the dynamics columns.
 pub const ENERGY_COLUMNS: [&str; 3] = ["energy.kinetic", "energy.potential", "energy.work"];
 
-/// How a model with inertia moves (as the CLI's `DynamicsRun`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DynamicsRun {
-    /// Forward dynamics: free degrees of freedom.
-    Forward,
-    /// Fully driven with redundant rows: minimum-norm solves.
-    Prescribed,
-}
-
-impl DynamicsRun {
-    /// The name Python sees.
-    pub fn name(self) -> &'static str {
-        match self {
-            DynamicsRun::Forward => "forward",
-            DynamicsRun::Prescribed => "prescribed",
-        }
-    }
-}
+pub use kinema::forward::DynamicsRun;
 
 /// The start of a motion: q₀ and q̇₀ as the model declares them at the
 /// system's parameter values. At the declared values these are the
@@ -82,35 +65,10 @@ pub fn start_state(
 }
 
 /// How a model with inertia runs, or `None` (kinematics and inverse
-/// dynamics), as the CLI's `dynamics_run`: NDOF > 0 is forward dynamics;
-/// NDOF = 0 with drivers is kinematic; otherwise the rank of Φ_q at the
-/// assembled start decides.
+/// dynamics), at the system's params from `q0` (the facade's
+/// [`kinema::forward::dynamics_run`], which `kinema run` calls too).
 pub fn dynamics_run(model: &kinema::Model, system: &TapeSystem, q0: &[f64]) -> Option<DynamicsRun> {
-    let d = model.derivation();
-    d.dynamics.as_ref()?;
-    let dof = d.dof;
-    if dof.ndof() > 0 {
-        return Some(DynamicsRun::Forward);
-    }
-    if dof.ndof() == 0 && dof.driving > 0 {
-        return None;
-    }
-    let over = (dof.ndof() < 0).then_some(DynamicsRun::Prescribed);
-    let mut fwd = TapeForward::new(d, system.params())?;
-    let mut q = q0.to_vec();
-    if kinema::integrate::assemble(&mut fwd, &mut q, 0.0).is_err() {
-        return over;
-    }
-    let Some(rank) = Monitor::new(&mut fwd, &q, 0.0, 0.0).rank() else {
-        return over;
-    };
-    if rank < q.len() {
-        Some(DynamicsRun::Forward)
-    } else if dof.ndof() < 0 {
-        Some(DynamicsRun::Prescribed)
-    } else {
-        None
-    }
+    kinema::forward::dynamics_run(model.derivation(), system.params(), q0)
 }
 
 /// The integrator of a forward run.

@@ -55,53 +55,13 @@ impl Engine {
     }
 }
 
-/// How a model with inertia moves in `kinema run`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DynamicsRun {
-    /// Forward dynamics: free degrees of freedom (by the count, or left by
-    /// redundant constraints).
-    Forward,
-    /// A fully driven model whose rows outnumber its coordinates through
-    /// redundant constraints: kinematics and inverse dynamics by
-    /// minimum-norm solves ([`Prescribed`]).
-    Prescribed,
-}
+pub use kinema::forward::DynamicsRun;
 
-/// How `loaded` runs when it has inertia and is not the kinematic case:
-/// NDOF > 0 is forward dynamics; with NDOF ≤ 0 by the count (and no
-/// driver, or more rows than coordinates), the rank of Φ_q at the
-/// assembled guess decides: degrees of freedom left free by redundant
-/// constraints are forward dynamics, a fully determined motion with
-/// redundant rows is [`DynamicsRun::Prescribed`]. `None`: kinematics (and
-/// inverse dynamics) as usual.
+/// How `loaded` runs when it has inertia and is not the kinematic case
+/// ([`kinema::forward::dynamics_run`] at the model's own params and start).
 pub fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
-    loaded.model.derivation().dynamics.as_ref()?;
-    let dof = loaded.checked.dof();
-    if dof.ndof() > 0 {
-        return Some(DynamicsRun::Forward);
-    }
-    if dof.ndof() == 0 && dof.driving > 0 {
-        return None;
-    }
-    // More rows than coordinates never suit the kinematic solver: a
-    // configuration that does not assemble is the prescribed motion's
-    // error to report.
-    let over = (dof.ndof() < 0).then_some(DynamicsRun::Prescribed);
-    let mut fwd = loaded.model.forward_system()?;
-    let mut q = loaded.model.initial_configuration();
-    if kinema::integrate::assemble(&mut fwd, &mut q, 0.0).is_err() {
-        return over;
-    }
-    let Some(rank) = Monitor::new(&mut fwd, &q, 0.0, 0.0).rank() else {
-        return over;
-    };
-    if rank < q.len() {
-        Some(DynamicsRun::Forward)
-    } else if dof.ndof() < 0 {
-        Some(DynamicsRun::Prescribed)
-    } else {
-        None
-    }
+    let d = loaded.model.derivation();
+    kinema::forward::dynamics_run(d, &d.param_values(), &loaded.model.initial_configuration())
 }
 
 /// `kinema check`'s report on a model with inertia whose equations are
