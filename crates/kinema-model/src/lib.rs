@@ -39,6 +39,11 @@
 //! assert!(derivation.render().contains("swing"));
 //! ```
 //!
+//! Front ends enter through [`Source`] (a file or text) or [`Parsed`] (the
+//! macro's tokens, another reader's syntax tree), which chain the phases
+//! once and report failures as a [`Report`]: the diagnostics as data with
+//! the source they point into ([`front`]).
+//!
 //! # The language
 //!
 //! Tokens are Rust tokens: `//` comments are skipped, `///` doc comments are
@@ -153,6 +158,7 @@ pub mod derive;
 pub mod diagnostic;
 pub mod dynamics;
 pub mod follower;
+pub mod front;
 mod library;
 pub mod linkage;
 mod lower;
@@ -175,6 +181,7 @@ pub use check::{BodyRef, CheckedModel, Comp, Coord, Curve, DofReport, LibKind, O
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use dynamics::{DynamicsDerivation, Reaction};
+pub use front::{Checked, Derived, MAX_SOURCE_BYTES, Parsed, Report, Source};
 pub use linkage::{LinkageAngle, LinkageDesc, LinkagePin};
 pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
@@ -241,5 +248,8 @@ pub fn check_str(source: &str) -> Result<CheckedModel, Diagnostics> {
 /// # Errors
 /// Every error found, with the warnings.
 pub fn derive_str(source: &str) -> Result<Derivation, Diagnostics> {
-    check_str(source).and_then(|c| Derivation::new(&c))
+    Source::new("model.kin", source)
+        .derive()
+        .map(|derived| derived.into_parts().1)
+        .map_err(Report::into_diagnostics)
 }
