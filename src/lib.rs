@@ -38,9 +38,9 @@ pub use kinema_runtime::{
     Accurate, Auto, Axis, Body, Coord, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency,
     Domain, DynDenseLu, Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht,
     HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
-    ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
-    SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, Undefined,
-    diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
+    Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
+    SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
+    locate_undefined, point_kinematics, undefined_between,
 };
 pub use kinema_runtime::{Motion, Outputs, Table};
 
@@ -51,13 +51,25 @@ pub mod dynamics;
 #[cfg(feature = "model")]
 pub mod equilibrium;
 #[cfg(feature = "model")]
+mod file;
+#[cfg(feature = "model")]
 pub mod forward;
+#[cfg(feature = "model")]
+pub use file::{Format, ModelFile};
 #[cfg(feature = "jit")]
 mod jit;
 #[cfg(feature = "model")]
 mod linkage;
 #[cfg(feature = "model")]
 mod model;
+/// The model language (kinema-model): the front door's types, the checked
+/// model and the derivation, for programs that look inside a [`Model`].
+#[cfg(feature = "model")]
+pub use kinema_model as lang;
+/// A model's diagnostics with the source they point into: what loading a
+/// model fails with, and its warnings.
+#[cfg(feature = "model")]
+pub use kinema_model::{Report, Source};
 #[cfg(feature = "model")]
 pub use model::{Backend, Model, ModelSolver, TapeSystem, UnknownParam};
 #[cfg(feature = "model")]

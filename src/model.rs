@@ -4,8 +4,10 @@
 use std::path::Path;
 
 use kinema_expr::{ExprId, NodeRef, Tape, TapeInputs};
-use kinema_model::{Derivation, Diagnostics, Severity};
-use kinema_runtime::{Auto, Error, ModelDiagnostic, ModelError, Options, Solver};
+use kinema_model::{Derivation, Derived, Report, Source};
+use kinema_runtime::{Auto, Error, Options, Solver};
+
+use crate::file::ModelFile;
 
 mod system;
 
@@ -30,7 +32,7 @@ mod system;
 #[derive(Clone, Debug)]
 pub struct Model {
     derivation: Derivation,
-    warnings: Vec<String>,
+    warnings: Report,
     backend: Backend,
 }
 
@@ -49,100 +51,36 @@ pub enum Backend {
     Tape,
 }
 
-/// The diagnostics of model text as a [`ModelError`]: each as data and all
-/// rendered against the text.
-fn model_error(diagnostics: &Diagnostics, source: &str, file: &str) -> ModelError {
-    let rendered = diagnostics.render_each(source, file).join("\n");
-    let diagnostics_data = diagnostics
-        .iter()
-        .map(|d| {
-            let start = d.span.start();
-            ModelDiagnostic {
-                is_error: d.severity == Severity::Error,
-                message: d.message.clone(),
-                // Line 0: a position the text does not have (the renderer
-                // prints the file alone).
-                at: (start.line > 0).then_some((start.line, start.column + 1)),
-                label: d.label.clone(),
-                help: d.help.clone(),
-            }
-        })
-        .collect();
-    ModelError {
-        file: file.to_owned(),
-        diagnostics: diagnostics_data,
-        rendered,
-        errors: diagnostics.error_count(),
-    }
-}
-
 impl Model {
     /// Parses, checks and derives model text; `file` names it in messages.
     ///
     /// # Errors
-    /// [`ModelError`] with every error found (and the warnings).
-    pub fn from_source(source: &str, file: &str) -> Result<Model, ModelError> {
-        let model = kinema_model::ParsedModel::parse_str(source)
-            .map_err(|d| model_error(&d, source, file))?;
-        Model::from_parsed(model, source, file)
+    /// A [`Report`] with every error found (and the warnings).
+    pub fn from_source(source: &str, file: &str) -> Result<Model, Report> {
+        Derived::from_source(Source::new(file, source)).map(Model::from_derived)
     }
 
-    /// Checks and derives a model whose syntax tree was made elsewhere (a
-    /// simEngine2D file through `kinema_adm::build`, its spans in that
-    /// file's text): `source` is the text the spans point into, `file`
-    /// names it in messages.
+    /// Reads a model file — kinema's language, or a simEngine2D `.adm` model
+    /// (by its extension; see [`ModelFile`]) — and derives it.
     ///
     /// # Errors
-    /// [`ModelError`] with every error found (and the warnings).
-    pub fn from_parsed(
-        model: kinema_model::ParsedModel,
-        source: &str,
-        file: &str,
-    ) -> Result<Model, ModelError> {
-        let checked = model.check().map_err(|d| model_error(&d, source, file))?;
-        let warnings = checked.warnings.render_each(source, file);
-        let derivation = Derivation::new(&checked).map_err(|d| model_error(&d, source, file))?;
-        Ok(Model {
-            derivation,
-            warnings,
-            backend: Backend::default(),
-        })
+    /// A [`Report`]: the file cannot be read, or the model has errors.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Model, Report> {
+        ModelFile::read(path.as_ref())?.into_model()
     }
 
-    /// Reads a `.kin` file and derives it.
-    ///
-    /// # Errors
-    /// [`ModelError`] if the file cannot be read or the model has errors.
-    pub fn from_file(path: impl AsRef<Path>) -> Result<Model, ModelError> {
-        let path = path.as_ref();
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| {
-            let message = format!("cannot read model file `{file}`: {e}");
-            ModelError {
-                rendered: format!("error: {message}"),
-                diagnostics: vec![ModelDiagnostic {
-                    is_error: true,
-                    message,
-                    at: None,
-                    label: None,
-                    help: None,
-                }],
-                file: file.clone(),
-                errors: 1,
-            }
-        })?;
-        // Not UTF-8: say where, shown on the text read lossily.
-        let source = kinema_model::source::decode(&bytes)
-            .map_err(|d| model_error(&d, &String::from_utf8_lossy(&bytes), &file))?;
-        Model::from_source(source, &file)
-    }
-
-    /// A model from a derivation made elsewhere.
+    /// A model from a derived model made elsewhere (the front door's last
+    /// step, [`kinema_model::Checked::derive`]).
     #[must_use]
-    pub fn from_derivation(derivation: Derivation) -> Model {
+    pub fn from_derived(derived: Derived) -> Model {
+        let (_, derivation, warnings) = derived.into_parts();
+        Model::from_parts(derivation, warnings)
+    }
+
+    pub(crate) fn from_parts(derivation: Derivation, warnings: Report) -> Model {
         Model {
             derivation,
-            warnings: Vec::new(),
+            warnings,
             backend: Backend::default(),
         }
     }
@@ -173,10 +111,17 @@ impl Model {
         &self.derivation
     }
 
-    /// Warnings found while checking the model, rendered.
+    /// The warnings found while checking the model (a report without
+    /// errors, empty when there are none).
     #[must_use]
-    pub fn warnings(&self) -> &[String] {
+    pub fn warnings(&self) -> &Report {
         &self.warnings
+    }
+
+    /// The name messages give the model (the file as given).
+    #[must_use]
+    pub fn file(&self) -> &str {
+        self.warnings.source().name()
     }
 
     /// The derivation as stable text (what `kinema derive` prints).

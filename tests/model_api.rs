@@ -1,9 +1,9 @@
 //! The embedder's API of the tape back end: `Model::solver()` like a
 //! generated mechanism's, and model errors as `kinema::Error` (so `?` works
-//! in a `main() -> Result<(), kinema::Error>`), carrying the diagnostics as
-//! data, the file and the rendered text.
+//! in a `main() -> Result<(), kinema::Error>`), carrying the report: the
+//! diagnostics as data with the source they point into.
 
-use kinema::{Error, Model, ModelError, Options};
+use kinema::{Error, Model, Options, Report};
 
 const PENDULUM: &str = "mechanism Pendulum {
     param l = 1.0;
@@ -34,10 +34,10 @@ fn model_errors_are_kinema_errors_with_their_diagnostics() {
     let Err(Error::Model(e)) = run(&bad, "bad.kin", 0.5) else {
         panic!("an unknown body must be a model error");
     };
-    assert_eq!(e.file, "bad.kin");
-    assert_eq!(e.errors, 1);
-    let first = &e.diagnostics[0];
-    assert!(first.is_error);
+    assert_eq!(e.source().name(), "bad.kin");
+    assert_eq!(e.error_count(), 1);
+    let first = &e.entries()[0];
+    assert_eq!(first.severity, kinema::lang::Severity::Error);
     assert!(first.message.contains("bra"), "{}", first.message);
     // Line 4, column of `bra` (1-based), as the rendered text says.
     let column = bad
@@ -45,26 +45,26 @@ fn model_errors_are_kinema_errors_with_their_diagnostics() {
         .nth(3)
         .and_then(|l| l.find("bra"))
         .map(|c| c + 1);
-    assert_eq!(first.at, column.map(|c| (4, c)));
-    let (line, col) = first.at.unwrap_or_default();
+    assert_eq!(first.at(), column.map(|c| (4, c)));
+    let (line, col) = first.at().unwrap_or_default();
+    let rendered = e.render();
     assert!(
-        e.rendered.contains(&format!("bad.kin:{line}:{col}")),
-        "{}",
-        e.rendered
+        rendered.contains(&format!("bad.kin:{line}:{col}")),
+        "{rendered}"
     );
     // The error's text is the rendered diagnostics.
-    assert_eq!(Error::Model(e.clone()).to_string(), e.rendered);
+    assert_eq!(Error::Model(e.clone()).to_string(), rendered.trim_end());
 }
 
 #[test]
 fn an_unreadable_file_is_a_model_error_without_position() {
-    let result: Result<Model, ModelError> = Model::from_file("tests/no such model.kin");
+    let result: Result<Model, Report> = Model::from_file("tests/no such model.kin");
     let Err(e) = result else {
         panic!("a missing file must not load");
     };
-    assert_eq!(e.file, "tests/no such model.kin");
-    assert_eq!(e.diagnostics.len(), 1);
-    assert_eq!(e.diagnostics[0].at, None);
-    assert!(e.rendered.starts_with("error: cannot read model file"));
+    assert_eq!(e.source().name(), "tests/no such model.kin");
+    assert_eq!(e.entries().len(), 1);
+    assert_eq!(e.entries()[0].at(), None);
+    assert!(e.render().starts_with("error: cannot read model file"));
     assert!(matches!(Error::from(e), Error::Model(_)));
 }

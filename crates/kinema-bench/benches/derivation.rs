@@ -9,13 +9,10 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use kinema_model::{Derivation, ParsedModel};
+use kinema_model::{Derivation, Derived, Parsed, Source};
 
-fn derive(text: &str) -> Derivation {
-    let checked = ParsedModel::parse_str(text)
-        .and_then(|m| m.check())
-        .unwrap_or_else(|e| panic!("{}", e.render(text, "chain.kin")));
-    Derivation::new(&checked).unwrap_or_else(|e| panic!("{}", e.render(text, "chain.kin")))
+fn derive(text: &str) -> Derived {
+    Derived::from_source(Source::new("chain.kin", text)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn derivation(c: &mut Criterion) {
@@ -27,12 +24,13 @@ fn derivation(c: &mut Criterion) {
             BenchmarkId::new("text to derivation", n),
             &text,
             |b, text| {
-                b.iter(|| derive(black_box(text)).phi.len());
+                b.iter(|| derive(black_box(text)).derivation().phi.len());
             },
         );
-        let checked = ParsedModel::parse_str(&text)
+        let checked = Parsed::from_source(Source::new("chain.kin", text.as_str()))
             .and_then(|m| m.check())
-            .unwrap_or_else(|e| panic!("{}", e.render(&text, "chain.kin")));
+            .unwrap_or_else(|e| panic!("{e}"));
+        let checked = checked.model();
         group.bench_with_input(
             BenchmarkId::new("checked model to derivation", n),
             &checked,
@@ -45,13 +43,13 @@ fn derivation(c: &mut Criterion) {
             BenchmarkId::new("text to runnable tapes", n),
             &text,
             |b, text| {
-                b.iter(|| kinema::Model::from_derivation(derive(black_box(text))).system());
+                b.iter(|| kinema::Model::from_derived(derive(black_box(text))).system());
             },
         );
         if n == 200 {
             let options = kinema_codegen::Config::default();
             group.bench_function(BenchmarkId::new("codegen expand", n), |b| {
-                b.iter(|| kinema_codegen::expand(black_box(&d), &options).is_empty());
+                b.iter(|| kinema_codegen::expand(black_box(d.derivation()), &options).is_empty());
             });
         }
     }

@@ -15,13 +15,17 @@ fn main() {
         let t0 = Instant::now();
         let ts: proc_macro2::TokenStream = text.parse().expect("lexes");
         let t1 = Instant::now();
-        let model = kinema_model::ParsedModel::parse_str(&text).expect("parses");
+        let model = kinema_model::Parsed::from_source(kinema_model::Source::new(
+            "chain.kin",
+            text.as_str(),
+        ))
+        .expect("parses");
         let t2 = Instant::now();
         let checked = model.check().expect("checks");
         let t3 = Instant::now();
-        let d = kinema_model::Derivation::new(&checked).expect("derives");
+        let d = checked.derive().expect("derives");
         let t4 = Instant::now();
-        let model = kinema::Model::from_derivation(d);
+        let model = kinema::Model::from_derived(d);
         drop(ts);
         let mut line = format!(
             "N = {n}: lex {:?}  parse(incl. lex) {:?}  check {:?}  derive {:?}",

@@ -45,7 +45,7 @@ fn a_chain_compiled_in_chunks_runs_on_the_jit_byte_for_byte() -> TestResult {
     // chunks): no note, and the same CSV as the tape's.
     let dir = TempDir::new("cli_backend_large");
     let model = dir.path("chain200.kin");
-    std::fs::write(&model, kinema_model::chain::chain_kin(200))?;
+    std::fs::write(&model, kinema::lang::chain::chain_kin(200))?;
     let (jit, note) = run(&dir, &model, Some("jit"), "jit.csv");
     assert!(!note.contains("running on the tape interpreter"), "{note}");
     let (tape, quiet) = run(&dir, &model, Some("tape"), "tape.csv");

@@ -15,7 +15,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use kinema_model::Derivation;
+use kinema_model::{Derivation, Derived, Source};
 
 use crate::{Config, generate_source};
 
@@ -63,13 +63,14 @@ impl std::error::Error for Error {
 /// # Errors
 /// [`Error::Model`] with every diagnostic rendered.
 pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
-    let derived = kinema_model::ParsedModel::parse_str(source)
-        .and_then(|m| m.check())
-        .and_then(|checked| Derivation::new(&checked));
-    match derived {
-        Ok(derivation) => Ok(derivation),
-        Err(diagnostics) => Err(Error::Model {
-            rendered: diagnostics.render_each(source, file).join("\n"),
+    derive(Source::new(file, source))
+}
+
+fn derive(source: Source) -> Result<Derivation, Error> {
+    match Derived::from_source(source) {
+        Ok(derived) => Ok(derived.into_parts().1),
+        Err(report) => Err(Error::Model {
+            rendered: report.render_each().join("\n"),
         }),
     }
 }
@@ -77,15 +78,13 @@ pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
 /// Generates the Rust source for the model file at `model`.
 ///
 /// # Errors
-/// [`Error::Io`] if the file cannot be read, [`Error::Model`] if the model
-/// has errors.
+/// [`Error::Model`] if the file cannot be read (its size, UTF-8) or the
+/// model has errors.
 pub fn source_for_file(model: impl AsRef<Path>, options: &Config) -> Result<String, Error> {
-    let path = model.as_ref();
-    let source = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_owned(),
-        source,
+    let source = Source::read(model.as_ref()).map_err(|report| Error::Model {
+        rendered: report.render_each().join("\n"),
     })?;
-    let derivation = derive_source(&source, &path.display().to_string())?;
+    let derivation = derive(source)?;
     Ok(generate_source(&derivation, options))
 }
 

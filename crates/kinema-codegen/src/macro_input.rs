@@ -14,7 +14,7 @@
 
 use std::path::PathBuf;
 
-use kinema_model::{Derivation, ParsedModel, Severity};
+use kinema_model::{Derived, Parsed, Severity, Source};
 use proc_macro2::{Span, TokenStream, TokenTree};
 use quote::quote;
 
@@ -59,12 +59,8 @@ fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
 }
 
 fn expand_inline(input: TokenStream, options: &Config) -> TokenStream {
-    let model = ParsedModel::parse_tokens(input.clone());
-    let derived = model
-        .and_then(|m| m.check())
-        .and_then(|checked| Derivation::new(&checked));
-    match derived {
-        Ok(derivation) => expand(&derivation, options),
+    match Parsed::from_tokens(input.clone()).and_then(Parsed::derive_at_tokens) {
+        Ok(derived) => expand(derived.derivation(), options),
         Err(diagnostics) => {
             let errors: TokenStream = diagnostics
                 .iter()
@@ -79,18 +75,12 @@ fn expand_inline(input: TokenStream, options: &Config) -> TokenStream {
 
 fn expand_file(path: &str, span: Span, options: &Config) -> TokenStream {
     let full = resolve(path, span);
-    let source = match std::fs::read(&full) {
-        Ok(bytes) => match kinema_model::source::decode(&bytes) {
-            Ok(text) => text.to_owned(),
-            Err(d) => {
-                // Not UTF-8: where, shown on the text read lossily.
-                let rendered = d.render(&String::from_utf8_lossy(&bytes), path);
-                return syn::Error::new(span, rendered).to_compile_error();
-            }
-        },
-        Err(e) => {
-            let msg = format!("cannot read model file `{}`: {e}", full.display());
-            return syn::Error::new(span, msg).to_compile_error();
+    // Messages name the file as written in the macro call.
+    let source = match Source::read_as(&full, path) {
+        Ok(source) => source,
+        Err(report) => {
+            let rendered = report.render_each().join("\n");
+            return syn::Error::new(span, rendered.trim_end()).to_compile_error();
         }
     };
     // Rebuild whenever the model file changes.
@@ -102,18 +92,17 @@ fn expand_file(path: &str, span: Span, options: &Config) -> TokenStream {
     // only strings and the span-free derivation leave this block.
     proc_macro2::fallback::force();
     let name = source
+        .text()
         .parse::<TokenStream>()
         .ok()
         .and_then(|t| mechanism_name(&t))
         .map(|i| i.to_string());
-    let derived = ParsedModel::parse_str(&source)
-        .and_then(|m| m.check())
-        .and_then(|checked| Derivation::new(&checked));
-    let outcome = match derived {
-        Ok(derivation) => Ok(derivation),
-        Err(diagnostics) => {
-            let renderer = kinema_model::Renderer::new(&source, path);
-            let mut messages: Vec<String> = diagnostics
+    let outcome = match Derived::from_source(source) {
+        Ok(derived) => Ok(derived.into_parts().1),
+        Err(report) => {
+            let renderer = report.renderer();
+            let mut messages: Vec<String> = report
+                .entries()
                 .iter()
                 .filter(|d| d.severity == Severity::Error)
                 .map(|d| {
@@ -125,7 +114,7 @@ fn expand_file(path: &str, span: Span, options: &Config) -> TokenStream {
                 })
                 .collect();
             let kept = messages.len();
-            let total = diagnostics.error_count();
+            let total = report.error_count();
             if total > kept {
                 messages.push(format!(
                     "… and {} more errors in `{path}` not shown",

@@ -281,34 +281,35 @@ fn kin_text(
     codegen: bool,
     derivatives: bool,
 ) -> Result<(Reach, Vec<(f64, f64)>), Finding> {
-    let parsed = match kinema_model::ParsedModel::parse_str(source) {
+    // The front door's phases one at a time: how far the text gets.
+    let parsed = match kinema_model::Parsed::from_source(kinema_model::Source::new(file, source)) {
         Ok(m) => m,
-        Err(d) => {
-            check_error_size(&d.render(source, file), source.len())?;
+        Err(report) => {
+            check_error_size(&report.render(), source.len())?;
             return Ok((Reach::Parse, Vec::new()));
         }
     };
     let checked = match parsed.check() {
         Ok(c) => c,
-        Err(d) => {
-            check_error_size(&d.render(source, file), source.len())?;
+        Err(report) => {
+            check_error_size(&report.render(), source.len())?;
             return Ok((Reach::Check, Vec::new()));
         }
     };
-    for w in &checked.warnings {
-        check_error_size(&w.render(source, file), source.len())?;
-    }
-    let derivation = match kinema_model::Derivation::new(&checked) {
+    let derived = match checked.derive() {
         Ok(d) => d,
-        Err(d) => {
+        Err(report) => {
             // The derivation's budget: an error at the equation.
-            check_error_size(&d.render(source, file), source.len())?;
+            check_error_size(&report.render(), source.len())?;
             return Ok((Reach::Check, Vec::new()));
         }
     };
+    for w in derived.warnings().render_each() {
+        check_error_size(&w, source.len())?;
+    }
     // `kinema derive`: the text must render (its size is the model's).
-    let _ = derivation.render();
-    let model = kinema::Model::from_derivation(derivation).with_backend(Backend::Tape);
+    let _ = derived.derivation().render();
+    let model = kinema::Model::from_derived(derived).with_backend(Backend::Tape);
     if codegen {
         // `kinema codegen`: generated Rust for the same derivation.
         let _ = model.rust_source();

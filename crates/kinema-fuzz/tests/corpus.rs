@@ -159,7 +159,7 @@ fn show_kin_outcomes() {
     for _ in 0..60 {
         let text = generate::kin::generate(&mut rng);
         match kinema::Model::from_source(&text, "x.kin") {
-            Err(e) => println!("{}", e.rendered.lines().next().unwrap()),
+            Err(e) => println!("{}", e.render().lines().next().unwrap()),
             Ok(m) => {
                 let mut s = kinema::Solver::<_, kinema::Auto>::new(m.system()).unwrap();
                 match s.step(0.0) {

@@ -1,48 +1,15 @@
-//! Diagnostics: errors and warnings with a span, rendered like rustc for text
-//! and converted to one combined `syn::Error` for the proc-macro.
+//! Diagnostics as the phases collect them: errors and warnings at token
+//! spans. At the front door they become a [`Report`] (kinema-report: the
+//! same diagnostics as data, at lines and columns, rendered like rustc);
+//! in the proc-macro they become one combined `syn::Error` at the tokens.
 
-use std::borrow::Cow;
 use std::fmt;
+use std::sync::Arc;
 
-use unicode_width::UnicodeWidthChar;
+use kinema_report::{Entry, LineColumn, Report, Source, clip};
+pub use kinema_report::{MAX_EXCERPT_WIDTH, MAX_KEPT, Severity};
 
-use crate::source::LineIndex;
 use crate::span::Span;
-
-/// Most errors a [`Diagnostics`] keeps, and separately most warnings; the
-/// others are only counted. Memory and rendered text stay bounded whatever
-/// the input (a hostile file can hold a hundred thousand mistakes).
-pub const MAX_KEPT: usize = 100;
-
-/// Widest excerpt of a source line in a rendered diagnostic, in terminal
-/// columns; a longer line is cut around the carets, with `...` where text
-/// was left out.
-pub const MAX_EXCERPT_WIDTH: usize = 100;
-
-/// Columns of the line kept before the carets when a line is cut.
-const CONTEXT_BEFORE: usize = 40;
-
-/// Longest message, label or help printed, in characters (messages quote
-/// user names, which may be megabytes long).
-const MAX_TEXT: usize = 500;
-
-/// How serious a diagnostic is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Severity {
-    /// The model is rejected.
-    Error,
-    /// The model is accepted, but probably not what the user meant.
-    Warning,
-}
-
-impl Severity {
-    fn word(self) -> &'static str {
-        match self {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-        }
-    }
-}
 
 /// One error or warning, pointing at the offending tokens.
 #[derive(Clone, Debug)]
@@ -115,6 +82,23 @@ impl Diagnostic {
         Renderer::new(source, file).render(self)
     }
 
+    /// The diagnostic as data: its span resolved to lines and columns.
+    #[must_use]
+    pub fn entry(&self) -> Entry {
+        let place = |p: proc_macro2::LineColumn| LineColumn {
+            line: p.line,
+            column: p.column,
+        };
+        Entry {
+            severity: self.severity,
+            message: self.message.clone(),
+            start: place(self.span.start()),
+            end: place(self.span.end()),
+            label: self.label.clone(),
+            help: self.help.clone(),
+        }
+    }
+
     /// The diagnostic as a `syn::Error` spanning the offending tokens (help
     /// and label appended to the message).
     #[must_use]
@@ -132,179 +116,26 @@ impl Diagnostic {
 
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.severity.word(), clip(&self.message))?;
-        let start = self.span.start();
-        if start.line >= 1 {
-            write!(f, " (at {}:{})", start.line, start.column + 1)?;
-        }
-        Ok(())
+        self.entry().fmt(f)
     }
 }
 
-/// Renders diagnostics of one text: its lines are indexed once, so that
-/// rendering `n` diagnostics costs `O(n log lines)` plus their lines, not
-/// `n` scans of the text.
+/// Renders diagnostics of one text (kinema-report's renderer: the lines
+/// are indexed once).
 #[derive(Clone, Debug)]
-pub struct Renderer<'a> {
-    index: LineIndex<'a>,
-    file: &'a str,
-}
+pub struct Renderer<'a>(kinema_report::Renderer<'a>);
 
 impl<'a> Renderer<'a> {
     /// A renderer for diagnostics of `source` (the whole text) named `file`.
     #[must_use]
     pub fn new(source: &'a str, file: &'a str) -> Self {
-        Renderer {
-            index: LineIndex::new(source),
-            file,
-        }
+        Renderer(kinema_report::Renderer::new(source, file))
     }
 
-    /// Renders one diagnostic (see [`Diagnostic::render`]). A source line
-    /// wider than [`MAX_EXCERPT_WIDTH`] columns is cut around the carets;
-    /// tabs are shown as four spaces and control characters as their
-    /// Unicode pictures (`␀`), so the carets line up and the terminal
-    /// receives no control codes from the model.
+    /// Renders one diagnostic (see [`Diagnostic::render`]).
     #[must_use]
     pub fn render(&self, d: &Diagnostic) -> String {
-        let file = self.file;
-        let mut out = format!("{}: {}\n", d.severity.word(), clip(&d.message));
-        let start = d.span.start();
-        let end = d.span.end();
-        let Some(line_text) = self.index.line(start.line) else {
-            out.push_str(&format!(" --> {file}\n"));
-            if let Some(help) = &d.help {
-                out.push_str(&format!(" = help: {}\n", clip(help)));
-            }
-            return out;
-        };
-        let line_no = start.line.to_string();
-        let pad = " ".repeat(line_no.len());
-        out.push_str(&format!(
-            "{pad}--> {file}:{}:{}\n",
-            start.line,
-            start.column + 1
-        ));
-        out.push_str(&format!("{pad} |\n"));
-        let last = if end.line == start.line {
-            end.column
-        } else {
-            usize::MAX
-        };
-        let shown = excerpt(line_text, start.column, last);
-        out.push_str(&format!("{line_no} | {}\n", shown.text));
-        out.push_str(&format!(
-            "{pad} | {}{}",
-            " ".repeat(shown.indent),
-            "^".repeat(shown.carets)
-        ));
-        if let Some(label) = &d.label {
-            out.push(' ');
-            out.push_str(&clip(label));
-        }
-        out.push('\n');
-        if let Some(help) = &d.help {
-            out.push_str(&format!("{pad} |\n{pad} = help: {}\n", clip(help)));
-        }
-        out
-    }
-}
-
-/// `text`, cut to [`MAX_TEXT`] characters.
-fn clip(text: &str) -> Cow<'_, str> {
-    match text.char_indices().nth(MAX_TEXT) {
-        None => Cow::Borrowed(text),
-        Some((cut, _)) => Cow::Owned(format!("{}…", &text[..cut])),
-    }
-}
-
-/// How a character is shown in an excerpt, and how many columns it takes.
-fn shown_char(c: char) -> (char, usize) {
-    match c {
-        // Tabs are expanded by the caller (four spaces).
-        '\t' => (' ', 4),
-        // C0 controls and DEL as their pictures: U+2400 + code, U+2421.
-        '\0'..='\u{1f}' => (char::from_u32(0x2400 + c as u32).unwrap_or('\u{fffd}'), 1),
-        '\u{7f}' => ('\u{2421}', 1),
-        // C1 controls and the bidirectional controls, which would reorder
-        // what the terminal shows.
-        '\u{80}'..='\u{9f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' => ('\u{fffd}', 1),
-        _ => (c, c.width().unwrap_or(0)),
-    }
-}
-
-/// A source line as shown: the text, where the carets start (columns) and
-/// how many there are.
-struct Excerpt {
-    text: String,
-    indent: usize,
-    carets: usize,
-}
-
-/// The part of `line` to show for a span from character `first` to
-/// character `last` (exclusive; past the end means the end of the line).
-/// Columns are terminal columns (wide characters take two). A line wider
-/// than [`MAX_EXCERPT_WIDTH`] is cut to a window around `first`; cuts fall
-/// between characters, and a wide character cut in two is shown as spaces.
-fn excerpt(line: &str, first: usize, last: usize) -> Excerpt {
-    // Pass 1: the columns of the span and of the whole line.
-    let mut col = 0;
-    let mut lo = None;
-    let mut hi = None;
-    for (i, c) in line.chars().enumerate() {
-        if i == first {
-            lo = Some(col);
-        }
-        if i == last {
-            hi = Some(col);
-        }
-        col += shown_char(c).1;
-    }
-    let total = col;
-    let lo = lo.unwrap_or(total);
-    let hi = hi.unwrap_or(total).max(lo);
-    let (win_lo, win_hi) = if total <= MAX_EXCERPT_WIDTH {
-        (0, total)
-    } else {
-        let win_lo = lo
-            .saturating_sub(CONTEXT_BEFORE)
-            .min(total - MAX_EXCERPT_WIDTH);
-        (win_lo, win_lo + MAX_EXCERPT_WIDTH)
-    };
-    // Pass 2: the characters inside the window.
-    let mut text = String::new();
-    if win_lo > 0 {
-        text.push_str("...");
-    }
-    let prefix = text.len();
-    let mut col = 0;
-    for c in line.chars() {
-        if col > win_hi {
-            break;
-        }
-        let (shown, width) = shown_char(c);
-        let end = col + width;
-        if col >= win_lo && end <= win_hi {
-            if width > 1 && shown == ' ' {
-                text.push_str(&" ".repeat(width));
-            } else {
-                text.push(shown);
-            }
-        } else if end > win_lo && col < win_hi {
-            // A wide character cut by the window: its visible columns.
-            text.push_str(&" ".repeat(end.min(win_hi) - col.max(win_lo)));
-        }
-        col = end;
-    }
-    if win_hi < total {
-        text.push_str("...");
-    }
-    let indent = prefix + lo.min(win_hi) - win_lo;
-    let carets = hi.min(win_hi).saturating_sub(lo).max(1);
-    Excerpt {
-        text,
-        indent,
-        carets,
+        self.0.render(&d.entry())
     }
 }
 
@@ -404,60 +235,27 @@ impl Diagnostics {
         self.omitted_errors + self.omitted_warnings
     }
 
-    /// "… and N more errors not shown", when some were not kept.
-    fn omitted_note(&self) -> Option<String> {
-        let plural = |n: usize, what: &str| {
-            let s = if n == 1 { "" } else { "s" };
-            format!("{n} more {what}{s}")
-        };
-        let parts: Vec<String> = [
-            (self.omitted_errors, "error"),
-            (self.omitted_warnings, "warning"),
-        ]
-        .into_iter()
-        .filter(|&(n, _)| n > 0)
-        .map(|(n, what)| plural(n, what))
-        .collect();
-        (!parts.is_empty()).then(|| {
-            format!(
-                "… and {} not shown (only the first {MAX_KEPT} of each kind are)",
-                parts.join(" and ")
-            )
-        })
+    /// The diagnostics as data, with the source their spans point into.
+    #[must_use]
+    pub fn report(&self, source: Arc<Source>) -> Report {
+        Report::new(
+            source,
+            self.items.iter().map(Diagnostic::entry).collect(),
+            (self.omitted_errors, self.omitted_warnings),
+        )
     }
 
-    /// Each diagnostic kept, rendered (see [`Diagnostic::render`]) with one
-    /// index of the text's lines, then a `note: … and N more` line when some
-    /// were not kept.
+    /// Each diagnostic kept, rendered (see [`Report::render_each`]).
     #[must_use]
     pub fn render_each(&self, source: &str, file: &str) -> Vec<String> {
-        let renderer = Renderer::new(source, file);
-        let mut out: Vec<String> = self.items.iter().map(|d| renderer.render(d)).collect();
-        if let Some(note) = self.omitted_note() {
-            out.push(format!("note: {note}\n"));
-        }
-        out
+        self.report(Arc::new(Source::new(file, source)))
+            .render_each()
     }
 
-    /// Renders every diagnostic kept as rustc does (see
-    /// [`Diagnostic::render`]), separated by blank lines, then how many more
-    /// were found but not kept, then a summary line when there are errors
-    /// (`error: could not check `bad.kin` due to 2 previous errors`).
+    /// Renders every diagnostic as rustc does (see [`Report::render`]).
     #[must_use]
     pub fn render(&self, source: &str, file: &str) -> String {
-        let mut out = String::new();
-        for d in self.render_each(source, file) {
-            out.push_str(&d);
-            out.push('\n');
-        }
-        let n = self.error_count();
-        if n > 0 {
-            let s = if n == 1 { "" } else { "s" };
-            out.push_str(&format!(
-                "error: could not check `{file}` due to {n} previous error{s}\n"
-            ));
-        }
-        out
+        self.report(Arc::new(Source::new(file, source))).render()
     }
 
     /// All errors kept (warnings are left out: stable proc-macros cannot
@@ -525,8 +323,9 @@ impl fmt::Display for Diagnostics {
             }
             write!(f, "{d}")?;
         }
-        if let Some(note) = self.omitted_note() {
-            write!(f, "\n{note}")?;
+        let omitted = self.omitted_errors + self.omitted_warnings;
+        if omitted > 0 {
+            write!(f, "\n… and {omitted} more not shown")?;
         }
         Ok(())
     }
@@ -547,83 +346,6 @@ impl From<syn::Error> for Diagnostics {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Terminal width of rendered text.
-    fn width(s: &str) -> usize {
-        s.chars().map(|c| c.width().unwrap_or(0)).sum()
-    }
-
-    /// The characters of `text` in the display columns `[from, from + n)`.
-    fn columns(text: &str, from: usize, n: usize) -> String {
-        let mut col = 0;
-        let mut out = String::new();
-        for c in text.chars() {
-            if col >= from && col < from + n {
-                out.push(c);
-            }
-            col += c.width().unwrap_or(0);
-        }
-        out
-    }
-
-    /// Every line (short, long, ASCII, wide, multi-byte, tabs, controls)
-    /// and every caret position: the excerpt is at most the budget wide,
-    /// and the carets stand under exactly the characters of the span.
-    #[test]
-    fn excerpt_fits_and_carets_stand_under_the_span() {
-        let pieces = ["a", "漢", "é", "\t", "\0", "xyz", "字字", " + "];
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
-        for round in 0..400 {
-            let n = if round % 2 == 0 { 5 } else { 40 + next(300) };
-            let line: String = (0..n).map(|_| pieces[next(pieces.len())]).collect();
-            let chars: Vec<char> = line.chars().collect();
-            let first = next(chars.len() + 1);
-            let last = (first + next(6)).min(chars.len() + 2);
-            let e = excerpt(&line, first, last);
-            assert!(
-                width(&e.text) <= MAX_EXCERPT_WIDTH + 6,
-                "{} columns: {:?}",
-                width(&e.text),
-                e.text
-            );
-            assert!(e.carets >= 1);
-            // What the carets underline, as the line would show it.
-            let under = columns(&e.text, e.indent, e.carets);
-            let expected: String = chars
-                .iter()
-                .skip(first)
-                .take(last.max(first + 1) - first)
-                .map(|&c| match shown_char(c) {
-                    (' ', 4) => "    ".to_string(),
-                    (s, _) => s.to_string(),
-                })
-                .collect();
-            if first < chars.len() && e.carets < MAX_EXCERPT_WIDTH / 2 {
-                assert!(
-                    !under.is_empty() && expected.starts_with(under.trim_end_matches('.')),
-                    "line {line:?} first {first} last {last}: carets under {under:?}, span {expected:?} in {:?}",
-                    e.text
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn long_line_is_cut_around_the_caret() {
-        let mut line = "x".repeat(1_000_000);
-        line.push_str(" + 漢字 + bad");
-        let first = line.chars().count() - 3;
-        let e = excerpt(&line, first, first + 3);
-        assert!(e.text.starts_with("..."), "{}", e.text);
-        assert!(e.text.ends_with("漢字 + bad"), "{}", e.text);
-        assert_eq!(columns(&e.text, e.indent, e.carets), "bad");
-    }
 
     #[test]
     fn diagnostics_are_capped_and_counted() {
@@ -656,6 +378,6 @@ mod tests {
         );
         // A huge message is clipped.
         let long = Diagnostic::error(span, "n".repeat(1_000_000));
-        assert!(long.render("", "f.kin").len() < 2 * MAX_TEXT);
+        assert!(long.render("", "f.kin").len() < 1_000);
     }
 }

@@ -181,7 +181,7 @@ pub use check::{BodyRef, CheckedModel, Comp, Coord, Curve, DofReport, LibKind, O
 pub use derive::{Coordinate, DERIVATION_BUDGET, Derivation, ParamInfo, Row, RowKind};
 pub use diagnostic::{Diagnostic, Diagnostics, Renderer, Severity};
 pub use dynamics::{DynamicsDerivation, Reaction};
-pub use front::{Checked, Derived, MAX_SOURCE_BYTES, Parsed, Report, Source};
+pub use front::{Checked, Derived, Entry, MAX_SOURCE_BYTES, Parsed, Report, Source};
 pub use linkage::{LinkageAngle, LinkageDesc, LinkagePin};
 pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
@@ -248,8 +248,8 @@ pub fn check_str(source: &str) -> Result<CheckedModel, Diagnostics> {
 /// # Errors
 /// Every error found, with the warnings.
 pub fn derive_str(source: &str) -> Result<Derivation, Diagnostics> {
-    Source::new("model.kin", source)
-        .derive()
+    let parsed = ParsedModel::parse_str(source)?;
+    Parsed::new(Source::new("model.kin", source), parsed)
+        .derive_at_tokens()
         .map(|derived| derived.into_parts().1)
-        .map_err(Report::into_diagnostics)
 }

@@ -82,10 +82,8 @@ fn megabyte_line_renders_a_short_excerpt() {
 #[test]
 fn invalid_utf8_is_located() {
     let bytes = b"mechanism Bad {\n    body bar;\n    driver d: bar.x == t; // caf\xE9\n}\n";
-    let d = kinema_model::source::decode(bytes)
-        .err()
-        .unwrap_or_default();
-    insta::assert_snapshot!(d.render(&String::from_utf8_lossy(bytes), "latin1.kin"));
+    let report = kinema_model::Source::from_bytes("latin1.kin", bytes.to_vec()).err();
+    insta::assert_snapshot!(report.map(|r| r.render()).unwrap_or_default());
 }
 
 /// Brackets in comments and string-like text are not groups: a comment or a

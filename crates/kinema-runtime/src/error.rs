@@ -180,46 +180,10 @@ pub enum Error {
     /// The model (a `.kin` file, model text, an imported simEngine2D model)
     /// could not be read: it has errors, or the file cannot be read. Lets
     /// `main() -> Result<(), kinema::Error>` use `?` on loading a model as on
-    /// running it.
+    /// running it. The runtime never reads models: the report is plain data
+    /// (kinema-report), which the language produces.
     #[error(transparent)]
-    Model(#[from] ModelError),
-}
-
-/// A model that could not be read: every diagnostic, as data and rendered
-/// rustc-style (`file:line:col`, the source line, carets, help).
-///
-/// The runtime never reads models; this type lives here so that [`Error`]
-/// can carry it (the model language, which produces it, depends on syn and
-/// embedders of generated solvers do not).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{rendered}")]
-pub struct ModelError {
-    /// The file the model was read from, or the name given to model text.
-    pub file: String,
-    /// Every error and warning kept, in order (at most 100 of each; the
-    /// rendered text counts the rest).
-    pub diagnostics: Vec<ModelDiagnostic>,
-    /// The diagnostics rendered with the source lines they point at.
-    pub rendered: String,
-    /// How many errors were found (kept or not).
-    pub errors: usize,
-}
-
-/// One error or warning of a [`ModelError`].
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ModelDiagnostic {
-    /// An error (`true`) or a warning.
-    pub is_error: bool,
-    /// The message, e.g. "unknown body `crnk`".
-    pub message: String,
-    /// Where it points in the file: 1-based line and column (in
-    /// characters), or `None` when it concerns the whole file (one that
-    /// cannot be read).
-    pub at: Option<(usize, usize)>,
-    /// A short label printed after the carets.
-    pub label: Option<String>,
-    /// Extra advice (`= help: …`).
-    pub help: Option<String>,
+    Model(#[from] kinema_report::Report),
 }
 
 /// A time in a message: the shortest text that reads back as the same

@@ -65,7 +65,7 @@ pub mod trajectory;
 pub use csv::{CsvLine, CsvWriter};
 pub use diagnose::{Rank, RankError};
 pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
-pub use error::{Dependency, Error, ModelDiagnostic, ModelError, Quantity, Time};
+pub use error::{Dependency, Error, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
 pub use integrate::{
     Accurate, DenseScratch, ForwardStructure, ForwardSystem, Hht, HhtOptions, IntegrateError,

@@ -15,8 +15,6 @@ use super::{Failure, print_stdout};
 pub struct AdmInput {
     /// The model as read.
     pub model: Model,
-    /// The ADM file's text: messages about the model point into it.
-    pub source: String,
     /// Its identifiers in the emitted `.kin` (bodies, constraints).
     pub names: Names,
     /// kinema row name → the ADM constraint it comes from.
@@ -26,15 +24,18 @@ pub struct AdmInput {
 }
 
 impl AdmInput {
-    /// Reads the ADM file at `path` and checks that it runs as kinematics
+    /// The ADM model read from `path`, checked that it runs as kinematics
     /// under `analysis` (no check without one: the equilibrium of a model
     /// with free degrees of freedom).
     ///
     /// # Errors
-    /// [`Failure::Input`]: the reader's located errors, or the refusal of a
-    /// Dynamics analysis or of NDOF ≠ 0, with the counts.
-    pub fn read_checked(path: &Path, analysis: Option<&Analysis>) -> Result<AdmInput, Failure> {
-        let (model, source) = read_model(path)?;
+    /// [`Failure::Input`]: the refusal of a Dynamics analysis or of
+    /// NDOF ≠ 0, with the counts, or of a force kinema cannot compute.
+    pub fn checked(
+        model: Model,
+        path: &Path,
+        analysis: Option<&Analysis>,
+    ) -> Result<AdmInput, Failure> {
         if let Some(analysis) = analysis {
             kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
         }
@@ -48,7 +49,6 @@ impl AdmInput {
         let ignored = kinema_adm::ignored_by_kinematics(&model);
         Ok(AdmInput {
             model,
-            source,
             names,
             rows,
             ignored,

@@ -110,7 +110,7 @@ impl Target {
 }
 
 fn subtitle(loaded: &Loaded, samples: &Samples) -> String {
-    let nb = loaded.checked.bodies.len();
+    let nb = loaded.checked().bodies.len();
     let source = if loaded.adm.is_some() {
         "simEngine2D model"
     } else {

@@ -23,7 +23,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
         report.push_str(&redundant);
         return print_stdout(&report);
     }
-    if loaded.checked.dof().ndof() != 0 {
+    if loaded.checked().dof().ndof() != 0 {
         // A model with inertia and free degrees of freedom (the checker
         // allows no other): no motion to assemble.
         let _ = write!(
@@ -31,7 +31,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
             "ok: `{}` is valid; with NDOF = {} it has no kinematic motion: `kinema run {} \
              --equilibrium` finds its stable static equilibrium",
             loaded.name(),
-            loaded.checked.dof().ndof(),
+            loaded.checked().dof().ndof(),
             loaded.file
         );
         return print_stdout(&report);
@@ -174,7 +174,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
 
 /// The first lines of the report: file, mechanism, bodies, DOF.
 fn header(loaded: &Loaded) -> String {
-    let c = &loaded.checked;
+    let c = &loaded.checked();
     let bodies: Vec<&str> = c.bodies.iter().map(|b| b.name.as_str()).collect();
     let s = if bodies.len() == 1 { "y" } else { "ies" };
     let mut out = format!(

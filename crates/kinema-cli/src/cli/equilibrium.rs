@@ -19,7 +19,7 @@ use super::{Failure, print_stderr, print_stdout};
 /// # Errors
 /// [`Failure::Input`] naming the NDOF and `--equilibrium`.
 pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
-    let dof = loaded.checked.dof();
+    let dof = loaded.checked().dof();
     if dof.ndof() == 0 {
         return Ok(());
     }
@@ -27,7 +27,7 @@ pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
         "mechanism `{}` has NDOF = {} ({dof}): a kinematic motion needs NDOF = 0 (forward \
          dynamics needs inertia: `mass` and `inertia` on every body)\n  = help: `kinema run {} \
          --equilibrium` finds the stable static equilibrium of a model with inertia",
-        loaded.checked.name,
+        loaded.checked().name,
         dof.ndof(),
         loaded.file
     )))
@@ -114,7 +114,7 @@ fn refuse_motion_options(args: &RunArgs) -> Result<(), Failure> {
 fn summary(loaded: &Loaded, eq: &Equilibrium, destination: &Destination) -> String {
     let mut summary = format!(
         "{} ({}): equilibrium at t = 0 after {} descent step{}\n",
-        loaded.checked.name,
+        loaded.checked().name,
         loaded.file,
         eq.iterations,
         if eq.iterations == 1 { "" } else { "s" }

@@ -4,7 +4,7 @@
 //! run's own (inverse dynamics, energies) — the figure (`--plot`) and the
 //! animation page (`--animate`).
 
-use kinema_model::Derivation;
+use kinema::lang::Derivation;
 
 use super::args::RunArgs;
 use super::columns::Selection;

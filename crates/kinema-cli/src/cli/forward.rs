@@ -69,7 +69,7 @@ pub fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
 /// with it), or `None` for any other model.
 pub fn redundancy_report(loaded: &Loaded) -> Option<String> {
     loaded.model.derivation().dynamics.as_ref()?;
-    let dof = loaded.checked.dof();
+    let dof = loaded.checked().dof();
     if dof.ndof() > 0 || (dof.ndof() == 0 && dof.driving > 0) {
         return None;
     }
@@ -200,7 +200,7 @@ pub fn run(
     let csv = (sink.destination().clone(), sink.rows(), sink.columns());
     sink.finish()?;
     let analysis = analysis_start.elapsed();
-    let title = format!("{}: forward dynamics", loaded.checked.name);
+    let title = format!("{}: forward dynamics", loaded.checked().name);
     if let (Some(target), Some(samples)) = (plot_target, &samples) {
         target.write(loaded, &system, samples, &title)?;
     }
@@ -544,7 +544,7 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
         out,
         "{} ({}): {nb} bod{}, {n} coordinates, {rows} equations, {} (tape back \
          end)",
-        loaded.checked.name,
+        loaded.checked().name,
         loaded.file,
         if nb == 1 { "y" } else { "ies" },
         if motion.engine.prescribed {

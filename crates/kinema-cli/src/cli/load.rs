@@ -1,45 +1,36 @@
-//! Reading a model file — `.kin` text, or a simEngine2D `.adm` whose model
-//! `kinema_adm::build` makes directly (no `.kin` text in between; messages
-//! point into the ADM file) — into a checked and derived model.
+//! Reading a model file — `.kin` text, or a simEngine2D `.adm` whose syntax
+//! tree kinema-adm makes directly (no `.kin` text in between; messages
+//! point into the ADM file) — into a checked and derived model, through the
+//! library's front door ([`kinema::ModelFile`]).
 
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinema_adm::{Analysis, ReadError};
-use kinema_model::{CheckedModel, Derivation};
+use kinema::lang::CheckedModel;
+use kinema::{Format, ModelFile, Report};
+use kinema_adm::Analysis;
 
 use super::Failure;
 use super::adm::AdmInput;
 
-/// What a model file is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    /// kinema's model language.
-    Kin,
-    /// A simEngine2D model (JSON).
-    Adm,
+/// The command line's check of a model file's name: an ACF analysis
+/// given where a model is expected says where the analysis goes.
+///
+/// # Errors
+/// [`Failure::Input`] for an `.acf` file.
+pub fn format_of(path: &Path) -> Result<Format, Failure> {
+    Format::of(path).map_err(|_| {
+        Failure::usage(format_args!(
+            "`{}` is a simEngine2D analysis file, not a model: give the .adm model and \
+             pass the analysis with --acf",
+            path.display()
+        ))
+    })
 }
 
-impl Format {
-    /// The format of `path`, from its extension: `.adm` (any case) is
-    /// simEngine2D, anything else kinema's language.
-    ///
-    /// # Errors
-    /// An ACF analysis file given where a model is expected.
-    pub fn of(path: &Path) -> Result<Format, Failure> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        match ext.as_deref() {
-            Some("adm") => Ok(Format::Adm),
-            Some("acf") => Err(Failure::usage(format_args!(
-                "`{}` is a simEngine2D analysis file, not a model: give the .adm model and \
-                 pass the analysis with --acf",
-                path.display()
-            ))),
-            _ => Ok(Format::Kin),
-        }
-    }
+/// A report as the command line's input failure (status 2).
+pub fn input(report: &Report) -> Failure {
+    Failure::Input(report.render())
 }
 
 /// A model read, checked and derived.
@@ -48,12 +39,10 @@ pub struct Loaded {
     /// The file name as given, for messages.
     pub file: String,
     /// The validated model (joint points for plots).
-    pub checked: CheckedModel,
+    checked: CheckedModel,
     /// The derived model: the tape back end, the derivation text, the
-    /// generated source.
+    /// generated source, the warnings.
     pub model: kinema::Model,
-    /// Warnings, rendered.
-    pub warnings: Vec<String>,
     /// The simEngine2D model, when the file was one.
     pub adm: Option<AdmInput>,
     /// Time spent reading, checking and deriving.
@@ -64,7 +53,7 @@ impl Loaded {
     /// Prints the warnings (and, for an `.adm` model, what a kinematic run
     /// ignores) on standard error.
     pub fn print_warnings(&self) {
-        for w in &self.warnings {
+        for w in self.model.warnings().render_each() {
             super::print_stderr(w.trim_end());
         }
         if let Some(adm) = &self.adm {
@@ -75,6 +64,11 @@ impl Loaded {
     /// The mechanism's name.
     pub fn name(&self) -> &str {
         &self.checked.name
+    }
+
+    /// The validated model.
+    pub fn checked(&self) -> &CheckedModel {
+        &self.checked
     }
 }
 
@@ -99,44 +93,23 @@ pub fn load_with(
     kinematic: bool,
 ) -> Result<Loaded, Failure> {
     let start = Instant::now();
-    let file = path.display().to_string();
-    let (source, adm) = match Format::of(path)? {
-        Format::Kin => {
-            // At most kinema_adm::MAX_FILE_BYTES: `/dev/zero` is an error,
-            // not an exhausted memory.
-            let source = kinema_adm::read_text(path).map_err(|e| match e {
-                ReadError::Io(e) => {
-                    Failure::usage(format_args!("cannot read model file `{file}`: {e}"))
-                }
-                e => Failure::usage(format_args!("cannot read model file `{file}`: {e}")),
-            })?;
-            (source, None)
-        }
-        Format::Adm => {
+    format_of(path)?;
+    let mut file = ModelFile::read(path).map_err(|r| input(&r))?;
+    // An ADM model is refused for what a kinematic run cannot do before
+    // kinema's checker speaks: the engine's counts say more.
+    let adm = match file.adm.take() {
+        Some(model) => {
             let default = Analysis::default();
-            let adm =
-                AdmInput::read_checked(path, kinematic.then(|| analysis.unwrap_or(&default)))?;
-            (adm.source.clone(), Some(adm))
+            let analysis = kinematic.then(|| analysis.unwrap_or(&default));
+            Some(AdmInput::checked(model, path, analysis)?)
         }
+        None => None,
     };
-    // An ADM model's spans are in its file's text, like a .kin file's.
-    let parsed = match &adm {
-        Some(adm) => Ok(kinema_adm::build(&adm.model)),
-        None => kinema_model::ParsedModel::parse_str(&source),
-    };
-    let shown = &file;
-    let checked = parsed
-        .and_then(|m| m.check())
-        .map_err(|d| Failure::Input(d.render(&source, shown)))?;
-    let warnings = checked.warnings.render_each(&source, shown);
-    let derivation =
-        Derivation::new(&checked).map_err(|d| Failure::Input(d.render(&source, shown)))?;
-    let model = kinema::Model::from_derivation(derivation);
+    let (checked, model) = file.into_checked_model().map_err(|r| input(&r))?;
     Ok(Loaded {
-        file,
+        file: path.display().to_string(),
         checked,
         model,
-        warnings,
         adm,
         elapsed: start.elapsed(),
     })

@@ -11,7 +11,7 @@ use kinema_adm::Analysis;
 use super::args::{Backend, RunArgs};
 use super::check::run_error;
 use super::files::RunFiles;
-use super::load::{Format, Loaded, load};
+use super::load::{Loaded, format_of, load};
 use super::output::{CsvSink, Destination, duration, time};
 use super::plot::Samples;
 use super::progress::Progress;
@@ -20,6 +20,7 @@ use super::warnings::{
     print_singular_warnings,
 };
 use super::{Failure, adm, animate};
+use kinema::Format;
 
 /// Default final time of a `.kin` run.
 pub const DEFAULT_T_END: f64 = 1.0;
@@ -256,7 +257,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     let start = Instant::now();
     let steps = check_grid_args(args.t_end, args.steps)?;
-    let (grid, analysis) = match Format::of(&args.model)? {
+    let (grid, analysis) = match format_of(&args.model)? {
         Format::Kin => (kin_grid(args, steps)?, None),
         Format::Adm => {
             let analysis = adm_analysis(args, steps)?;
@@ -493,7 +494,7 @@ impl Rows {
     fn new(
         sink: CsvSink,
         solver: &Solver<TapeSystem, Auto>,
-        derivation: &kinema_model::Derivation,
+        derivation: &kinema::lang::Derivation,
         dynamics: Option<super::dynamics::DynamicsColumns>,
         keep: bool,
         grid: &Grid,
@@ -797,7 +798,7 @@ struct SummaryInput<'a> {
 }
 
 fn summary(s: &SummaryInput<'_>) -> String {
-    let c = &s.loaded.checked;
+    let c = &s.loaded.checked();
     let mut out = String::new();
     let nb = c.bodies.len();
     let _ = writeln!(

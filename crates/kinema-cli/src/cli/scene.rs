@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use kinema::System;
-use kinema_model::{BodyRef, CheckedModel, LibKind, RowKind};
+use kinema::lang::{BodyRef, CheckedModel, LibKind, RowKind};
 
 use super::load::Loaded;
 
@@ -80,7 +80,7 @@ impl Scene {
     /// Reads the scene of a loaded model; `system` is its compiled system
     /// (for the pattern of Φ_q and the coordinate names).
     pub fn of<S: System>(loaded: &Loaded, system: &S) -> Scene {
-        let c = &loaded.checked;
+        let c = &loaded.checked();
         let mut bodies: Vec<BodyShape> = c
             .bodies
             .iter()
@@ -212,11 +212,11 @@ fn driven<S: System>(loaded: &Loaded, system: &S) -> Vec<Driven> {
             _ => None,
         };
         let equation = loaded
-            .checked
+            .checked()
             .equations
             .iter()
             .position(|e| e.name == row.equation);
-        let point = equation.and_then(|k| loaded.checked.equation_points(k).into_iter().next());
+        let point = equation.and_then(|k| loaded.checked().equation_points(k).into_iter().next());
         let item = match (cols.as_slice(), component, point) {
             ([c], _, _) => vec![Driven::Coordinate(*c)],
             (_, Some(component), Some(p)) => match p.body {

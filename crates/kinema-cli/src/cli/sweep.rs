@@ -20,11 +20,12 @@ use kinema::Error;
 use kinema::sweep::{ModelSweep, shard};
 
 use super::args::SweepArgs;
-use super::load::{Format, load};
+use super::load::{format_of, load};
 use super::output::{Destination, Outputs, Sink, duration, rows_at, time, write_failure};
 use super::run::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
 use super::{Failure, print_stderr};
 use kinema::CsvLine;
+use kinema::Format;
 
 /// Most rows a parameter table may have.
 pub const MAX_ROWS: usize = 10_000_000;
@@ -135,7 +136,7 @@ pub fn parse_shard(text: &str) -> Result<(usize, usize), Failure> {
 /// Runs `kinema sweep`.
 pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     let start = Instant::now();
-    if Format::of(&args.model)? == Format::Adm {
+    if format_of(&args.model)? == Format::Adm {
         return Err(Failure::usage(
             "kinema sweep takes .kin models: a simEngine2D model has no parameters \
              (`kinema import` it and declare the values to sweep as params)",

@@ -243,8 +243,8 @@ impl Target {
 }
 
 fn subtitle(loaded: &Loaded, samples: &Samples) -> String {
-    let nb = loaded.checked.bodies.len();
-    let dof = loaded.checked.dof();
+    let nb = loaded.checked().bodies.len();
+    let dof = loaded.checked().dof();
     let source = match &loaded.adm {
         Some(_) => format!("simEngine2D model {}", file_name(&loaded.file)),
         None => format!("model {}", file_name(&loaded.file)),

@@ -1,8 +1,8 @@
 //! The model's measures (`output NAME: EXPR;`) against time: value, first
 //! and second time derivative, side by side, below the joint points.
 
+use kinema::lang::{Derivation, OutputSource};
 use kinema::{Motion, Outputs};
-use kinema_model::{Derivation, OutputSource};
 
 use super::charts::{Lines, time_chart};
 use super::legend::{Swatch, draw_legend_row};
