@@ -155,7 +155,6 @@ pub mod dynamics;
 pub mod follower;
 mod library;
 pub mod linkage;
-mod lower;
 pub mod outputs;
 mod points;
 mod render;
