@@ -12,10 +12,10 @@
 
 use kinema_expr::{Arena, Columns, Entry, ExprId, SparseMatrix, SymId};
 
+use crate::check::lower::Lowerer;
 use crate::check::{CheckedModel, Comp, DofReport, Form, LibKind};
 use crate::diagnostic::{Diagnostic, Diagnostics};
 use crate::idx;
-use crate::lower::Lowerer;
 use crate::syntax::EquationKeyword;
 use kinema_index::{Axis, Body};
 
@@ -388,7 +388,7 @@ struct Phi {
 /// (a vector equation two rows, x then y); a library call its rows
 /// ([`crate::library::rows`]).
 fn phi_rows(arena: &mut Arena, lo: &Lowerer<'_>, model: &CheckedModel) -> Phi {
-    use crate::lower::Value;
+    use crate::check::lower::Value;
     let mut out = Phi {
         rows: Vec::new(),
         phi: Vec::new(),

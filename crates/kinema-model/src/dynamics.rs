@@ -12,8 +12,8 @@
 use kinema_expr::{Arena, Columns, ExprId, SeedsId, SparseMatrix, SymId};
 
 use crate::algebra::{Vec2, VecAlgebra};
+use crate::check::lower::Lowerer;
 use crate::check::{BodyRef, CheckedModel, Dynamics, ForceKind, Form, LibArg};
-use crate::lower::Lowerer;
 
 /// Where a reaction is reported: one body of one element of Φ.
 #[derive(Clone, Debug)]

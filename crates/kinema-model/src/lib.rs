@@ -5,16 +5,32 @@
 //!
 //! 1. [`ParsedModel`] — the syntax tree ([`syntax`]), parsed with syn from text
 //!    ([`ParsedModel::parse_str`]) or from the tokens of a proc-macro
-//!    ([`ParsedModel::parse_tokens`]). It keeps tokens and spans.
+//!    ([`ParsedModel::parse_tokens`]). It keeps tokens and spans. All of the
+//!    parsing lives in `src/syntax.rs` and `src/syntax/`.
 //! 2. [`CheckedModel`] — validated by [`ParsedModel::check`] ([`check`]): names
 //!    resolved, expressions typed, counts right. Every independent error is
 //!    reported at once as [`Diagnostics`], which render like rustc for text
 //!    ([`Diagnostics::render`]) or become one combined `syn::Error` for the
-//!    proc-macro ([`Diagnostics::into_syn_error`]).
+//!    proc-macro ([`Diagnostics::into_syn_error`]). All of the checking lives
+//!    in `src/check/`, with the lowering of checked expressions into the
+//!    engine's arena (`check/lower.rs`): the checker needs it for constants'
+//!    values and undefined parts, and the derivation reuses it.
 //! 3. [`Derivation`] — built by [`Derivation::new`], which fails only when
 //!    an equation's derivatives would outgrow [`DERIVATION_BUDGET`]:
 //!    Φ, sparse Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ in one
 //!    [`kinema_expr::Arena`], the DOF report, and [`Derivation::render`].
+//!    The derivation is `src/derive.rs` and the modules it calls:
+//!    [`dynamics`], [`outputs`], [`follower`], [`linkage`], the constraint
+//!    library's rows (`library.rs`) and the text rendering (`render.rs`).
+//!
+//! Phases only point down: syntax ← check ← derivation. A phase imports
+//! the phases before it and the shared modules ([`span`], [`diagnostic`],
+//! [`source`], [`algebra`]), never a later one; `tests/phases.rs` fails if
+//! syntax or check does. A feature spans the phases in parallel files: the dynamics is
+//! `syntax/dynamics.rs`, `check/dynamics.rs`, `dynamics.rs`; coordinates of
+//! their own, curves and followers are `syntax/coord.rs`, `check/coord.rs`,
+//! `follower.rs`; measures are `syntax/output.rs`, `check/output.rs`,
+//! `outputs.rs`.
 //!
 //! ```
 //! use kinema_model::{Derivation, ParsedModel};
@@ -161,7 +177,6 @@ pub mod follower;
 pub mod front;
 mod library;
 pub mod linkage;
-mod lower;
 pub mod outputs;
 mod points;
 mod render;

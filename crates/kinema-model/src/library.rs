@@ -8,8 +8,8 @@
 use kinema_expr::{Arena, ExprId};
 
 use crate::algebra::{Vec2, VecAlgebra};
+use crate::check::lower::Lowerer;
 use crate::check::{BodyRef, LibArg, LibKind};
-use crate::lower::Lowerer;
 
 /// A lowered library argument.
 #[derive(Clone, Copy)]

@@ -6,8 +6,8 @@ use std::collections::HashMap;
 
 use kinema_expr::{Arena, ExprId, SparseMatrix, SymKind};
 
+use crate::check::lower::Lowerer;
 use crate::check::{BodyRef, CheckedModel, Form, LibArg, LibKind};
-use crate::lower::Lowerer;
 
 /// A revolute joint of a [`LinkageDesc`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -15,51 +15,17 @@
 //! evaluate on the same symbols as Φ and γ. For a point P of body B this is
 //! r_P = r + A s′, ṙ_P = ṙ + B s′ φ̇, r̈_P = r̈ + B s′ φ̈ − A s′ φ̇², without a
 //! formula written by hand.
+//!
+//! Split by phase as the dynamics is: the `output` item's syntax is in
+//! `syntax/output.rs` ([`crate::syntax::OutputDecl`]), its checks in
+//! `check/output.rs`; this module is the derivation's part.
 
 use kinema_expr::{Arena, Columns, ExprId, SeedsId, SymId};
-use syn::Token;
-use syn::parse::ParseStream;
 
+use crate::check::lower::{Lowerer, Value};
 use crate::check::{BodyRef, CheckedModel, point_columns};
 use crate::diagnostic::{Diagnostic, Diagnostics};
-use crate::lower::{Lowerer, Value};
 use crate::span::Span;
-use crate::syntax::{self, Expr, expect, expected};
-
-/// `output NAME: EXPR;`
-#[derive(Clone, Debug)]
-pub struct OutputDecl {
-    /// Doc comments (units, as for params).
-    pub docs: Vec<String>,
-    /// The `output` keyword's span.
-    pub keyword: Span,
-    /// The output's name.
-    pub name: crate::syntax::Name,
-    /// The measured expression (scalar or vector).
-    pub value: Expr,
-}
-
-/// Parses an `output` item after its doc comments.
-pub(crate) fn parse_output(input: ParseStream<'_>, docs: Vec<String>) -> syn::Result<OutputDecl> {
-    let keyword = Span::new(input.parse::<syntax::kw::output>()?.span);
-    let name = syntax::name(input, "the output's name after `output`")?;
-    expect::<Token![:]>(input, "`:`: an output is `output name: expression;`")?;
-    let value: Expr = input.parse()?;
-    if !input.peek(Token![;]) {
-        // error: expected an operator or `;`, found `==`
-        return Err(expected(
-            input,
-            "an operator or `;` at the end of the output",
-        ));
-    }
-    input.parse::<Token![;]>()?;
-    Ok(OutputDecl {
-        docs,
-        keyword,
-        name,
-        value,
-    })
-}
 
 /// What a result column measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -53,14 +53,18 @@ pub(crate) mod kw {
     syn::custom_keyword!(curve);
 }
 
+mod coord;
 mod dynamics;
 mod items;
 mod lexing;
 mod name;
+mod output;
+pub use coord::{CoordDecl, CurveDecl};
 pub use dynamics::{BodyVelocity, ForceDecl, GravityDecl};
 use items::parse_item;
 use lexing::{lex_error, nesting_error};
 pub use name::Name;
+pub use output::OutputDecl;
 
 /// Deepest nesting of parentheses, calls and groups accepted in one
 /// expression. Deeper input is rejected with an error instead of risking the
@@ -93,15 +97,15 @@ pub enum Item {
     /// `joint|constraint|driver name: …;`
     Equation(EquationDecl),
     /// `output name: expr;` (a measure, see [`crate::outputs`])
-    Output(crate::outputs::OutputDecl),
+    Output(OutputDecl),
     /// `gravity = (gx, gy);`
     Gravity(GravityDecl),
     /// `force name: element(…);`
     Force(ForceDecl),
     /// `coord name { guess: expr }`: a generalized coordinate of its own.
-    Coord(crate::follower::CoordDecl),
+    Coord(CoordDecl),
     /// `curve body.name(u) = expr;`: a body-fixed parametric curve.
-    Curve(crate::follower::CurveDecl),
+    Curve(CurveDecl),
 }
 
 /// `param name = expr;`

@@ -6,9 +6,9 @@ use std::collections::HashMap;
 
 use crate::ctxt::Ctxt;
 use crate::diagnostic::Diagnostic;
-use crate::follower::{CoordDecl, CurveDecl};
 use crate::span::Span;
 use crate::syntax::{self, ExprKind, Item};
+use crate::syntax::{CoordDecl, CurveDecl};
 
 use super::decls::{check_constant, finite_scalar};
 use super::library::LibSpec;
@@ -275,7 +275,7 @@ pub(super) fn check_coord_arg(
 pub(super) fn check_undefined_curves(
     cx: &mut Ctxt,
     model: &super::CheckedModel,
-    lo: &crate::lower::Lowerer<'_>,
+    lo: &super::lower::Lowerer<'_>,
     arena: &mut kinema_expr::Arena,
 ) {
     // An index past every coordinate: the symbol is the curve's parameter
@@ -286,13 +286,13 @@ pub(super) fn check_undefined_curves(
         lo.curve_reporting(arena, idx(k), u, &mut |i, why| {
             let span = c.local.span(i).unwrap_or(c.span);
             cx.push(match why {
-                crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+                super::lower::Undefined::ZeroDivisor => Diagnostic::error(
                     span,
                     "division by zero: this divisor is identically zero",
                 )
                 .with_help("the curve is undefined whatever its parameter"),
-                crate::lower::Undefined::TinyDivisor => super::count::tiny_divisor(span),
-                crate::lower::Undefined::Value => Diagnostic::error(
+                super::lower::Undefined::TinyDivisor => super::count::tiny_divisor(span),
+                super::lower::Undefined::Value => Diagnostic::error(
                     span,
                     "this expression is undefined whatever the curve's parameter",
                 )

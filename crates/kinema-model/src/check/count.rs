@@ -86,7 +86,7 @@ fn plural(n: i64) -> &'static str {
 ///   error: division overflows: 1 divided by this number is beyond f64's range
 pub(super) fn check_undefined_parts(cx: &mut Ctxt, model: &CheckedModel) {
     let mut arena = kinema_expr::Arena::new();
-    let lo = crate::lower::Lowerer::new(&mut arena, model);
+    let lo = super::lower::Lowerer::new(&mut arena, model);
     super::coord::check_undefined_curves(cx, model, &lo, &mut arena);
     for eq in &model.equations {
         let exprs: Vec<&TExpr> = match &eq.form {
@@ -124,16 +124,16 @@ pub(super) fn tiny_divisor(span: crate::span::Span) -> Diagnostic {
 /// coordinates and time.
 pub(super) fn undefined_diagnostic(
     span: crate::span::Span,
-    why: crate::lower::Undefined,
+    why: super::lower::Undefined,
 ) -> Diagnostic {
     match why {
-        crate::lower::Undefined::ZeroDivisor => Diagnostic::error(
+        super::lower::Undefined::ZeroDivisor => Diagnostic::error(
             span,
             "division by zero: this divisor is identically zero",
         )
         .with_help("the quotient is undefined whatever the coordinates and time"),
-        crate::lower::Undefined::TinyDivisor => tiny_divisor(span),
-        crate::lower::Undefined::Value => Diagnostic::error(
+        super::lower::Undefined::TinyDivisor => tiny_divisor(span),
+        super::lower::Undefined::Value => Diagnostic::error(
             span,
             "this expression is undefined whatever the coordinates and time",
         )

@@ -7,8 +7,8 @@
 
 use kinema_expr::Arena;
 
+use super::lower::{Lowerer, Value};
 use super::model::{BodyRef, TExpr, TNode};
-use crate::lower::{Lowerer, Value};
 
 /// The value of a constant expression: `[x, y]` of a vector, `[v, v]` of a
 /// scalar; NaN where it is not finite.

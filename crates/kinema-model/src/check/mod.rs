@@ -14,6 +14,7 @@
 //! | `equation` | equations and library constraints |
 //! | `count` | counts (NDOF) and undefined parts |
 //! | `output` | measures (`output NAME: EXPR;`) and the columns they add |
+//! | `lower` | not a rule: checked expressions into the engine's arena, for the rules on constants' values and undefined parts, and for the derivation |
 //!
 //! All independent errors are collected (in a `Ctxt`); an error inside an
 //! expression does not cascade into its parents, and a rejected
@@ -29,6 +30,7 @@ mod equation;
 mod eval;
 mod expr;
 mod library;
+pub(crate) mod lower;
 mod model;
 mod names;
 mod output;

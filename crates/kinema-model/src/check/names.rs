@@ -46,7 +46,7 @@ pub(super) struct Declared<'m> {
     pub(super) body_names: Vec<String>,
     pub(super) params: Vec<&'m syntax::ParamDecl>,
     pub(super) bodies: Vec<&'m syntax::BodyDecl>,
-    pub(super) coords: Vec<&'m crate::follower::CoordDecl>,
+    pub(super) coords: Vec<&'m syntax::CoordDecl>,
 }
 
 /// Rule: names are unique among params and bodies, and none is reserved.

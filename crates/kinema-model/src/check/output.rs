@@ -165,7 +165,7 @@ pub(super) fn check_undefined_outputs(cx: &mut Ctxt, model: &CheckedModel) {
         return;
     }
     let mut arena = kinema_expr::Arena::new();
-    let lo = crate::lower::Lowerer::new(&mut arena, model);
+    let lo = super::lower::Lowerer::new(&mut arena, model);
     for o in &model.outputs {
         lo.lower_reporting(&mut arena, &o.expr, &mut |i, why| {
             let span = o.expr.span(i).unwrap_or(o.span);

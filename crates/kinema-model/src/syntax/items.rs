@@ -5,8 +5,8 @@ use syn::braced;
 use syn::parse::ParseStream;
 
 use super::{
-    BodyDecl, EquationDecl, EquationKeyword, Expr, Item, ParamDecl, PointDecl, dynamics, expect,
-    expected, kw, name, parse_docs,
+    BodyDecl, EquationDecl, EquationKeyword, Expr, Item, ParamDecl, PointDecl, coord, dynamics,
+    expect, expected, kw, name, output, parse_docs,
 };
 use crate::span::Span;
 
@@ -36,13 +36,13 @@ fn parse_item_inner(input: ParseStream<'_>) -> syn::Result<Item> {
     {
         parse_equation(input, docs).map(Item::Equation)
     } else if lookahead.peek(kw::output) {
-        crate::outputs::parse_output(input, docs).map(Item::Output)
+        output::parse_output(input, docs).map(Item::Output)
     } else if lookahead.peek(kw::gravity) {
         dynamics::parse_gravity(input).map(Item::Gravity)
     } else if lookahead.peek(kw::force) {
         dynamics::parse_force(input, docs).map(Item::Force)
     } else if lookahead.peek(kw::coord) || lookahead.peek(kw::curve) {
-        crate::follower::parse_item(input, docs)
+        coord::parse_item(input, docs)
     } else {
         // error: expected an item (`param`, `body`, `point`, `coord`, `curve`, `joint`, `constraint`, `driver` or `output`), found `bdy`
         Err(expected(

@@ -1,10 +1,25 @@
 //! Lowering typed expressions of a [`CheckedModel`] into the engine's arena.
 //! A forward loop over flat expressions: no recursion, whatever the depth.
+//!
+//! The checker owns this layer and the derivation reuses it, so that the
+//! phases only point down (`derive` imports `check::lower`, never the
+//! reverse). The checker needs it for two rules that a small evaluator of
+//! its own could not state: the values of constants ([`super::eval`]: a
+//! param, a guess or a local coordinate has the value the tape and the
+//! generated code compute from the same expression, in the engine's own
+//! arithmetic), and the parts of equations, curves and outputs that are
+//! undefined whatever the coordinates and time once the engine has
+//! simplified them (`1 / (B.x − B.x)`: [`Lowerer::lower_reporting`]).
+//! Both depend on exactly how the arena folds and simplifies; a second
+//! evaluator would have to copy those rules and could drift from them. The
+//! layer reads only the checked model's types and [`crate::algebra`], so
+//! it sits at the bottom of the checking phase, under the rules that use
+//! it and under the derivation that differentiates what it builds.
 
 use kinema_expr::{Arena, ExprId, Factor, Term};
 
+use super::{BodyRef, CheckedModel, Comp, TExpr, TNode, Ty};
 use crate::algebra::{Vec2, VecAlgebra};
-use crate::check::{BodyRef, CheckedModel, Comp, TExpr, TNode, Ty};
 use crate::idx;
 use kinema_index::{Axis, Body};
 
