@@ -14,27 +14,36 @@ use kinema_model::syntax::{
     BinOp, BodyDecl, BodyVelocity, EquationDecl, EquationKeyword, Expr, ExprKind, ExprNode,
     ForceDecl, GravityDecl, Item, Mechanism, Name, PointDecl,
 };
-use kinema_model::{Diagnostics, ParsedModel, Span};
-use proc_macro2::LineColumn;
+use kinema_model::{Diagnostics, Parsed, ParsedModel, Source, Span};
 
 use crate::adm::{Body, Constraint, ConstraintKind, Fields, Force, ForceKind, Model, Vec2};
 use crate::emit::{Names, RackPinion, SumTerm, body_name, comment_text, normalised};
-use crate::error::Pos;
 use crate::fun::{self, BinOp as FunOp, Func, Func2, Node};
+use crate::pos::Pos;
 
-/// The model of `model`, ready for [`ParsedModel::check`].
+/// The parsed form of `model` read from `source`: kinema-model's front
+/// door takes it from here (check, derive), and every message of those
+/// phases points into the ADM file's text.
 ///
 /// ```
-/// let adm = r#"{ "name": "pendulum",
+/// use kinema_model::Source;
+/// let adm = Source::new("pendulum.adm", r#"{ "name": "pendulum",
 ///   "bodies": [ { "name": "gear", "id": 1, "q0": [1, 0, 0] } ],
 ///   "constraints": [
 ///     { "name": "x", "id": 1, "type": "AbsoluteX", "body1": 1, "sP1": [-1, 0], "fun": "0" },
 ///     { "name": "y", "id": 2, "type": "AbsoluteY", "body1": 1, "sP1": [-1, 0], "fun": "0" },
-///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#;
-/// let model = kinema_adm::Model::parse(adm, "pendulum.adm").unwrap();
-/// let checked = kinema_adm::build(&model).check().unwrap();
-/// assert_eq!(checked.bodies[0].name, "gear");
+///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#);
+/// let model = kinema_adm::Model::parse(&adm).unwrap();
+/// let derived = kinema_adm::parsed(&model, adm).derive().unwrap();
+/// assert_eq!(derived.checked().bodies[0].name, "gear");
 /// ```
+#[must_use]
+pub fn parsed(model: &Model, source: Source) -> Parsed {
+    Parsed::new(source, build(model))
+}
+
+/// The model of `model`, ready for [`ParsedModel::check`] (the syntax tree
+/// of [`parsed`], without its source).
 #[must_use]
 pub fn build(model: &Model) -> ParsedModel {
     ParsedModel::from_syntax(mechanism(model))
@@ -74,15 +83,7 @@ pub fn mechanism(model: &Model) -> Mechanism {
 
 /// The span of one character at `pos` (kinema-model's columns are 0-based).
 fn span(pos: Pos) -> Span {
-    let line = pos.line as usize;
-    let column = pos.col.saturating_sub(1) as usize;
-    Span::at(
-        LineColumn { line, column },
-        LineColumn {
-            line,
-            column: column + 1,
-        },
-    )
+    pos.span()
 }
 
 /// A doc comment as the parser keeps `/// text`.

@@ -371,13 +371,13 @@ pub(crate) fn ignored_fun(fun: Option<&str>) -> String {
 /// parser and states the same equations, in the same order, as the engine.
 ///
 /// ```
-/// let adm = r#"{ "name": "pendulum",
+/// let adm = kinema_adm::Source::new("pendulum.adm", r#"{ "name": "pendulum",
 ///   "bodies": [ { "name": "rod", "id": 1, "q0": [1, 0, 0] } ],
 ///   "constraints": [
 ///     { "name": "x", "id": 1, "type": "AbsoluteX", "body1": 1, "sP1": [-1, 0], "fun": "0" },
 ///     { "name": "y", "id": 2, "type": "AbsoluteY", "body1": 1, "sP1": [-1, 0], "fun": "0" },
-///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#;
-/// let model = kinema_adm::Model::parse(adm, "pendulum.adm").unwrap();
+///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#);
+/// let model = kinema_adm::Model::parse(&adm).unwrap();
 /// let kin = kinema_adm::to_kin(&model);
 /// assert!(kin.contains("driver swing: abs_angle(rod, sin(t));"));
 /// ```

@@ -5,8 +5,9 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
 
-use kinema_adm::{Analysis, Diagnostic, Model, Names, RowOrigin};
+use kinema_adm::{Analysis, Model, Names, Report, RowOrigin, Source};
 
 use super::{Failure, print_stdout};
 
@@ -35,6 +36,7 @@ impl AdmInput {
     /// Dynamics analysis or of NDOF ≠ 0, with the counts.
     pub fn read_checked(path: &Path, analysis: Option<&Analysis>) -> Result<AdmInput, Failure> {
         let (model, source) = read_model(path)?;
+        let source = source.text().to_owned();
         if let Some(analysis) = analysis {
             kinema_adm::check_kinematic(&model, analysis).map_err(Failure::usage)?;
         }
@@ -58,9 +60,9 @@ impl AdmInput {
     /// Prints the reader's warnings and what a kinematic run ignores on
     /// standard error.
     pub fn print_notes(&self) {
-        for w in &self.model.warnings {
-            super::print_stderr(&render(w, "warning"));
-        }
+        print_warnings(&self.model, || {
+            Source::new(self.model.file.clone(), self.source.clone())
+        });
         for line in &self.ignored {
             super::print_stderr(&format!("note: ignored by kinematic analysis: {line}"));
         }
@@ -103,72 +105,35 @@ impl AdmInput {
     }
 }
 
-/// Reads an ADM file: the model and the file's text.
+/// Reads an ADM file: the model and its source.
 ///
 /// # Errors
-/// [`Failure::Input`] with every located error.
-pub fn read_model(path: &Path) -> Result<(Model, String), Failure> {
-    let name = path.display().to_string();
-    let read = kinema_adm::read_text(path)
-        .map_err(|e| kinema_adm::Error::from(Diagnostic::whole_file(&name, e.to_string())))
-        .and_then(|text| Model::parse(&text, &name).map(|m| (m, text)));
-    read.map_err(|e| {
-        let file = path.display();
-        let mut out = String::new();
-        for d in e.diagnostics() {
-            out.push_str(&render(d, "error"));
-            out.push_str("\n\n");
+/// [`Failure::Input`] with every located error, rendered.
+pub fn read_model(path: &Path) -> Result<(Model, Source), Failure> {
+    Model::read(path).map_err(|report| Failure::Input(report.render()))
+}
+
+/// Prints the reader's warnings about `model`, rendered against its source
+/// (made only when there are warnings), on standard error: each on its own,
+/// as the warnings of a `.kin` model are.
+fn print_warnings(model: &Model, source: impl FnOnce() -> Source) {
+    if !model.warnings.is_empty() {
+        let report = Report::new(Arc::new(source()), model.warnings.clone());
+        for warning in report.render_each() {
+            super::print_stderr(warning.trim_end());
         }
-        let n = e.diagnostics().len();
-        let s = if n == 1 { "" } else { "s" };
-        let _ = write!(
-            out,
-            "error: could not read `{file}` due to {n} previous error{s}"
-        );
-        Failure::Input(out)
-    })
+    }
 }
 
 /// Reads the analysis: the ACF at `path`, or the engine's kinematics.acf.
 ///
 /// # Errors
-/// [`Failure::Input`] with the ACF reader's located errors.
+/// [`Failure::Input`] with the ACF reader's located errors, rendered.
 pub fn read_analysis(path: Option<&Path>) -> Result<Analysis, Failure> {
     let Some(path) = path else {
         return Ok(Analysis::default());
     };
-    Analysis::read(path).map_err(|e| {
-        let out: Vec<String> = e.diagnostics().iter().map(|d| render(d, "error")).collect();
-        Failure::Input(out.join("\n\n"))
-    })
-}
-
-/// A reader diagnostic in the look of the `.kin` diagnostics (rustc's):
-/// `severity: message`, then ` --> file:line:col`, the source line and a
-/// caret.
-pub fn render(d: &Diagnostic, severity: &str) -> String {
-    let mut out = format!("{severity}: {}", d.message);
-    let Some(pos) = d.pos else {
-        let _ = write!(out, "\n --> {}", d.file);
-        return out;
-    };
-    let num = pos.line.to_string();
-    let pad = " ".repeat(num.len());
-    let _ = write!(out, "\n{pad}--> {}:{}:{}", d.file, pos.line, pos.col);
-    if let Some(line) = &d.line_text {
-        // Tabs are kept in the caret's padding so that it lines up.
-        let caret_pad: String = line
-            .chars()
-            .take(pos.col.saturating_sub(1) as usize)
-            .map(|c| if c == '\t' { '\t' } else { ' ' })
-            .collect();
-        let _ = write!(
-            out,
-            "\n{pad} |\n{num} | {}\n{pad} | {caret_pad}^",
-            line.trim_end()
-        );
-    }
-    out
+    Analysis::read(path).map_err(|report| Failure::Input(report.render()))
 }
 
 /// `kinema import MODEL.adm`: prints the model as `.kin` text. A model that
@@ -178,10 +143,8 @@ pub fn render(d: &Diagnostic, severity: &str) -> String {
 /// # Errors
 /// [`Failure::Input`] for an unreadable or invalid ADM file.
 pub fn import(path: &Path) -> Result<(), Failure> {
-    let (model, _) = read_model(path)?;
-    for w in &model.warnings {
-        super::print_stderr(&render(w, "warning"));
-    }
+    let (model, source) = read_model(path)?;
+    print_warnings(&model, || source);
     if let Err(refusal) = kinema_adm::check_kinematic(&model, &Analysis::default()) {
         super::print_stderr(&format!("note: {refusal}"));
     }

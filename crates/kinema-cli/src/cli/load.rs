@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinema_adm::{Analysis, ReadError};
+use kinema_adm::Analysis;
 use kinema_model::{CheckedModel, Derivation};
 
 use super::Failure;
@@ -102,15 +102,11 @@ pub fn load_with(
     let file = path.display().to_string();
     let (source, adm) = match Format::of(path)? {
         Format::Kin => {
-            // At most kinema_adm::MAX_FILE_BYTES: `/dev/zero` is an error,
-            // not an exhausted memory.
-            let source = kinema_adm::read_text(path).map_err(|e| match e {
-                ReadError::Io(e) => {
-                    Failure::usage(format_args!("cannot read model file `{file}`: {e}"))
-                }
-                e => Failure::usage(format_args!("cannot read model file `{file}`: {e}")),
-            })?;
-            (source, None)
+            // At most kinema_model::MAX_SOURCE_BYTES: `/dev/zero` is an
+            // error, not an exhausted memory.
+            let source =
+                kinema_model::Source::read(path).map_err(|r| Failure::Input(r.render()))?;
+            (source.text().to_owned(), None)
         }
         Format::Adm => {
             let default = Analysis::default();
