@@ -18,8 +18,8 @@
 //! 4. [`parsed`] makes the model's parsed form for kinema-model's front
 //!    door ([`build()`] its syntax tree) directly, every name and
 //!    expression at the place in the ADM file it comes from, so messages
-//!    point there (`kinema run`); [`to_kin`] prints
-//!    the same model as `.kin` text (`kinema import`). [`Names`] gives its
+//!    point there (`kinema run`); [`to_kin`] prints that syntax tree as
+//!    `.kin` text with kinema-model's printer (`kinema import`). [`Names`] gives its
 //!    identifiers (bodies in order: the order of q; equations in order: the
 //!    order of Φ's rows).
 //!

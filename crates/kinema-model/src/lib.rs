@@ -164,6 +164,7 @@ pub mod linkage;
 mod lower;
 pub mod outputs;
 mod points;
+pub mod print;
 mod render;
 pub mod source;
 pub mod span;
