@@ -713,8 +713,7 @@ impl NativeModel {
             None => kinema_adm::Analysis::default(),
             Some(p) => kinema_adm::Analysis::read(p).map_err(|r| report_error(py, &r))?,
         };
-        let (adm, source) =
-            kinema_adm::Model::read(&path).map_err(|r| report_error(py, &r))?;
+        let (adm, source) = kinema_adm::Model::read(&path).map_err(|r| report_error(py, &r))?;
         let dynamics = analysis.simulation == kinema_adm::Simulation::Dynamics;
         if dynamics {
             // As `kinema run`: a force the engine computes in MATLAB
@@ -741,8 +740,8 @@ impl NativeModel {
         let parsed = kinema_adm::build(&adm);
         // The syntax tree holds spans that stay on this thread: no detach
         // (an .adm model is small).
-        let model =
-            kinema::Model::from_parsed(parsed, source.text(), &file).map_err(|e| model_error(py, &e))?;
+        let model = kinema::Model::from_parsed(parsed, source.text(), &file)
+            .map_err(|e| model_error(py, &e))?;
         if dynamics && model.derivation().dynamics.is_none() {
             return Err(KinemaError::new_err(format!(
                 "`{file}` cannot run a Dynamics analysis: it has no inertia (every body needs \
