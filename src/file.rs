@@ -72,14 +72,10 @@ impl ModelFile {
                 adm: None,
             }),
             Format::Adm => {
-                // TEMPORARY until kinema-adm reports on the model's diagnostics.
-                let source = Source::read(path)?;
-                let adm = kinema_adm::Model::parse(source.text(), source.name())
-                    .map_err(|e| Report::whole_file(source.name(), e.to_string()))?;
-                let model = kinema_adm::build(&adm);
+                let (adm, source) = kinema_adm::Model::read(path)?;
                 Ok(ModelFile {
                     format: Format::Adm,
-                    parsed: Parsed::new(source, model),
+                    parsed: kinema_adm::parsed(&adm, source),
                     adm: Some(adm),
                 })
             }

@@ -8,14 +8,15 @@ fn main() {
         std::process::exit(2);
     };
     match kinema_adm::Model::read(std::path::Path::new(&path)) {
-        Ok(model) => {
-            for w in &model.warnings {
-                eprintln!("warning: {w}");
+        Ok((model, source)) => {
+            if !model.warnings.is_empty() {
+                let warnings = model.warnings.report(source.into());
+                eprint!("{}", warnings.render());
             }
             print!("{}", kinema_adm::to_kin(&model));
         }
-        Err(e) => {
-            eprintln!("{e}");
+        Err(report) => {
+            eprint!("{}", report.render());
             std::process::exit(2);
         }
     }

@@ -24,9 +24,13 @@
 
 use kinema_index::u32_of;
 
-use crate::error::{Diagnostic, Error, Pos, Source};
+use std::sync::Arc;
+
+use kinema_model::{Diagnostics, Report, Source};
+
 use crate::fun::Expr;
 use crate::json::{self, Value};
+use crate::pos::Pos;
 
 /// The kind of simulation an ACF asks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,40 +69,41 @@ impl Default for Analysis {
 }
 
 impl Analysis {
-    /// Reads an ACF text (JSON if it starts with `{`, else the plain form);
-    /// `file` names it in messages.
+    /// Reads the ACF text of `source` (JSON if it starts with `{`, else the
+    /// plain form).
     ///
     /// # Errors
     /// Syntax errors, missing or malformed fields, non-positive `tend`,
-    /// `stepSize` or `outputSteps`, an unknown `simulation`.
-    pub fn parse(text: &str, file: &str) -> Result<Analysis, Error> {
-        let source = Source::new(file, text);
+    /// `stepSize` or `outputSteps`, an unknown `simulation`, each at its
+    /// place in the text (render them with a [`Report`] of `source`).
+    pub fn parse(source: &Source) -> Result<Analysis, Diagnostics> {
+        let text = source.text();
         let fields = if text
             .trim_start_matches('\u{feff}')
             .trim_start()
             .starts_with('{')
         {
-            json_fields(&source)?
+            json_fields(text)?
         } else {
-            plain_fields(&source)?
+            plain_fields(text)?
         };
-        let mut diags = Vec::new();
-        let analysis = build(&source, &fields, &mut diags);
+        let mut diags = Diagnostics::new();
+        let analysis = build(&fields, &mut diags);
         match analysis {
             Some(a) if diags.is_empty() => Ok(a),
-            _ => Err(Error::new(diags)),
+            _ => Err(diags),
         }
     }
 
-    /// Reads an ACF file.
+    /// Reads the ACF file at `path` ([`Source::read`]: the one size cap and
+    /// UTF-8 rule), then [`Analysis::parse`]s it.
     ///
     /// # Errors
-    /// The file cannot be read, or [`Analysis::parse`]'s errors.
-    pub fn read(path: &std::path::Path) -> Result<Analysis, Error> {
-        let name = path.display().to_string();
-        let text = crate::error::read_text(path)
-            .map_err(|e| Diagnostic::whole_file(&name, e.to_string()))?;
-        Analysis::parse(&text, &name)
+    /// The file cannot be read, or [`Analysis::parse`]'s errors, as a
+    /// report against the file.
+    pub fn read(path: &std::path::Path) -> Result<Analysis, Report> {
+        let source = Source::read(path)?;
+        Analysis::parse(&source).map_err(|d| d.report(Arc::new(source)))
     }
 
     /// The output times t_k = k·tend/outputSteps, k = 0..=outputSteps
@@ -298,15 +303,15 @@ enum FieldValue {
     Other(&'static str),
 }
 
-fn json_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
-    let root: Value = json::parse(source)?;
+fn json_fields(text: &str) -> Result<Vec<Field>, Diagnostics> {
+    let root: Value = json::parse(text)?;
     let Some(members) = root.as_object() else {
-        return Err(source
-            .diagnostic(
-                root.pos,
-                format!("expected a JSON object, found {}", root.describe()),
-            )
-            .into());
+        let mut one = Diagnostics::new();
+        one.push(
+            root.pos
+                .error(format!("expected a JSON object, found {}", root.describe())),
+        );
+        return Err(one);
     };
     Ok(members
         .iter()
@@ -322,10 +327,10 @@ fn json_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
         .collect())
 }
 
-fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
+fn plain_fields(text: &str) -> Result<Vec<Field>, Diagnostics> {
     let mut fields = Vec::new();
-    let mut diags = Vec::new();
-    for (i, raw) in source.text().split('\n').enumerate() {
+    let mut diags = Diagnostics::new();
+    for (i, raw) in text.split('\n').enumerate() {
         let line_no = u32_of(i + 1, "an ACF line");
         let line = raw.split('%').next().unwrap_or("");
         if line.trim().is_empty() {
@@ -338,9 +343,7 @@ fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
         };
         let indent = line.chars().take_while(|c| c.is_whitespace()).count();
         let Some((key, value)) = line.split_once(':') else {
-            diags.push(
-                source.diagnostic(at(indent), "expected `key: value` (for example `tend: 5`)"),
-            );
+            diags.push(at(indent).error("expected `key: value` (for example `tend: 5`)"));
             continue;
         };
         let key = key.trim().trim_matches('"').to_string();
@@ -363,10 +366,10 @@ fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
             match Expr::parse_constant(text) {
                 Ok(x) => FieldValue::Number(x),
                 Err(e) => {
-                    diags.push(source.diagnostic(
-                        at(vindent + e.offset),
-                        format!("field \"{canonical}\": cannot read `{text}`: {}", e.message),
-                    ));
+                    diags.push(at(vindent + e.offset).error(format!(
+                        "field \"{canonical}\": cannot read `{text}`: {}",
+                        e.message
+                    )));
                     continue;
                 }
             }
@@ -380,7 +383,7 @@ fn plain_fields(source: &Source<'_>) -> Result<Vec<Field>, Error> {
     if diags.is_empty() {
         Ok(fields)
     } else {
-        Err(Error::new(diags))
+        Err(diags)
     }
 }
 
@@ -389,8 +392,8 @@ fn key_len(line: &str) -> usize {
     line.chars().take_while(|&c| c != ':').count()
 }
 
-fn build(source: &Source<'_>, fields: &[Field], diags: &mut Vec<Diagnostic>) -> Option<Analysis> {
-    let mut err = |pos: Pos, msg: String| diags.push(source.diagnostic(pos, msg));
+fn build(fields: &[Field], diags: &mut Diagnostics) -> Option<Analysis> {
+    let mut err = |pos: Pos, msg: String| diags.push(pos.error(msg));
     let end = Pos::start();
     let get = |key: &str| fields.iter().find(|f| f.key == key);
 
@@ -495,12 +498,19 @@ fn build(source: &Source<'_>, fields: &[Field], diags: &mut Vec<Diagnostic>) -> 
 mod tests {
     use super::*;
 
+    fn parse(text: &str) -> Result<Analysis, Diagnostics> {
+        Analysis::parse(&Source::new("x.acf", text))
+    }
+
+    /// Line and 1-based column of the first diagnostic.
+    fn place(e: &Diagnostics) -> (usize, usize) {
+        let start = e.iter().next().expect("a diagnostic").span.start();
+        (start.line, start.column + 1)
+    }
+
     #[test]
     fn json_form() {
-        let a = Analysis::parse(
-            "{\n\t\"simulation\": \"kinematics\",\n \"tend\": 2.0, \"stepSize\": 0.01, \"outputSteps\": 4}",
-            "a.acf",
-        )
+        let a = parse("{\n\t\"simulation\": \"kinematics\",\n \"tend\": 2.0, \"stepSize\": 0.01, \"outputSteps\": 4}")
         .expect("parses");
         assert_eq!(a.simulation, Simulation::Kinematics);
         assert_eq!(a.output_times(), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
@@ -509,7 +519,7 @@ mod tests {
     #[test]
     fn plain_form() {
         let text = "% my analysis\nsimulation: Dynamics\ntend: 1 % seconds\nstepSize: 1/1000\n\noutputSteps: 500\n";
-        let a = Analysis::parse(text, "a.acf").expect("parses");
+        let a = parse(text).expect("parses");
         assert_eq!(a.simulation, Simulation::Dynamics);
         assert_eq!(a.tend, 1.0);
         assert_eq!(a.step_size, 0.001);
@@ -551,44 +561,35 @@ mod tests {
 
     #[test]
     fn times_that_do_not_increase_are_refused_at_their_field() {
-        let e = Analysis::parse(
-            "{\"simulation\": \"Kinematics\", \"tend\": 5e-324,\n \"stepSize\": 1e-3, \"outputSteps\": 10}",
-            "x.acf",
-        )
+        let e = parse("{\"simulation\": \"Kinematics\", \"tend\": 5e-324,\n \"stepSize\": 1e-3, \"outputSteps\": 10}")
         .expect_err("5e-324 / 10 underflows");
-        let d = &e.diagnostics()[0];
+        let d = e.iter().next().expect("a diagnostic");
         assert!(
             d.message
                 .contains("\"outputSteps\": the output times do not increase"),
             "{e}"
         );
-        assert_eq!(d.pos.map(|p| (p.line, p.col)), Some((2, 35)), "{e}");
-        let e = Analysis::parse(
-            "simulation: kinematics\ntend: 5\nstepSize: 1e-20\noutputSteps: 5\n",
-            "x.acf",
-        )
-        .expect_err("t + 1e-20 == t near 5");
-        let d = &e.diagnostics()[0];
+        assert_eq!(place(&e), (2, 35), "{e}");
+        let e = parse("simulation: kinematics\ntend: 5\nstepSize: 1e-20\noutputSteps: 5\n")
+            .expect_err("t + 1e-20 == t near 5");
+        let d = e.iter().next().expect("a diagnostic");
         assert!(
             d.message
                 .contains("\"stepSize\": the solve times do not increase"),
             "{e}"
         );
-        assert_eq!(d.pos.map(|p| p.line), Some(3), "{e}");
+        assert_eq!(place(&e).0, 3, "{e}");
         // Resolvable but too many solves: refused at stepSize, not built.
-        let e = Analysis::parse(
-            "simulation: kinematics\ntend: 1e6\nstepSize: 1e-3\noutputSteps: 5\n",
-            "x.acf",
-        )
-        .expect_err("1e9 solves");
-        let d = &e.diagnostics()[0];
+        let e = parse("simulation: kinematics\ntend: 1e6\nstepSize: 1e-3\noutputSteps: 5\n")
+            .expect_err("1e9 solves");
+        let d = e.iter().next().expect("a diagnostic");
         assert!(
             d.message
                 .contains("\"stepSize\": simEngine2D solves every stepSize"),
             "{e}"
         );
         assert!(d.message.contains("1.000e9 solves"), "{e}");
-        assert_eq!(d.pos.map(|p| p.line), Some(3), "{e}");
+        assert_eq!(place(&e).0, 3, "{e}");
         // Tiny but resolvable times are fine, and so are huge ones.
         for (tend, n) in [(1e-310, 10), (1e-300, 1000), (f64::MAX, 1000)] {
             let a = Analysis {
@@ -608,11 +609,8 @@ mod tests {
 
     #[test]
     fn errors() {
-        let e = Analysis::parse(
-            "{\"simulation\": \"Static\", \"tend\": -1, \"stepSize\": 0.1}",
-            "x.acf",
-        )
-        .expect_err("bad");
+        let e = parse("{\"simulation\": \"Static\", \"tend\": -1, \"stepSize\": 0.1}")
+            .expect_err("bad");
         let text = e.to_string();
         assert!(text.contains("unknown simulation \"Static\""), "{text}");
         assert!(
@@ -620,7 +618,7 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("missing field \"outputSteps\""), "{text}");
-        assert!(Analysis::parse("simulation kinematics", "x.acf").is_err());
-        assert!(Analysis::parse("{", "x.acf").is_err());
+        assert!(parse("simulation kinematics").is_err());
+        assert!(parse("{").is_err());
     }
 }

@@ -4,37 +4,48 @@
 //! column of the JSON value it comes from, so a message of the checker or
 //! of the derivation points into the ADM file.
 //!
-//! The tree is the one the printed `.kin` text ([`crate::to_kin`], for
-//! `kinema import`) parses to: the same items in the same order, the same
-//! identifiers ([`Names`]), the same expressions node for node (a negative
-//! number is `-` applied to its magnitude, as parsed), the same doc
-//! comments. The mapping is the table of [`crate::emit`].
+//! It is the crate's one translation of an ADM model: `kinema import`
+//! prints this tree ([`crate::to_kin`], through kinema-model's printer),
+//! so the text parses back to it: the same items in the same order, the
+//! same identifiers ([`Names`]), the same expressions node for node (a
+//! negative number is `-` applied to its magnitude, as the parser reads
+//! it), the same doc comments. The mapping is the table of
+//! [`crate::emit`].
 
 use kinema_model::syntax::{
     BinOp, BodyDecl, BodyVelocity, EquationDecl, EquationKeyword, Expr, ExprKind, ExprNode,
     ForceDecl, GravityDecl, Item, Mechanism, Name, PointDecl,
 };
-use kinema_model::{Diagnostics, ParsedModel, Span};
-use proc_macro2::LineColumn;
+use kinema_model::{Diagnostics, Parsed, ParsedModel, Source, Span};
 
 use crate::adm::{Body, Constraint, ConstraintKind, Fields, Force, ForceKind, Model, Vec2};
 use crate::emit::{Names, RackPinion, SumTerm, body_name, comment_text, normalised};
-use crate::error::Pos;
 use crate::fun::{self, BinOp as FunOp, Func, Func2, Node};
+use crate::pos::Pos;
 
-/// The model of `model`, ready for [`ParsedModel::check`].
+/// The parsed form of `model` read from `source`: kinema-model's front
+/// door takes it from here (check, derive), and every message of those
+/// phases points into the ADM file's text.
 ///
 /// ```
-/// let adm = r#"{ "name": "pendulum",
+/// use kinema_model::Source;
+/// let adm = Source::new("pendulum.adm", r#"{ "name": "pendulum",
 ///   "bodies": [ { "name": "gear", "id": 1, "q0": [1, 0, 0] } ],
 ///   "constraints": [
 ///     { "name": "x", "id": 1, "type": "AbsoluteX", "body1": 1, "sP1": [-1, 0], "fun": "0" },
 ///     { "name": "y", "id": 2, "type": "AbsoluteY", "body1": 1, "sP1": [-1, 0], "fun": "0" },
-///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#;
-/// let model = kinema_adm::Model::parse(adm, "pendulum.adm").unwrap();
-/// let checked = kinema_adm::build(&model).check().unwrap();
-/// assert_eq!(checked.bodies[0].name, "gear");
+///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#);
+/// let model = kinema_adm::Model::parse(&adm).unwrap();
+/// let derived = kinema_adm::parsed(&model, adm).derive().unwrap();
+/// assert_eq!(derived.checked().bodies[0].name, "gear");
 /// ```
+#[must_use]
+pub fn parsed(model: &Model, source: Source) -> Parsed {
+    Parsed::new(source, build(model))
+}
+
+/// The model of `model`, ready for [`ParsedModel::check`] (the syntax tree
+/// of [`parsed`], without its source).
 #[must_use]
 pub fn build(model: &Model) -> ParsedModel {
     ParsedModel::from_syntax(mechanism(model))
@@ -74,15 +85,16 @@ pub fn mechanism(model: &Model) -> Mechanism {
 
 /// The span of one character at `pos` (kinema-model's columns are 0-based).
 fn span(pos: Pos) -> Span {
-    let line = pos.line as usize;
-    let column = pos.col.saturating_sub(1) as usize;
-    Span::at(
-        LineColumn { line, column },
-        LineColumn {
-            line,
-            column: column + 1,
-        },
-    )
+    pos.span()
+}
+
+/// The tree of a `fun` expression alone, every node at the start of the
+/// text (for printing it: [`crate::fun::Expr::to_kin`]). `e` must have a
+/// node.
+pub(crate) fn fun_expr(e: &fun::Expr) -> Expr {
+    let mut t = Tree::new();
+    let root = t.fun(e, &Fields::default(), "");
+    t.finish(root)
 }
 
 /// A doc comment as the parser keeps `/// text`.
@@ -161,7 +173,7 @@ impl Tree {
         self.call(body_name(bodies, body), at.0, vec![x, y])
     }
 
-    /// A `fun` expression, node for node as [`fun::Expr::to_kin`] prints
+    /// A `fun` expression, node for node as [`fun::Expr::to_kin`] writes
     /// it (`log` → `ln`, `log10(x)` → `ln(x) / ln(10)`, an integer power
     /// → `powi`, another → `pow`), each node at its character of the
     /// `fun` string `key` of `fields`.
@@ -243,7 +255,7 @@ impl Tree {
             .expect("a parsed `fun` has at least one node: its root")
     }
 
-    /// A sum of signed terms as [`crate::emit`] prints it: `a - 1.5 - b`
+    /// A sum of signed terms as the parser reads `a - 1.5 - b`
     /// (numbers fold into the sign), left-associative.
     fn sum(&mut self, terms: Vec<(bool, u32)>, at: Span) -> u32 {
         let mut acc: Option<u32> = None;
@@ -577,4 +589,38 @@ fn rsda_args(
         t.num(theta0, at("theta0")),
         t.fun(fun, &f.fields, "fun"),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rack-and-pinion's constant, printed: numbers fold their sign
+    /// into the sum (`0.5 - 2`, not `0.5 + -2`), a leading negative one is
+    /// negated, and no θ is no term.
+    #[test]
+    fn rack_pinion_constant_folds_signs() {
+        let bodies = ["rack".to_string(), "gear".to_string()];
+        let text = |theta1: f64, theta2: f64| {
+            let kind = ConstraintKind::RackPinion {
+                body1: 0,
+                body2: 1,
+                sp1: [0.0, 0.0],
+                sq1: [2.0, 0.0],
+                sp2: [0.0, -1.0],
+                r2: 0.5,
+                theta1,
+                theta2,
+                fun: None,
+            };
+            let rp = RackPinion::of(&kind, &bodies).expect("a rack-pinion");
+            let mut t = Tree::new();
+            let root = rack_pinion_call(&mut t, &rp, &|_| span(Pos::start()));
+            kinema_model::print::expr(&t.finish(root))
+        };
+        let call = "rack_pinion(rack(0, 0), (2, 0), gear(0, -1), 0.5, 2 + 0.5 * ";
+        assert_eq!(text(-1.5, -2.0), format!("{call}(-1.5 + 2 + 3 * pi / 2))"));
+        assert_eq!(text(0.5, 2.0), format!("{call}(0.5 - 2 + 3 * pi / 2))"));
+        assert_eq!(text(0.0, 0.0), format!("{call}(3 * pi / 2))"));
+    }
 }

@@ -16,11 +16,9 @@
 //! kinematics alone, its forces ignored as before.
 
 use std::collections::HashSet;
-use std::fmt::Write as _;
 
 use crate::adm::{Body, ForceKind, Model};
 use crate::emit::identifier;
-use crate::fun::format_number;
 
 /// True when the model is imported with its dynamics: it has bodies and
 /// every one has a `mass` and a `jbar`.
@@ -31,31 +29,6 @@ pub fn has_dynamics(model: &Model) -> bool {
             .bodies
             .iter()
             .all(|b| b.mass.is_some() && b.jbar.is_some())
-}
-
-/// `, mass: m, inertia: J` for a body of a model with dynamics, and
-/// `, velocity: (ẋ, ẏ, φ̇)` when its `qd0` is stated and not zero.
-pub(crate) fn body_fields(model: &Model, body: &Body) -> String {
-    match (has_dynamics(model), body.mass, body.jbar) {
-        (true, Some(m), Some(j)) => {
-            let mut out = format!(
-                ", mass: {}, inertia: {}",
-                format_number(m),
-                format_number(j)
-            );
-            if let Some([vx, vy, w]) = stated_velocity(model, body) {
-                let _ = write!(
-                    out,
-                    ", velocity: ({}, {}, {})",
-                    format_number(vx),
-                    format_number(vy),
-                    format_number(w)
-                );
-            }
-            out
-        }
-        _ => String::new(),
-    }
 }
 
 /// A body's initial velocity `qd0` as the `.kin` model states it: in a
@@ -100,93 +73,4 @@ pub fn force_names(model: &Model) -> Vec<String> {
             name
         })
         .collect()
-}
-
-/// Writes `gravity` and the force items of a model with dynamics.
-pub(crate) fn emit(out: &mut String, model: &Model, bodies: &[String]) {
-    if !has_dynamics(model) {
-        return;
-    }
-    let body = |i: usize| crate::emit::body_name(bodies, i);
-    let n = format_number;
-    let _ = writeln!(
-        out,
-        "\n    gravity = ({}, {});",
-        n(model.gravity[0]),
-        n(model.gravity[1])
-    );
-    for (f, name) in model.forces.iter().zip(force_names(model)) {
-        // A doc comment documents the item after it: none for a
-        // PointForceFile, which is a plain comment.
-        let doc = if matches!(f.kind, ForceKind::PointForceFile { .. }) {
-            "//"
-        } else {
-            "///"
-        };
-        let _ = writeln!(
-            out,
-            "\n    {doc} force {} \"{}\": {}",
-            f.id,
-            f.name.replace(['\n', '\r'], " "),
-            f.kind.type_name()
-        );
-        let line = match &f.kind {
-            ForceKind::PointForce {
-                body1,
-                sp1,
-                frame,
-                fun_x,
-                fun_y,
-            } => format!(
-                "force {name}: {}({}({}, {}), ({}, {}));",
-                if frame == "GRF" {
-                    "point_force"
-                } else {
-                    "point_force_local"
-                },
-                body(*body1),
-                n(sp1[0]),
-                n(sp1[1]),
-                fun_x.to_kin(),
-                fun_y.to_kin()
-            ),
-            ForceKind::PointForceFile { mfile, .. } => format!(
-                "// not imported: its force comes from the MATLAB function `{mfile}` ({mfile}.m)"
-            ),
-            ForceKind::Torque { body1, fun } => {
-                format!("force {name}: torque({}, {});", body(*body1), fun.to_kin())
-            }
-            ForceKind::Rsda1 {
-                body1,
-                theta0,
-                k,
-                c,
-                fun,
-            } => format!(
-                "force {name}: rsda(ground, {}, {}, {}, {}, {});",
-                body(*body1),
-                n(*k),
-                n(*c),
-                n(*theta0),
-                fun.to_kin()
-            ),
-            ForceKind::Rsda2 {
-                body1,
-                body2,
-                theta0,
-                k,
-                c,
-                fun,
-            } => format!(
-                "force {name}: rsda({}, {}, {}, {}, {}, {});",
-                body(*body1),
-                body(*body2),
-                n(*k),
-                n(*c),
-                n(*theta0),
-                fun.to_kin()
-            ),
-        };
-        let _ = writeln!(out, "    {line}");
-    }
 }

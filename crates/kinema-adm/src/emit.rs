@@ -1,5 +1,6 @@
 //! Prints an ADM model as the equivalent model in kinema's language
-//! (`kinema import model.adm`).
+//! (`kinema import model.adm`): the tree of [`crate::build()`], printed by
+//! kinema-model's printer, after a header; and the identifiers both use.
 //!
 //! Mapping (bodies and equations keep the ADM order, so q and Φ's rows are
 //! the same as the engine's):
@@ -16,12 +17,12 @@
 //! An Absolute* element whose `fun` mentions `t` is a `driver`, otherwise a
 //! `constraint`. Names become identifiers ([`Names`]); each item carries a
 //! `///` doc comment with the original name, id and type. `fun` strings are
-//! translated by [`crate::fun::Expr::to_kin`].
+//! translated node for node ([`crate::fun::Expr::to_kin`] shows the text).
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
 
-use crate::adm::{Constraint, ConstraintKind, Model, Vec2};
+use crate::adm::{ConstraintKind, Model, Vec2};
 use crate::check::ignored_by_kinematics;
 use crate::fun::format_number;
 
@@ -241,7 +242,7 @@ pub(crate) fn normalised(v: Vec2) -> Option<Vec2> {
 }
 
 /// A term of the constant part of the rack-pinion's angle,
-/// θ1 − θ2 + 3π/2, shared by the printer and [`crate::build`].
+/// θ1 − θ2 + 3π/2, shared by the printer and [`crate::build()`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum SumTerm {
     /// A number from field `key`; its sign is the term's (zero: no term).
@@ -333,29 +334,6 @@ impl<'a> RackPinion<'a> {
     }
 }
 
-/// The printed sum of signed terms: numbers are folded into the sign
-/// (`x + -1.5` prints as `x - 1.5`).
-fn sum(terms: &[SumTerm]) -> String {
-    let mut out = String::new();
-    for term in terms {
-        let (negative, text) = match *term {
-            SumTerm::Num(x, _) => (x < 0.0, format_number(x.abs())),
-            SumTerm::ThreePiOverTwo => (false, "3 * pi / 2".to_string()),
-        };
-        match (out.is_empty(), negative) {
-            (true, false) => {}
-            (true, true) => out.push('-'),
-            (false, false) => out.push_str(" + "),
-            (false, true) => out.push_str(" - "),
-        }
-        out.push_str(&text);
-    }
-    if out.is_empty() {
-        out.push('0');
-    }
-    out
-}
-
 /// The doc comment's note on a joint's `fun`, which the engine ignores.
 pub(crate) fn ignored_fun(fun: Option<&str>) -> String {
     match fun {
@@ -367,23 +345,39 @@ pub(crate) fn ignored_fun(fun: Option<&str>) -> String {
     }
 }
 
-/// Prints `model` in kinema's language. The text parses with kinema's model
-/// parser and states the same equations, in the same order, as the engine.
+/// Prints `model` in kinema's language: the parsed form of [`crate::build()`]
+/// (the one translation of an ADM model), printed by kinema-model's
+/// printer ([`kinema_model::print`]), after a header of `//` comments
+/// that says where it comes from and what was left out (a force computed
+/// by a MATLAB function is among what kinematics ignores). The text parses
+/// with kinema's model parser and states the same equations, in the same
+/// order, as the engine.
 ///
 /// ```
-/// let adm = r#"{ "name": "pendulum",
+/// let adm = kinema_adm::Source::new("pendulum.adm", r#"{ "name": "pendulum",
 ///   "bodies": [ { "name": "rod", "id": 1, "q0": [1, 0, 0] } ],
 ///   "constraints": [
 ///     { "name": "x", "id": 1, "type": "AbsoluteX", "body1": 1, "sP1": [-1, 0], "fun": "0" },
 ///     { "name": "y", "id": 2, "type": "AbsoluteY", "body1": 1, "sP1": [-1, 0], "fun": "0" },
-///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#;
-/// let model = kinema_adm::Model::parse(adm, "pendulum.adm").unwrap();
+///     { "name": "swing", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(t)" } ] }"#);
+/// let model = kinema_adm::Model::parse(&adm).unwrap();
 /// let kin = kinema_adm::to_kin(&model);
 /// assert!(kin.contains("driver swing: abs_angle(rod, sin(t));"));
 /// ```
 #[must_use]
 pub fn to_kin(model: &Model) -> String {
-    let names = Names::of(model);
+    let mut out = header(model);
+    out.push_str(&kinema_model::print::mechanism(&crate::build::mechanism(
+        model,
+    )));
+    out
+}
+
+/// The `//` comments before `mechanism`: the model's origin, what its
+/// bodies' numbers become, and what the printed model leaves out (what a
+/// kinematic run ignores, PointForceFile forces included, and a vis point
+/// that is not finite).
+fn header(model: &Model) -> String {
     let mut out = String::new();
     let file = std::path::Path::new(&model.file)
         .file_name()
@@ -419,176 +413,27 @@ pub fn to_kin(model: &Model) -> String {
             let _ = writeln!(out, "//   {}", comment_text(line));
         }
     }
-    let _ = writeln!(out, "mechanism {} {{", names.mechanism);
-    for (body, ident) in model.bodies.iter().zip(&names.bodies) {
-        let _ = writeln!(
-            out,
-            "    /// body {} \"{}\"",
-            body.id,
-            comment_text(&body.name)
-        );
-        let [x, y, phi] = body.q0;
-        let _ = writeln!(
-            out,
-            "    body {ident} {{ guess: ({}, {}, {}){} }}",
-            format_number(x),
-            format_number(y),
-            format_number(phi),
-            crate::dynamics::body_fields(model, body)
-        );
-        emit_vis_points(&mut out, body, ident);
-    }
-    for (c, idents) in model.constraints.iter().zip(&names.constraints) {
-        out.push('\n');
-        emit_constraint(&mut out, c, idents, &names.bodies);
-    }
-    crate::dynamics::emit(&mut out, model, &names.bodies);
-    out.push_str("}\n");
-    out
-}
-
-/// A body's `vis.points` (the engine traced them with `plotPoint`) as
-/// named points `p1`, `p2`, … in declaration order, so that their paths,
-/// velocities and accelerations are results of `kinema run`. A point that
-/// is not finite (a JSON number that overflowed) is left out, with a
-/// comment.
-fn emit_vis_points(out: &mut String, body: &crate::adm::Body, ident: &str) {
-    let Some(vis) = &body.vis else { return };
-    for (k, &p) in vis.points.iter().enumerate() {
-        if p.iter().all(|v| v.is_finite()) {
-            let _ = writeln!(out, "    /// vis point {}", k + 1);
-            let _ = writeln!(out, "    point {ident}.p{} = {};", k + 1, pair(p));
-        } else {
-            let _ = writeln!(out, "    // vis point {} left out: it is not finite", k + 1);
+    // What the syntax tree cannot hold: comments that document no item.
+    for body in &model.bodies {
+        let points = body.vis.as_ref().map_or(&[][..], |v| &v.points[..]);
+        for (k, p) in points.iter().enumerate() {
+            if !p.iter().all(|v| v.is_finite()) {
+                let _ = writeln!(
+                    out,
+                    "// vis point {} of body {} \"{}\" left out: it is not finite",
+                    k + 1,
+                    body.id,
+                    comment_text(&body.name)
+                );
+            }
         }
     }
+    out
 }
 
 /// The identifier of body `i`; `ground` for an index out of range.
 pub(crate) fn body_name(bodies: &[String], i: usize) -> &str {
     bodies.get(i).map_or("ground", String::as_str)
-}
-
-/// `B(sx, sy)`: the point `s` of body `i` (see [`body_name`]).
-fn point_text(bodies: &[String], i: usize, s: Vec2) -> String {
-    format!(
-        "{}({}, {})",
-        body_name(bodies, i),
-        format_number(s[0]),
-        format_number(s[1])
-    )
-}
-
-fn emit_constraint(out: &mut String, c: &Constraint, idents: &[String], bodies: &[String]) {
-    let body = |i: usize| body_name(bodies, i);
-    let point = |i: usize, s: Vec2| point_text(bodies, i, s);
-    let name = idents.first().map_or("c", String::as_str);
-    let head = format!(
-        "    /// constraint {} \"{}\": {}",
-        c.id,
-        comment_text(&c.name),
-        c.kind.type_name()
-    );
-    let ignored_fun = |fun: &Option<String>| ignored_fun(fun.as_deref());
-    match &c.kind {
-        ConstraintKind::AbsoluteX { body1, sp1, fun }
-        | ConstraintKind::AbsoluteY { body1, sp1, fun } => {
-            let f = if matches!(c.kind, ConstraintKind::AbsoluteX { .. }) {
-                "abs_x"
-            } else {
-                "abs_y"
-            };
-            let keyword = if fun.mentions_t() {
-                "driver"
-            } else {
-                "constraint"
-            };
-            let _ = writeln!(out, "{head}, fun \"{}\"", comment_text(fun.text()));
-            let _ = writeln!(
-                out,
-                "    {keyword} {name}: {f}({}, {});",
-                point(*body1, *sp1),
-                fun.to_kin()
-            );
-        }
-        ConstraintKind::AbsoluteAngle { body1, fun } => {
-            let keyword = if fun.mentions_t() {
-                "driver"
-            } else {
-                "constraint"
-            };
-            let _ = writeln!(out, "{head}, fun \"{}\"", comment_text(fun.text()));
-            let _ = writeln!(
-                out,
-                "    {keyword} {name}: abs_angle({}, {});",
-                body(*body1),
-                fun.to_kin()
-            );
-        }
-        ConstraintKind::Revolute {
-            body1,
-            sp1,
-            body2,
-            sp2,
-            fun,
-        } => {
-            let _ = writeln!(out, "{head}{}", ignored_fun(fun));
-            let _ = writeln!(
-                out,
-                "    joint {name}: revolute({}, {});",
-                point(*body1, *sp1),
-                point(*body2, *sp2)
-            );
-        }
-        ConstraintKind::Translational {
-            body1,
-            sp1,
-            vp1,
-            body2,
-            sp2,
-            vp2,
-            fun,
-        } => {
-            let _ = writeln!(
-                out,
-                "{head}, directions vP1 = {} and vP2 = {} normalised{}",
-                pair(*vp1),
-                pair(*vp2),
-                ignored_fun(fun)
-            );
-            let _ = writeln!(
-                out,
-                "    joint {name}: translational({}, {}, {}, {});",
-                point(*body1, *sp1),
-                pair(normalised(*vp1).unwrap_or(*vp1)),
-                point(*body2, *sp2),
-                pair(normalised(*vp2).unwrap_or(*vp2))
-            );
-        }
-        ConstraintKind::RackPinion { .. } => {
-            if let Some(rp) = RackPinion::of(&c.kind, bodies) {
-                emit_rack_pinion(out, &rp, &head, idents);
-            }
-        }
-    }
-}
-
-/// A RackPinion as kinema's library element (see [`RackPinion`]).
-fn emit_rack_pinion(out: &mut String, rp: &RackPinion<'_>, head: &str, idents: &[String]) {
-    let point = |i: usize, s: Vec2| point_text(rp.bodies, i, s);
-    let name = idents.first().map_or("c", String::as_str);
-    let _ = writeln!(out, "{head} {}{}", rp.doc(), ignored_fun(rp.fun.as_deref()));
-    let _ = writeln!(
-        out,
-        "    constraint {name}: rack_pinion({}, {}, {}, {}, {} + {} * ({}));",
-        point(rp.rack, rp.sp1),
-        pair(rp.u),
-        point(rp.pinion, rp.sp2),
-        format_number(rp.r2),
-        format_number(rp.length),
-        format_number(rp.r2),
-        sum(&rp.angle_terms())
-    );
 }
 
 #[cfg(test)]
@@ -670,22 +515,5 @@ mod tests {
         assert!((length([3e-200, 4e-200]) / 5e-200 - 1.0).abs() < 1e-15);
         assert_eq!(length([5e-324, 0.0]), 5e-324);
         assert!(length([f64::MAX, f64::MAX]).is_infinite());
-    }
-
-    #[test]
-    fn sums_fold_signs() {
-        assert_eq!(
-            sum(&[
-                SumTerm::Num(-1.5, "theta1"),
-                SumTerm::Num(2.0, "theta2"),
-                SumTerm::ThreePiOverTwo,
-            ]),
-            "-1.5 + 2 + 3 * pi / 2"
-        );
-        assert_eq!(sum(&[]), "0");
-        assert_eq!(
-            sum(&[SumTerm::Num(0.5, "theta1"), SumTerm::Num(-2.0, "theta2")]),
-            "0.5 - 2"
-        );
     }
 }

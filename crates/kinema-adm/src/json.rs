@@ -11,8 +11,10 @@
 //! Nesting is limited to [`MAX_DEPTH`] levels, so the recursive descent is
 //! bounded; no input makes the reader panic.
 
-use crate::error::{Diagnostic, Pos, Source};
+use kinema_model::Diagnostics;
+
 use crate::fun::Expr;
+use crate::pos::Pos;
 
 /// The deepest nesting of arrays and objects accepted.
 pub const MAX_DEPTH: usize = 64;
@@ -138,13 +140,26 @@ impl Value {
 /// Parses a whole JSON text.
 ///
 /// # Errors
-/// A [`Diagnostic`] at the first syntax error, saying what was expected.
-pub fn parse(source: &Source<'_>) -> Result<Value, Diagnostic> {
+/// One diagnostic, at the first syntax error, saying what was expected.
+pub fn parse(text: &str) -> Result<Value, Diagnostics> {
+    read(text).map_err(|e| {
+        let mut one = Diagnostics::new();
+        one.push(e.pos.error(e.message));
+        one
+    })
+}
+
+/// A syntax error: where and what (made a diagnostic once, by [`parse`]).
+struct Error {
+    pos: Pos,
+    message: String,
+}
+
+fn read(text: &str) -> Result<Value, Error> {
     let mut r = Reader {
-        chars: source.text().chars().collect(),
+        chars: text.chars().collect(),
         i: 0,
         pos: Pos::start(),
-        source,
     };
     if r.peek() == Some('\u{feff}') {
         r.bump();
@@ -164,14 +179,13 @@ pub fn parse(source: &Source<'_>) -> Result<Value, Diagnostic> {
     Ok(v)
 }
 
-struct Reader<'s> {
+struct Reader {
     chars: Vec<char>,
     i: usize,
     pos: Pos,
-    source: &'s Source<'s>,
 }
 
-impl Reader<'_> {
+impl Reader {
     fn peek(&self) -> Option<char> {
         self.chars.get(self.i).copied()
     }
@@ -189,11 +203,14 @@ impl Reader<'_> {
         }
     }
 
-    fn error_at(&self, pos: Pos, message: impl Into<String>) -> Diagnostic {
-        self.source.diagnostic(pos, message)
+    fn error_at(&self, pos: Pos, message: impl Into<String>) -> Error {
+        Error {
+            pos,
+            message: message.into(),
+        }
     }
 
-    fn error_here(&self, message: impl Into<String>) -> Diagnostic {
+    fn error_here(&self, message: impl Into<String>) -> Error {
         self.error_at(self.pos, message)
     }
 
@@ -212,7 +229,7 @@ impl Reader<'_> {
         }
     }
 
-    fn value(&mut self, depth: usize) -> Result<Value, Diagnostic> {
+    fn value(&mut self, depth: usize) -> Result<Value, Error> {
         let pos = self.pos;
         match self.peek() {
             Some('{') => self.object(depth),
@@ -251,7 +268,7 @@ impl Reader<'_> {
     /// A number, possibly written as arithmetic: everything up to the next
     /// `,` `]` `}` (outside parentheses) is evaluated as a constant
     /// expression of the `fun` language.
-    fn number(&mut self) -> Result<Value, Diagnostic> {
+    fn number(&mut self) -> Result<Value, Error> {
         let start = self.pos;
         let mut depth = 0usize;
         let mut end = self.i;
@@ -292,7 +309,7 @@ impl Reader<'_> {
         }
     }
 
-    fn string(&mut self) -> Result<Str, Diagnostic> {
+    fn string(&mut self) -> Result<Str, Error> {
         let open = self.pos;
         self.bump(); // opening quote
         let mut text = String::new();
@@ -351,7 +368,7 @@ impl Reader<'_> {
         }
     }
 
-    fn hex4(&mut self, at: Pos) -> Result<u32, Diagnostic> {
+    fn hex4(&mut self, at: Pos) -> Result<u32, Error> {
         let mut v = 0u32;
         for _ in 0..4 {
             let d = self.peek().and_then(|c| c.to_digit(16)).ok_or_else(|| {
@@ -363,7 +380,7 @@ impl Reader<'_> {
         Ok(v)
     }
 
-    fn enter(&self, depth: usize) -> Result<usize, Diagnostic> {
+    fn enter(&self, depth: usize) -> Result<usize, Error> {
         if depth >= MAX_DEPTH {
             Err(self.error_here(format!(
                 "nesting too deep (more than {MAX_DEPTH} levels of arrays and objects)"
@@ -373,7 +390,7 @@ impl Reader<'_> {
         }
     }
 
-    fn array(&mut self, depth: usize) -> Result<Value, Diagnostic> {
+    fn array(&mut self, depth: usize) -> Result<Value, Error> {
         let pos = self.pos;
         let depth = self.enter(depth)?;
         self.bump(); // [
@@ -417,7 +434,7 @@ impl Reader<'_> {
         }
     }
 
-    fn object(&mut self, depth: usize) -> Result<Value, Diagnostic> {
+    fn object(&mut self, depth: usize) -> Result<Value, Error> {
         let pos = self.pos;
         let depth = self.enter(depth)?;
         self.bump(); // {
@@ -499,8 +516,8 @@ impl Reader<'_> {
 mod tests {
     use super::*;
 
-    fn p(text: &str) -> Result<Value, Diagnostic> {
-        parse(&Source::new("t.json", text))
+    fn p(text: &str) -> Result<Value, Box<kinema_model::Diagnostic>> {
+        parse(text).map_err(|d| Box::new(d.into_iter().next().expect("one diagnostic")))
     }
 
     #[test]
@@ -538,7 +555,8 @@ mod tests {
     #[test]
     fn errors_have_positions() {
         let e = p("{\"a\": [1, 2}").expect_err("bad");
-        assert_eq!(e.pos.map(|p| (p.line, p.col)), Some((1, 12)));
+        let start = e.span.start();
+        assert_eq!((start.line, start.column + 1), (1, 12));
         let e = p("{\"a\": 1/0}").expect_err("bad");
         assert!(e.message.contains("finite"), "{}", e.message);
         let e = p("{\"a\": 1 2}").expect_err("bad");

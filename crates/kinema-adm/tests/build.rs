@@ -7,7 +7,7 @@
 
 mod common;
 
-use kinema_adm::{Model, build, to_kin};
+use kinema_adm::{Model, Source, build, parsed, to_kin};
 use kinema_model::{Derivation, ParsedModel};
 
 /// The derivation of `model` both ways: everything it holds (the arena,
@@ -41,7 +41,7 @@ fn built_and_printed_models_derive_the_same() {
         "translational.adm",
         "free_pendulum.adm",
     ] {
-        let m = Model::parse(&common::read(name), name).unwrap();
+        let m = Model::parse(&common::source(name)).unwrap();
         same_derivation(name, &m);
     }
 }
@@ -54,7 +54,7 @@ fn real_files_build_as_they_print() {
     };
     let mut dynamic = 0;
     for path in &paths {
-        let m = Model::read(path).unwrap();
+        let m = Model::read(path).unwrap().0;
         dynamic += usize::from(kinema_adm::dynamics::has_dynamics(&m));
         same_derivation(&path.display().to_string(), &m);
     }
@@ -87,7 +87,7 @@ fn every_fun_node_builds_as_it_prints() {
     { "name": "spring", "id": 4, "type": "RSDA1", "body1": 2, "k": 10, "c": 0.5, "theta0": -0.1, "fun": "0" },
     { "name": "spring 2", "id": 5, "type": "RSDA2", "body1": 1, "body2": 2, "k": 3, "c": 0, "theta0": 0.2, "fun": "sqrt(1 + t)" } ]
 }"#;
-    let m = Model::parse(adm, "funs.adm").unwrap();
+    let m = Model::parse(&Source::new("funs.adm", adm)).unwrap();
     assert!(kinema_adm::dynamics::has_dynamics(&m));
     same_derivation("funs.adm", &m);
 }
@@ -109,9 +109,11 @@ fn model_errors_point_into_the_adm_file() {
     { "name": "big", "id": 3, "type": "AbsoluteAngle", "body1": 1, "fun": "sin(sin(sin(sin(t))))" }
   ]
 }"#;
-    let m = Model::parse(adm, "grounded.adm").unwrap();
-    let checked = build(&m).check().unwrap();
-    let d = Derivation::with_budget(&checked, 20).unwrap_err();
+    let source = Source::new("grounded.adm", adm);
+    let m = Model::parse(&source).unwrap();
+    let checked = parsed(&m, source).check().unwrap();
+    assert_eq!(checked.source().name(), "grounded.adm");
+    let d = Derivation::with_budget(checked.model(), 20).unwrap_err();
     let text = d.render(adm, "grounded.adm");
     println!("{text}");
     // `"big"`: line 7, column 15 (1-based).

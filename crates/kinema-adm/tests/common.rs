@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+use kinema_adm::Source;
+
 /// The crate's own test files.
 pub fn data(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -13,6 +15,20 @@ pub fn data(name: &str) -> PathBuf {
 /// so snapshots do not depend on where the repository is.
 pub fn read(name: &str) -> String {
     std::fs::read_to_string(data(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// A test file as a source named by its name.
+#[allow(dead_code, reason = "not every test parses the crate's files")]
+pub fn source(name: &str) -> Source {
+    Source::new(name, read(name))
+}
+
+/// `diagnostics` rendered against `source`, as the command line shows them.
+#[allow(dead_code, reason = "not every test renders diagnostics")]
+pub fn render(source: &Source, diagnostics: kinema_adm::Diagnostics) -> String {
+    diagnostics
+        .report(std::sync::Arc::new(source.clone()))
+        .render()
 }
 
 /// The `.adm` files of `shared/simengine2d` (beside the repository, or

@@ -5,10 +5,11 @@
 
 mod common;
 
-use kinema_adm::{Analysis, ConstraintKind, ForceKind, Model, check_kinematic, to_kin};
+use kinema_adm::{Analysis, ConstraintKind, ForceKind, Model, Source, check_kinematic, to_kin};
 
 fn model(name: &str) -> Model {
-    Model::parse(&common::read(name), name).unwrap_or_else(|e| panic!("{e}"))
+    let source = common::source(name);
+    Model::parse(&source).unwrap_or_else(|e| panic!("{}", common::render(&source, e)))
 }
 
 #[test]
@@ -91,7 +92,7 @@ fn names_are_identifiers_and_unique() {
         { "name": "g", "id": 3, "type": "RackPinion", "body1": 1, "body2": 3, "sP1": [0, 0],
           "sQ1": [1, 0], "sP2": [0, 0], "R2": 1, "theta1": 0, "theta2": 0, "fun": "NONE" },
         { "name": "g_1", "id": 4, "type": "AbsoluteAngle", "body1": 3, "fun": "0" } ] }"#;
-    let m = Model::parse(text, "names.adm").unwrap();
+    let m = Model::parse(&Source::new("names.adm", text)).unwrap();
     let names = kinema_adm::Names::of(&m);
     assert_eq!(names.mechanism, "Names");
     assert_eq!(names.bodies, ["Long_Rod", "Long_Rod_2", "ground_"]);
@@ -141,27 +142,29 @@ fn names_are_identifiers_and_unique() {
 fn constraint_ids_are_labels_with_a_warning() {
     let text = r#"{ "bodies": [ { "name": "a", "id": 1, "q0": [0, 0, 0] } ],
       "constraints": [ { "name": "x", "id": 7, "type": "AbsoluteX", "body1": 1, "sP1": [0, 0], "fun": "0" } ] }"#;
-    let m = Model::parse(text, "ids.adm").unwrap();
+    let source = Source::new("ids.adm", text);
+    let m = Model::parse(&source).unwrap();
     assert_eq!(m.name, "model");
     assert_eq!(m.gravity, [0.0, -9.81]);
-    insta::assert_snapshot!("id_warning", m.warnings[0].to_string());
+    assert_eq!(m.warnings.len(), 1);
+    insta::assert_snapshot!("id_warning", common::render(&source, m.warnings));
 }
 
 #[test]
 fn crlf_line_endings() {
     let text = common::read("free_pendulum.adm").replace('\n', "\r\n");
-    let m = Model::parse(&text, "crlf.adm").unwrap();
+    let m = Model::parse(&Source::new("crlf.adm", text.as_str())).unwrap();
     assert_eq!(m.constraints.len(), 2);
 }
 
 #[test]
 fn analyses() {
-    let a = Analysis::parse(&common::read("kinematics.acf"), "kinematics.acf").unwrap();
+    let a = Analysis::parse(&common::source("kinematics.acf")).unwrap();
     assert_eq!(a.output_times().len(), 41);
     assert_eq!(a.output_times()[1], 0.05);
-    let p = Analysis::parse(&common::read("plain.acf"), "plain.acf").unwrap();
+    let p = Analysis::parse(&common::source("plain.acf")).unwrap();
     assert_eq!((p.tend, p.step_size, p.output_steps), (1.0, 0.005, 20));
-    let d = Analysis::parse(&common::read("dynamics.acf"), "dynamics.acf").unwrap();
+    let d = Analysis::parse(&common::source("dynamics.acf")).unwrap();
     assert_eq!(d.simulation, kinema_adm::Simulation::Dynamics);
     assert_eq!(Analysis::read(&common::data("plain.acf")).unwrap(), p);
 }

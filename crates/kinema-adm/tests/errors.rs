@@ -4,12 +4,15 @@
 
 mod common;
 
-use kinema_adm::{Analysis, Model, check_kinematic};
+use kinema_adm::{Analysis, Model, Source, check_kinematic};
 
+/// The errors of the crate's file `name`, rendered as the command line
+/// shows them.
 fn error(name: &str) -> String {
-    match Model::parse(&common::read(name), name) {
+    let source = common::source(name);
+    match Model::parse(&source) {
         Ok(_) => panic!("{name} was accepted"),
-        Err(e) => e.to_string(),
+        Err(e) => common::render(&source, e),
     }
 }
 
@@ -85,19 +88,21 @@ fn missing_and_malformed_fields() {
 #[test]
 fn unreadable_file() {
     let e = Model::read(std::path::Path::new("no/such/model.adm")).unwrap_err();
+    let e = e.render();
     assert!(
-        e.to_string()
-            .starts_with("no/such/model.adm: cannot read the file")
+        e.starts_with("error: cannot read model file `no/such/model.adm`: "),
+        "{e}"
     );
+    assert!(e.contains(" --> no/such/model.adm\n"), "{e}");
 }
 
 #[test]
 fn refusals() {
-    let free = Model::parse(&common::read("free_pendulum.adm"), "free_pendulum.adm").unwrap();
+    let free = Model::parse(&common::source("free_pendulum.adm")).unwrap();
     let refusal = check_kinematic(&free, &Analysis::default()).unwrap_err();
     insta::assert_snapshot!("refuse_ndof", refusal.to_string());
-    let crank = Model::parse(&common::read("slider_crank.adm"), "slider_crank.adm").unwrap();
-    let dynamics = Analysis::parse(&common::read("dynamics.acf"), "dynamics.acf").unwrap();
+    let crank = Model::parse(&common::source("slider_crank.adm")).unwrap();
+    let dynamics = Analysis::parse(&common::source("dynamics.acf")).unwrap();
     let refusal = check_kinematic(&crank, &dynamics).unwrap_err();
     insta::assert_snapshot!("refuse_dynamics", refusal.to_string());
 }
@@ -110,8 +115,8 @@ fn garbage_never_panics() {
     let chars: Vec<char> = text.chars().collect();
     for end in 0..chars.len() {
         let prefix: String = chars[..end].iter().collect();
-        let _ = Model::parse(&prefix, "prefix.adm");
-        let _ = Analysis::parse(&prefix, "prefix.acf");
+        let _ = Model::parse(&Source::new("prefix.adm", prefix.as_str()));
+        let _ = Analysis::parse(&Source::new("prefix.acf", prefix.as_str()));
     }
     for (i, c) in chars.iter().enumerate().step_by(3) {
         for replacement in ['"', '{', ']', ',', '^', '(', '\\', 'é', '\t'] {
@@ -121,8 +126,9 @@ fn garbage_never_panics() {
             let mut damaged = chars.clone();
             damaged[i] = replacement;
             let damaged: String = damaged.into_iter().collect();
-            if let Err(e) = Model::parse(&damaged, "damaged.adm") {
-                assert!(!e.to_string().is_empty());
+            let source = Source::new("damaged.adm", damaged);
+            if let Err(e) = Model::parse(&source) {
+                assert!(!common::render(&source, e).is_empty());
             }
         }
     }
@@ -140,9 +146,10 @@ fn negative_mass_or_inertia() {
         let start = at + needle.len() + text[at + needle.len()..].find(':').unwrap() + 1;
         let end = start + text[start..].find([',', '\n', '}']).unwrap();
         let edited = format!("{} {bad}{}", &text[..start], &text[end..]);
-        let e = match Model::parse(&edited, "bad_inertia.adm") {
+        let source = Source::new("bad_inertia.adm", edited);
+        let e = match Model::parse(&source) {
             Ok(_) => panic!("{field} = {bad} was accepted"),
-            Err(e) => e.to_string(),
+            Err(e) => common::render(&source, e),
         };
         assert!(
             e.contains(&format!("field \"{field}\": expected a finite number ≥ 0")),

@@ -77,7 +77,7 @@ fn every_adm_parses_counts_and_emits() {
     assert!(!adms.is_empty());
     for path in &adms {
         let name = stem(path);
-        let model = Model::read(path).unwrap_or_else(|e| panic!("{e}"));
+        let model = Model::read(path).unwrap_or_else(|e| panic!("{e}")).0;
         assert!(model.warnings.is_empty(), "{name}: {:?}", model.warnings);
         let counts = Counts::of(&model);
         let expected = COUNTS
@@ -142,7 +142,7 @@ fn every_acf_parses() {
 fn details_of_the_real_files() {
     let Some(dir) = folder() else { return };
     // Arithmetic where JSON wants a number.
-    let shuriken = Model::read(&dir.join("shurikenCatapult.adm")).unwrap();
+    let shuriken = Model::read(&dir.join("shurikenCatapult.adm")).unwrap().0;
     let bg = shuriken.vis.as_ref().unwrap().bg_rgb.unwrap();
     assert_eq!(bg, [187.0 / 255.0, 98.0 / 255.0, 0.0]);
     assert_eq!(shuriken.ignored_keys, ["contacts"]);
@@ -160,7 +160,7 @@ fn details_of_the_real_files() {
     );
 
     // RackPinion as one library element, the offsets as written.
-    let rp = Model::read(&dir.join("rack_pinion.adm")).unwrap();
+    let rp = Model::read(&dir.join("rack_pinion.adm")).unwrap().0;
     let kin = to_kin(&rp);
     assert!(
         kin.contains(
@@ -175,7 +175,7 @@ fn details_of_the_real_files() {
     assert_eq!(fun.eval(0.3), (10.0f64 * 0.3).sin());
 
     // Drivers and constraints.
-    let sc = Model::read(&dir.join("sliderCrankKIN.adm")).unwrap();
+    let sc = Model::read(&dir.join("sliderCrankKIN.adm")).unwrap().0;
     let kin = to_kin(&sc);
     assert!(
         kin.contains("driver absAngleDriver_crank: abs_angle(crank, powi(t, 2));"),
@@ -185,11 +185,11 @@ fn details_of_the_real_files() {
         kin.contains("constraint absAngle_slider: abs_angle(slider, 0);"),
         "{kin}"
     );
-    let rod = Model::read(&dir.join("rodDYN.adm")).unwrap();
+    let rod = Model::read(&dir.join("rodDYN.adm")).unwrap().0;
     assert!(to_kin(&rod).contains("driver driver: abs_angle(pend, t + pi / 6);"));
 
     // A dynamics model's forces are imported, but for its PointForceFile.
-    let p2 = Model::read(&dir.join("project2.adm")).unwrap();
+    let p2 = Model::read(&dir.join("project2.adm")).unwrap().0;
     let ignored = kinema_adm::ignored_by_kinematics(&p2);
     assert_eq!(ignored.len(), 1, "{ignored:?}");
     assert!(ignored[0].contains("\"force\" (id 1, PointForceFile)"));

@@ -496,7 +496,7 @@ fn run_adm(
 
 /// ‖Φ(q, t)‖∞ at every row of a CSV, with the system of the ADM model.
 fn worst_residual(adm: &Path, csv: &Csv) -> Result<f64, Box<dyn std::error::Error>> {
-    let model = kinema_adm::Model::read(adm)?;
+    let model = kinema_adm::Model::read(adm)?.0;
     let kin = kinema::Model::from_source(&kinema_adm::to_kin(&model), "imported.kin")?;
     let system = kin.system();
     let n = system.len();
@@ -750,7 +750,7 @@ fn adm_import_prints_kin_text() -> TestResult {
     let adm = format!("{ADM_DATA}/slider_crank.adm");
     let o = kinema(&["import", &adm]);
     assert_status(&o, 0);
-    let model = kinema_adm::Model::read(Path::new(ROOT).join(&adm).as_path())?;
+    let model = kinema_adm::Model::read(Path::new(ROOT).join(&adm).as_path())?.0;
     assert_eq!(stdout(&o).trim_end(), kinema_adm::to_kin(&model).trim_end());
     // What it prints is a model kinema runs.
     kinema::Model::from_source(&stdout(&o), "imported.kin")?;
@@ -868,7 +868,7 @@ fn real_simengine2d_models() -> TestResult {
         } else {
             dir.join("kinematics.acf")
         };
-        let model = kinema_adm::Model::read(adm)?;
+        let model = kinema_adm::Model::read(adm)?.0;
         let analysis = kinema_adm::Analysis::read(&acf)?;
         let (adm_s, acf_s, out) = (
             adm.display().to_string(),

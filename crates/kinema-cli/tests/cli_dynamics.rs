@@ -94,7 +94,7 @@ fn driven_simengine2d_files_balance_power() -> TestResult {
     let kinematics = kinema_adm::Analysis::read(&dir.join("kinematics.acf"))?;
     let mut ran = Vec::new();
     for adm in &files {
-        let model = Model::read(adm)?;
+        let model = Model::read(adm)?.0;
         // Driven: NDOF = 0 (a Kinematics analysis of it runs).
         if kinema_adm::check_kinematic(&model, &kinematics).is_err()
             || !kinema_adm::dynamics::point_force_files(&model).is_empty()
@@ -352,7 +352,7 @@ fn rack_and_pinion_reaction_is_one_element() -> TestResult {
     let acf = format!("{ROOT}/crates/kinema-adm/tests/data/kinematics.acf");
     for file in ["rack_pinion", "rack_pinion_tilting"] {
         let adm = format!("{ROOT}/crates/kinema-adm/tests/data/{file}.adm");
-        let model = Model::read(Path::new(&adm))?;
+        let model = Model::read(Path::new(&adm))?.0;
         let out = tmp.path(&format!("{file}.csv"));
         let o = kinema(&["run", &adm, "--acf", &acf, "--out", &out]);
         assert_status(&o, 0);

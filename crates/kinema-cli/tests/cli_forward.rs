@@ -62,7 +62,7 @@ fn every_simengine2d_model_with_inertia_runs_its_dynamics_acf() -> TestResult {
         .collect();
     names.sort();
     for adm in names {
-        let Ok(model) = kinema_adm::Model::read(&adm) else {
+        let Ok((model, _)) = kinema_adm::Model::read(&adm) else {
             continue;
         };
         let inertia = !model.bodies.is_empty()

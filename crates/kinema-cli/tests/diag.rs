@@ -49,7 +49,7 @@ fn invalid_utf8_is_located() {
     let o = m.check();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    // The CLI reads through kinema_adm::read_text (size cap); its message
+    // The CLI reads through kinema_model::Source::read (size cap); its message
     // gives the byte, line and column.
     assert!(err.to_lowercase().contains("byte 0xe9"), "{err}");
     assert!(err.contains("line 3, column 33"), "{err}");

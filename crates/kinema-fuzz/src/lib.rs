@@ -521,25 +521,27 @@ pub fn adm(data: &[u8]) -> Result<Reach, Finding> {
             let Some(acf_text) = text(bytes) else {
                 return Ok(Reach::Parse);
             };
-            match kinema_adm::Analysis::parse(acf_text, "fuzz.acf") {
+            let source = kinema_model::Source::new("fuzz.acf", acf_text);
+            match kinema_adm::Analysis::parse(&source) {
                 Ok(a) => a,
                 Err(e) => {
-                    check_error_size(&e.to_string(), bytes.len())?;
+                    let rendered = e.report(source.into()).render();
+                    check_error_size(&rendered, bytes.len())?;
                     return Ok(Reach::Parse);
                 }
             }
         }
     };
-    let model = match kinema_adm::Model::parse(adm_text, "fuzz.adm") {
+    let source = kinema_model::Source::new("fuzz.adm", adm_text);
+    let model = match kinema_adm::Model::parse(&source) {
         Ok(m) => m,
         Err(e) => {
-            check_error_size(&e.to_string(), adm_bytes.len())?;
+            let rendered = e.report(source.into()).render();
+            check_error_size(&rendered, adm_bytes.len())?;
             return Ok(Reach::Parse);
         }
     };
-    for w in &model.warnings {
-        let _ = w.to_string();
-    }
+    let _ = model.warnings.report(source.into()).render();
     let _ = kinema_adm::ignored_by_kinematics(&model);
     let _ = model.q0();
     if let Err(refusal) = kinema_adm::check_kinematic(&model, &analysis) {

@@ -146,7 +146,7 @@ fn show_adm_parse_errors() {
     for _ in 0..60 {
         let text = generate::adm::generate(&mut rng);
         let adm = text.split('\0').next().unwrap();
-        if let Err(e) = kinema_adm::Model::parse(adm, "x.adm") {
+        if let Err(e) = kinema_adm::Model::parse(&kinema_model::Source::new("x.adm", adm)) {
             println!("{}", e.to_string().lines().next().unwrap());
         }
     }

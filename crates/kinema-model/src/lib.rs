@@ -179,6 +179,7 @@ mod library;
 pub mod linkage;
 pub mod outputs;
 mod points;
+pub mod print;
 mod render;
 pub mod source;
 pub mod span;

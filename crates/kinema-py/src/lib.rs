@@ -92,8 +92,37 @@ fn model_error(py: Python<'_>, e: &kinema::ModelError) -> PyErr {
     err
 }
 
-/// A Python `ModelError` with one message that concerns the whole file
-/// (or an ADM file's diagnostics, rendered by kinema-adm).
+/// A Python `ModelError` of a report (a file that cannot be read, an ADM or
+/// ACF file's mistakes): every diagnostic as data, all rendered against the
+/// file.
+fn report_error(py: Python<'_>, report: &kinema_adm::Report) -> PyErr {
+    let diagnostics = report
+        .diagnostics()
+        .iter()
+        .map(|d| {
+            let start = d.span.start();
+            kinema::ModelDiagnostic {
+                is_error: d.severity == kinema_adm::Severity::Error,
+                message: d.message.clone(),
+                // Line 0: about the whole file.
+                at: (start.line > 0).then_some((start.line, start.column + 1)),
+                label: d.label.clone(),
+                help: d.help.clone(),
+            }
+        })
+        .collect();
+    model_error(
+        py,
+        &kinema::ModelError {
+            file: report.source().name().to_owned(),
+            rendered: report.render().trim_end().to_owned(),
+            diagnostics,
+            errors: report.error_count(),
+        },
+    )
+}
+
+/// A Python `ModelError` with one message that concerns the whole file.
 fn file_error(py: Python<'_>, file: &str, message: String, at: Option<(u32, u32)>) -> PyErr {
     model_error(
         py,
@@ -673,43 +702,18 @@ impl NativeModel {
             if acf.is_some() {
                 return Err(value_error("acf= is for simEngine2D .adm models only"));
             }
-            let text = kinema_adm::read_text(&path).map_err(|e| {
-                file_error(
-                    py,
-                    &file,
-                    format!("cannot read model file `{file}`: {e}"),
-                    None,
-                )
-            })?;
+            // The one size cap and UTF-8 rule of model files.
+            let source = kinema_adm::Source::read(&path).map_err(|r| report_error(py, &r))?;
             let model = py
-                .detach(|| kinema::Model::from_source(&text, &file))
+                .detach(|| kinema::Model::from_source(source.text(), &file))
                 .map_err(|e| model_error(py, &e))?;
             return Ok(NativeModel::new(model, file, None));
         }
         let analysis = match &acf {
             None => kinema_adm::Analysis::default(),
-            Some(p) => kinema_adm::Analysis::read(p).map_err(|e| {
-                let first = e.diagnostics().first().and_then(|d| d.pos);
-                file_error(
-                    py,
-                    &p.display().to_string(),
-                    e.to_string(),
-                    first.map(|p| (p.line, p.col)),
-                )
-            })?,
+            Some(p) => kinema_adm::Analysis::read(p).map_err(|r| report_error(py, &r))?,
         };
-        let text = kinema_adm::read_text(&path).map_err(|e| {
-            file_error(
-                py,
-                &file,
-                format!("cannot read model file `{file}`: {e}"),
-                None,
-            )
-        })?;
-        let adm = kinema_adm::Model::parse(&text, &file).map_err(|e| {
-            let first = e.diagnostics().first().and_then(|d| d.pos);
-            file_error(py, &file, e.to_string(), first.map(|p| (p.line, p.col)))
-        })?;
+        let (adm, source) = kinema_adm::Model::read(&path).map_err(|r| report_error(py, &r))?;
         let dynamics = analysis.simulation == kinema_adm::Simulation::Dynamics;
         if dynamics {
             // As `kinema run`: a force the engine computes in MATLAB
@@ -736,8 +740,8 @@ impl NativeModel {
         let parsed = kinema_adm::build(&adm);
         // The syntax tree holds spans that stay on this thread: no detach
         // (an .adm model is small).
-        let model =
-            kinema::Model::from_parsed(parsed, &text, &file).map_err(|e| model_error(py, &e))?;
+        let model = kinema::Model::from_parsed(parsed, source.text(), &file)
+            .map_err(|e| model_error(py, &e))?;
         if dynamics && model.derivation().dynamics.is_none() {
             return Err(KinemaError::new_err(format!(
                 "`{file}` cannot run a Dynamics analysis: it has no inertia (every body needs \

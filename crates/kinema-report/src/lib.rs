@@ -164,9 +164,17 @@ impl Source {
     /// # Errors
     /// As [`Source::read`].
     pub fn read_as(path: &Path, name: &str) -> Result<Source, Report> {
-        let cannot = |why: String| {
-            Report::whole_file(name, format!("cannot read model file `{name}`: {why}"))
-        };
+        Source::read_text(path, name, "model file")
+    }
+
+    /// [`Source::read_as`] for a text that is not a model: `what` names it
+    /// in messages ("cannot read parameter table `params.csv`: …").
+    ///
+    /// # Errors
+    /// As [`Source::read`].
+    pub fn read_text(path: &Path, name: &str, what: &str) -> Result<Source, Report> {
+        let cannot =
+            |why: String| Report::whole_file(name, format!("cannot read {what} `{name}`: {why}"));
         let mut bytes = Vec::new();
         std::fs::File::open(path)
             .and_then(|f| f.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes))

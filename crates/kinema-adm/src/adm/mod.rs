@@ -5,7 +5,11 @@
 //! name and id) and the field:
 //!
 //! ```text
-//! model.adm:40:16: constraint "rev_crank_rod" (id 3): field "body2": body 7 does not exist (the model has 3 bodies)
+//! error: constraint "rev_crank_rod" (id 3): field "body2": body 7 does not exist (the model has 3 bodies)
+//!   --> model.adm:40:16
+//!    |
+//! 40 |       "body2": 7,
+//!    |                ^
 //! ```
 //!
 //! Rules checked: required fields are present and of the right shape; a body's
@@ -22,9 +26,13 @@
 //! listed in [`Model::ignored_keys`]; unknown keys inside elements are
 //! ignored.
 
-use crate::error::{Diagnostic, Error, Pos, Source};
+use std::sync::Arc;
+
+use kinema_model::{Diagnostics, Report, Source};
+
 use crate::fun::Fun;
 use crate::json;
+use crate::pos::Pos;
 
 mod read;
 
@@ -96,9 +104,9 @@ impl Fields {
 }
 
 /// A simEngine2D model read from an ADM file.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Model {
-    /// The file name given to [`Model::parse`].
+    /// The name of the source given to [`Model::parse`].
     pub file: String,
     /// The model's `name` (default "model").
     pub name: String,
@@ -114,8 +122,9 @@ pub struct Model {
     pub forces: Vec<Force>,
     /// Top-level keys the engine ignored (e.g. `contacts`), in file order.
     pub ignored_keys: Vec<String>,
-    /// Warnings: things the engine accepted that look like mistakes.
-    pub warnings: Vec<Diagnostic>,
+    /// Warnings: things the engine accepted that look like mistakes, each
+    /// at its place in the file's text.
+    pub warnings: Diagnostics,
     /// Where the top-level fields are.
     pub fields: Fields,
 }
@@ -420,25 +429,30 @@ const FORCE_TYPES: [&str; 5] = ["PointForce", "PointForceFile", "Torque", "RSDA1
 const TOP_LEVEL_KEYS: [&str; 6] = ["name", "gravity", "vis", "bodies", "constraints", "forces"];
 
 impl Model {
-    /// Reads an ADM model from its JSON text; `file` names it in messages.
+    /// Reads an ADM model from the JSON text of `source` (its name names
+    /// the model's file in messages).
     ///
     /// # Errors
-    /// Every mistake found, each located and naming the element and field.
-    pub fn parse(text: &str, file: &str) -> Result<Model, Error> {
-        let source = Source::new(file, text);
-        let root = json::parse(&source)?;
-        read::read(&source, &root, file)
+    /// Every mistake found, each at its place in the text and naming the
+    /// element and field (render them with a [`Report`] of `source`).
+    pub fn parse(source: &Source) -> Result<Model, Diagnostics> {
+        let root = json::parse(source.text())?;
+        read::read(&root, source.name())
     }
 
-    /// Reads an ADM file.
+    /// Reads the ADM file at `path` ([`Source::read`]: the one size cap and
+    /// UTF-8 rule), then [`Model::parse`]s it; the source is returned with
+    /// the model, for the messages of later phases that point into it.
     ///
     /// # Errors
-    /// The file cannot be read, or [`Model::parse`]'s errors.
-    pub fn read(path: &std::path::Path) -> Result<Model, Error> {
-        let name = path.display().to_string();
-        let text = crate::error::read_text(path)
-            .map_err(|e| Diagnostic::whole_file(&name, e.to_string()))?;
-        Model::parse(&text, &name)
+    /// The file cannot be read, or [`Model::parse`]'s errors, as a report
+    /// against the file.
+    pub fn read(path: &std::path::Path) -> Result<(Model, Source), Report> {
+        let source = Source::read(path)?;
+        match Model::parse(&source) {
+            Ok(model) => Ok((model, source)),
+            Err(diagnostics) => Err(diagnostics.report(Arc::new(source))),
+        }
     }
 
     /// The body names, in order (the names of the file, which may contain

@@ -2,16 +2,17 @@
 //! located and named (see the parent module).
 
 use super::*;
-use crate::error::{Diagnostic, Error, Pos, Source};
+use kinema_model::{Diagnostic, Diagnostics};
+
 use crate::fun::FunError;
 use crate::json::Value;
+use crate::pos::{Pos, in_order};
 
 /// Reads the model from its parsed JSON, collecting every mistake.
-pub(super) fn read(source: &Source<'_>, root: &Value, file: &str) -> Result<Model, Error> {
+pub(super) fn read(root: &Value, file: &str) -> Result<Model, Diagnostics> {
     let mut cx = Cx {
-        src: source,
         diags: Vec::new(),
-        warnings: Vec::new(),
+        warnings: Diagnostics::new(),
     };
     let model = read_model(&mut cx, root, file);
     if cx.diags.is_empty() {
@@ -19,20 +20,19 @@ pub(super) fn read(source: &Source<'_>, root: &Value, file: &str) -> Result<Mode
         model.warnings = cx.warnings;
         Ok(model)
     } else {
-        cx.diags.sort_by_key(|d| d.pos.map(|p| p.offset));
-        Err(Error::new(cx.diags))
+        Err(in_order(cx.diags))
     }
 }
 
-struct Cx<'s> {
-    src: &'s Source<'s>,
+struct Cx {
     diags: Vec<Diagnostic>,
-    warnings: Vec<Diagnostic>,
+    /// In the order found (the order of the file).
+    warnings: Diagnostics,
 }
 
-impl Cx<'_> {
+impl Cx {
     fn err(&mut self, pos: Pos, message: String) {
-        self.diags.push(self.src.diagnostic(pos, message));
+        self.diags.push(pos.error(message));
     }
 }
 
@@ -47,7 +47,7 @@ impl<'v> Elem<'v> {
     /// The `index`-th element of an array of `kind`s (`body`, `constraint`,
     /// `force`): an object, labelled by its name and id; anything else is
     /// reported at its position and gives `None`.
-    fn of_array_item(cx: &mut Cx<'_>, kind: &str, v: &'v Value, index: usize) -> Option<Self> {
+    fn of_array_item(cx: &mut Cx, kind: &str, v: &'v Value, index: usize) -> Option<Self> {
         if v.as_object().is_none() {
             cx.err(
                 v.pos,
@@ -76,7 +76,7 @@ fn plural(n: usize, one: &str, many: &str) -> String {
 }
 
 impl<'v> Elem<'v> {
-    fn field(&self, cx: &mut Cx<'_>, key: &str) -> Option<&'v Value> {
+    fn field(&self, cx: &mut Cx, key: &str) -> Option<&'v Value> {
         let v = self.obj.get(key);
         if v.is_none() {
             let needs = if self.needs.is_empty() {
@@ -92,7 +92,7 @@ impl<'v> Elem<'v> {
         v
     }
 
-    fn wrong(&self, cx: &mut Cx<'_>, key: &str, v: &Value, expected: &str) {
+    fn wrong(&self, cx: &mut Cx, key: &str, v: &Value, expected: &str) {
         cx.err(
             v.pos,
             format!(
@@ -103,7 +103,7 @@ impl<'v> Elem<'v> {
         );
     }
 
-    fn num_of(&self, cx: &mut Cx<'_>, key: &str, v: &Value) -> Option<f64> {
+    fn num_of(&self, cx: &mut Cx, key: &str, v: &Value) -> Option<f64> {
         let x = v.as_f64();
         if x.is_none() {
             self.wrong(cx, key, v, "a number");
@@ -111,7 +111,7 @@ impl<'v> Elem<'v> {
         x
     }
 
-    fn num(&self, cx: &mut Cx<'_>, key: &str) -> Option<f64> {
+    fn num(&self, cx: &mut Cx, key: &str) -> Option<f64> {
         let v = self.field(cx, key)?;
         self.num_of(cx, key, v)
     }
@@ -119,7 +119,7 @@ impl<'v> Elem<'v> {
     /// An optional number that must be finite and ≥ 0 (a mass, an
     /// inertia): the model language's own rule, so that an imported model
     /// never fails to check on it.
-    fn opt_non_negative(&self, cx: &mut Cx<'_>, key: &str) -> Option<f64> {
+    fn opt_non_negative(&self, cx: &mut Cx, key: &str) -> Option<f64> {
         let v = self.obj.get(key)?;
         let x = self.num_of(cx, key, v)?;
         if x.is_finite() && x >= 0.0 {
@@ -135,7 +135,7 @@ impl<'v> Elem<'v> {
         None
     }
 
-    fn array_of<const N: usize>(&self, cx: &mut Cx<'_>, key: &str, v: &Value) -> Option<[f64; N]> {
+    fn array_of<const N: usize>(&self, cx: &mut Cx, key: &str, v: &Value) -> Option<[f64; N]> {
         let expected = format!("an array of {N} numbers");
         let Some(items) = v.as_array() else {
             self.wrong(cx, key, v, &expected);
@@ -173,17 +173,17 @@ impl<'v> Elem<'v> {
         ok.then_some(out)
     }
 
-    fn vec2(&self, cx: &mut Cx<'_>, key: &str) -> Option<Vec2> {
+    fn vec2(&self, cx: &mut Cx, key: &str) -> Option<Vec2> {
         let v = self.field(cx, key)?;
         self.array_of::<2>(cx, key, v)
     }
 
-    fn opt_array<const N: usize>(&self, cx: &mut Cx<'_>, key: &str) -> Option<[f64; N]> {
+    fn opt_array<const N: usize>(&self, cx: &mut Cx, key: &str) -> Option<[f64; N]> {
         let v = self.obj.get(key)?;
         self.array_of::<N>(cx, key, v)
     }
 
-    fn string(&self, cx: &mut Cx<'_>, key: &str) -> Option<&'v Value> {
+    fn string(&self, cx: &mut Cx, key: &str) -> Option<&'v Value> {
         let v = self.field(cx, key)?;
         if v.as_str().is_none() {
             self.wrong(cx, key, v, "a string");
@@ -192,14 +192,14 @@ impl<'v> Elem<'v> {
         Some(v)
     }
 
-    fn text(&self, cx: &mut Cx<'_>, key: &str) -> Option<String> {
+    fn text(&self, cx: &mut Cx, key: &str) -> Option<String> {
         self.string(cx, key)
             .and_then(Value::as_str)
             .map(|s| s.text.clone())
     }
 
     /// A `fun` string as an expression ("NONE" is refused with `why`).
-    fn expr(&self, cx: &mut Cx<'_>, key: &str, none_why: &str) -> Option<crate::fun::Expr> {
+    fn expr(&self, cx: &mut Cx, key: &str, none_why: &str) -> Option<crate::fun::Expr> {
         let v = self.string(cx, key)?;
         let text = v.as_str().map(|s| s.text.as_str()).unwrap_or_default();
         match Fun::parse(text) {
@@ -263,7 +263,7 @@ impl<'v> Elem<'v> {
             .map(|s| s.text.clone())
     }
 
-    fn positive_int(&self, cx: &mut Cx<'_>, key: &str, v: &Value) -> Option<usize> {
+    fn positive_int(&self, cx: &mut Cx, key: &str, v: &Value) -> Option<usize> {
         match v.as_f64() {
             Some(x) if x >= 1.0 && x.fract() == 0.0 && x <= 1e9 => Some(x as usize),
             Some(x) => {
@@ -285,7 +285,7 @@ impl<'v> Elem<'v> {
     }
 
     /// `body1`/`body2`: a 1-based body number, returned 0-based.
-    fn body(&self, cx: &mut Cx<'_>, key: &str, nbodies: usize) -> Option<usize> {
+    fn body(&self, cx: &mut Cx, key: &str, nbodies: usize) -> Option<usize> {
         let v = self.field(cx, key)?;
         let n = self.positive_int(cx, key, v)?;
         if n > nbodies {
@@ -302,7 +302,7 @@ impl<'v> Elem<'v> {
         Some(n - 1)
     }
 
-    fn two_bodies(&self, cx: &mut Cx<'_>, nbodies: usize) -> Option<(usize, usize)> {
+    fn two_bodies(&self, cx: &mut Cx, nbodies: usize) -> Option<(usize, usize)> {
         let b1 = self.body(cx, "body1", nbodies);
         let b2 = self.body(cx, "body2", nbodies);
         let (b1, b2) = (b1?, b2?);
@@ -322,7 +322,7 @@ impl<'v> Elem<'v> {
         Some((b1, b2))
     }
 
-    fn nonzero(&self, cx: &mut Cx<'_>, key: &str, v: Option<Vec2>, what: &str) -> Option<Vec2> {
+    fn nonzero(&self, cx: &mut Cx, key: &str, v: Option<Vec2>, what: &str) -> Option<Vec2> {
         let v = v?;
         if v[0] == 0.0 && v[1] == 0.0 {
             return self.refuse(cx, key, what);
@@ -332,7 +332,7 @@ impl<'v> Elem<'v> {
 
     /// Reports `{label}: field "key": what` at the field (at the element
     /// when it has no such key); `None`, for `return`.
-    fn refuse<T>(&self, cx: &mut Cx<'_>, key: &str, what: &str) -> Option<T> {
+    fn refuse<T>(&self, cx: &mut Cx, key: &str, what: &str) -> Option<T> {
         let pos = self.obj.get(key).map_or(self.obj.pos, |x| x.pos);
         cx.err(pos, format!("{}: field \"{key}\": {what}", self.label));
         None
@@ -358,7 +358,7 @@ fn label(kind: &str, obj: &Value, index: usize) -> String {
     }
 }
 
-fn read_model(cx: &mut Cx<'_>, root: &Value, file: &str) -> Model {
+fn read_model(cx: &mut Cx, root: &Value, file: &str) -> Model {
     let mut model = Model {
         file: file.to_string(),
         name: "model".to_string(),
@@ -368,7 +368,7 @@ fn read_model(cx: &mut Cx<'_>, root: &Value, file: &str) -> Model {
         constraints: Vec::new(),
         forces: Vec::new(),
         ignored_keys: Vec::new(),
-        warnings: Vec::new(),
+        warnings: Diagnostics::new(),
         fields: super::Fields::of(root),
     };
     let Some(members) = root.as_object() else {
@@ -446,7 +446,7 @@ fn read_model(cx: &mut Cx<'_>, root: &Value, file: &str) -> Model {
 }
 
 /// The array `key` of the top level (empty if absent and optional).
-fn list<'v>(cx: &mut Cx<'_>, top: &Elem<'v>, key: &str, required: bool) -> &'v [Value] {
+fn list<'v>(cx: &mut Cx, top: &Elem<'v>, key: &str, required: bool) -> &'v [Value] {
     let v = if required {
         top.field(cx, key)
     } else {
@@ -464,7 +464,7 @@ fn list<'v>(cx: &mut Cx<'_>, top: &Elem<'v>, key: &str, required: bool) -> &'v [
     }
 }
 
-fn read_id(cx: &mut Cx<'_>, e: &Elem<'_>, index: usize, strict: bool) -> Option<usize> {
+fn read_id(cx: &mut Cx, e: &Elem<'_>, index: usize, strict: bool) -> Option<usize> {
     let v = e.field(cx, "id")?;
     let id = e.positive_int(cx, "id", v)?;
     if id != index + 1 {
@@ -480,15 +480,14 @@ fn read_id(cx: &mut Cx<'_>, e: &Elem<'_>, index: usize, strict: bool) -> Option<
             );
             return None;
         }
-        cx.warnings.push(cx.src.diagnostic(
-            v.pos,
-            format!("{message} (the id is only a label; the position counts)"),
-        ));
+        cx.warnings.push(v.pos.warning(format!(
+            "{message} (the id is only a label; the position counts)"
+        )));
     }
     Some(id)
 }
 
-fn read_body(cx: &mut Cx<'_>, v: &Value, index: usize) -> Option<Body> {
+fn read_body(cx: &mut Cx, v: &Value, index: usize) -> Option<Body> {
     let e = Elem::of_array_item(cx, "body", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, true);
@@ -510,7 +509,7 @@ fn read_body(cx: &mut Cx<'_>, v: &Value, index: usize) -> Option<Body> {
     })
 }
 
-fn read_body_vis(cx: &mut Cx<'_>, body: &Elem<'_>, v: &Value) -> Option<BodyVis> {
+fn read_body_vis(cx: &mut Cx, body: &Elem<'_>, v: &Value) -> Option<BodyVis> {
     if v.as_object().is_none() {
         body.wrong(cx, "vis", v, "an object");
         return None;
@@ -560,7 +559,7 @@ fn read_body_vis(cx: &mut Cx<'_>, body: &Elem<'_>, v: &Value) -> Option<BodyVis>
     Some(vis)
 }
 
-fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> Option<Constraint> {
+fn read_constraint(cx: &mut Cx, v: &Value, index: usize, nbodies: usize) -> Option<Constraint> {
     let mut e = Elem::of_array_item(cx, "constraint", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, false);
@@ -608,12 +607,7 @@ fn read_constraint(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> 
 }
 
 /// AbsoluteX, AbsoluteY (body1, sP1, fun) and AbsoluteAngle (body1, fun).
-fn read_absolute(
-    cx: &mut Cx<'_>,
-    e: &Elem<'_>,
-    ty: &str,
-    nbodies: usize,
-) -> Option<ConstraintKind> {
+fn read_absolute(cx: &mut Cx, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option<ConstraintKind> {
     let abs_none = "an Absolute* element needs a function of t (write \"0\" for a constant zero)";
     let body1 = e.body(cx, "body1", nbodies);
     if ty == "AbsoluteAngle" {
@@ -635,7 +629,7 @@ fn read_absolute(
 
 /// RevoluteJoint (body1, sP1, body2, sP2) and TranslationalJoint (also
 /// vP1, vP2, nonzero directions); their `fun` is kept as text, ignored.
-fn read_joint(cx: &mut Cx<'_>, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option<ConstraintKind> {
+fn read_joint(cx: &mut Cx, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option<ConstraintKind> {
     let bodies = e.two_bodies(cx, nbodies);
     let sp1 = e.vec2(cx, "sP1");
     if ty == "RevoluteJoint" {
@@ -672,7 +666,7 @@ fn read_joint(cx: &mut Cx<'_>, e: &Elem<'_>, ty: &str, nbodies: usize) -> Option
 /// the pitch line u = sQ1 − sP1 nonzero with a finite length L = |u|,
 /// θ1 − θ2 and the rolling row's constant L + R2 (θ1 − θ2 + 3π/2)
 /// finite.
-fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<ConstraintKind> {
+fn read_rack_pinion(cx: &mut Cx, e: &Elem<'_>, nbodies: usize) -> Option<ConstraintKind> {
     let bodies = e.two_bodies(cx, nbodies);
     let sp1 = e.vec2(cx, "sP1");
     let sq1 = e.vec2(cx, "sQ1");
@@ -726,7 +720,7 @@ fn read_rack_pinion(cx: &mut Cx<'_>, e: &Elem<'_>, nbodies: usize) -> Option<Con
     })
 }
 
-fn read_force(cx: &mut Cx<'_>, v: &Value, index: usize, nbodies: usize) -> Option<Force> {
+fn read_force(cx: &mut Cx, v: &Value, index: usize, nbodies: usize) -> Option<Force> {
     let e = Elem::of_array_item(cx, "force", v, index)?;
     let name = e.text(cx, "name");
     let id = read_id(cx, &e, index, false);

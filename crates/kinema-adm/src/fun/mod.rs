@@ -340,109 +340,21 @@ impl Expr {
         v
     }
 
-    /// The expression in kinema's syntax, with only the parentheses the tree
-    /// needs (the printed text parses back to the same tree, so it evaluates
-    /// identically). A negative operand on the right of a binary operator is
-    /// parenthesised for readability: `t - (-1)`.
+    /// The expression in kinema's syntax: the tree kinema-adm builds for it
+    /// ([`crate::build()`]) as kinema-model prints it
+    /// ([`kinema_model::print::expr`]), with only the parentheses the tree
+    /// needs (the printed text parses back to the same tree, so it
+    /// evaluates identically). A negative operand on the right of a binary
+    /// operator is parenthesised for readability: `t - (-1)`.
     ///
     /// `x^n` with `n` a constant integer becomes `powi(x, n)`, other powers
     /// `pow(x, y)`; `log` becomes `ln`; `log10(x)` becomes `ln(x) / ln(10)`.
     #[must_use]
     pub fn to_kin(&self) -> String {
-        let Some(root) = self.nodes.len().checked_sub(1) else {
+        if self.nodes.is_empty() {
             return String::new();
-        };
-        let exponents = self.int_exponents();
-        let int_exponent = |b: u32| exponents.get(b as usize).copied().flatten();
-
-        enum Task {
-            Node(u32, u8),
-            Text(&'static str),
-            Owned(String),
         }
-        let mut out = String::new();
-        let mut stack = vec![Task::Node(root as u32, 0)];
-        while let Some(task) = stack.pop() {
-            let (id, req) = match task {
-                Task::Text(s) => {
-                    out.push_str(s);
-                    continue;
-                }
-                Task::Owned(s) => {
-                    out.push_str(&s);
-                    continue;
-                }
-                Task::Node(id, req) => (id, req),
-            };
-            let Some(&node) = self.nodes.get(id as usize) else {
-                continue;
-            };
-            if self.prec(node) < req {
-                out.push('(');
-                stack.push(Task::Text(")"));
-            }
-            // Requirement on a right operand of an operator of precedence q.
-            let right = |child: u32, q: u8| -> u8 {
-                match self.nodes.get(child as usize) {
-                    Some(Node::Neg(_)) => PREC_ATOM,
-                    Some(Node::Num(x)) if *x < 0.0 => PREC_ATOM,
-                    _ => q + 1,
-                }
-            };
-            match node {
-                Node::Num(x) => out.push_str(&format_number(x)),
-                Node::Pi => out.push_str("pi"),
-                Node::T => out.push('t'),
-                Node::Neg(a) => {
-                    out.push('-');
-                    stack.push(Task::Node(a, PREC_ATOM));
-                }
-                Node::Bin(BinOp::Pow, a, b) | Node::Call2(Func2::Power, a, b) => {
-                    if let Some(n) = int_exponent(b) {
-                        out.push_str("powi(");
-                        stack.push(Task::Owned(format!(", {n})")));
-                        stack.push(Task::Node(a, 0));
-                    } else {
-                        out.push_str("pow(");
-                        stack.push(Task::Text(")"));
-                        stack.push(Task::Node(b, 0));
-                        stack.push(Task::Text(", "));
-                        stack.push(Task::Node(a, 0));
-                    }
-                }
-                Node::Bin(op, a, b) => {
-                    let (q, sym) = match op {
-                        BinOp::Add => (PREC_SUM, " + "),
-                        BinOp::Sub => (PREC_SUM, " - "),
-                        BinOp::Mul => (PREC_PRODUCT, " * "),
-                        BinOp::Div => (PREC_PRODUCT, " / "),
-                        BinOp::Pow => (PREC_ATOM, ""), // handled above
-                    };
-                    stack.push(Task::Node(b, right(b, q)));
-                    stack.push(Task::Text(sym));
-                    stack.push(Task::Node(a, q));
-                }
-                Node::Call(Func::Log10, a) => {
-                    out.push_str("ln(");
-                    stack.push(Task::Text(") / ln(10)"));
-                    stack.push(Task::Node(a, 0));
-                }
-                Node::Call(f, a) => {
-                    out.push_str(f.kin_name());
-                    out.push('(');
-                    stack.push(Task::Text(")"));
-                    stack.push(Task::Node(a, 0));
-                }
-                Node::Call2(Func2::Atan2, a, b) => {
-                    out.push_str("atan2(");
-                    stack.push(Task::Text(")"));
-                    stack.push(Task::Node(b, 0));
-                    stack.push(Task::Text(", "));
-                    stack.push(Task::Node(a, 0));
-                }
-            }
-        }
-        out
+        kinema_model::print::expr(&crate::build::fun_expr(self))
     }
 
     /// Per node, its value as an integer exponent: `Some(n)` for a
@@ -469,39 +381,14 @@ impl Expr {
             })
             .collect()
     }
-
-    /// Precedence of a node as printed by [`Expr::to_kin`].
-    fn prec(&self, node: Node) -> u8 {
-        match node {
-            Node::Num(x) if x < 0.0 => PREC_UNARY,
-            Node::Num(_) | Node::Pi | Node::T | Node::Call2(..) => PREC_ATOM,
-            Node::Call(Func::Log10, _) => PREC_PRODUCT,
-            Node::Call(..) => PREC_ATOM,
-            Node::Neg(_) => PREC_UNARY,
-            Node::Bin(BinOp::Add | BinOp::Sub, ..) => PREC_SUM,
-            Node::Bin(BinOp::Mul | BinOp::Div, ..) => PREC_PRODUCT,
-            Node::Bin(BinOp::Pow, ..) => PREC_ATOM,
-        }
-    }
 }
-
-const PREC_SUM: u8 = 1;
-const PREC_PRODUCT: u8 = 2;
-const PREC_UNARY: u8 = 3;
-const PREC_ATOM: u8 = 4;
 
 /// Formats a number so that it reads back to the same `f64`: integers of
 /// moderate size without a decimal point (`2`), others with Rust's shortest
 /// round-trip form (`0.1`, `1.5e-5`). Negative numbers get a leading `-`.
 #[must_use]
 pub fn format_number(x: f64) -> String {
-    if x == 0.0 {
-        return "0".to_string();
-    }
-    if x.fract() == 0.0 && x.abs() < 1e15 {
-        return format!("{}", x as i64);
-    }
-    format!("{x:?}")
+    kinema_model::print::number(x)
 }
 
 #[cfg(test)]

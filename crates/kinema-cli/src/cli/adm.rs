@@ -5,8 +5,9 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
 
-use kinema_adm::{Analysis, Diagnostic, Model, Names, RowOrigin};
+use kinema_adm::{Analysis, Model, Names, Report, RowOrigin, Source};
 
 use super::{Failure, print_stdout};
 
@@ -21,6 +22,8 @@ pub struct AdmInput {
     rows: HashMap<String, usize>,
     /// What a kinematic run ignores (forces, unknown keys), one line each.
     ignored: Vec<String>,
+    /// The reader's warnings, against the file's text.
+    warnings: Report,
 }
 
 impl AdmInput {
@@ -33,6 +36,7 @@ impl AdmInput {
     /// NDOF ≠ 0, with the counts, or of a force kinema cannot compute.
     pub fn checked(
         model: Model,
+        source: &Source,
         path: &Path,
         analysis: Option<&Analysis>,
     ) -> Result<AdmInput, Failure> {
@@ -47,20 +51,20 @@ impl AdmInput {
             .map(|RowOrigin { row, constraint }| (row, constraint))
             .collect();
         let ignored = kinema_adm::ignored_by_kinematics(&model);
+        let warnings = model.warnings.report(Arc::new(source.clone()));
         Ok(AdmInput {
             model,
             names,
             rows,
             ignored,
+            warnings,
         })
     }
 
     /// Prints the reader's warnings and what a kinematic run ignores on
     /// standard error.
     pub fn print_notes(&self) {
-        for w in &self.model.warnings {
-            super::print_stderr(&render(w, "warning"));
-        }
+        print_warnings(&self.warnings);
         for line in &self.ignored {
             super::print_stderr(&format!("note: ignored by kinematic analysis: {line}"));
         }
@@ -103,72 +107,31 @@ impl AdmInput {
     }
 }
 
-/// Reads an ADM file: the model and the file's text.
+/// Reads an ADM file: the model and its source.
 ///
 /// # Errors
-/// [`Failure::Input`] with every located error.
-pub fn read_model(path: &Path) -> Result<(Model, String), Failure> {
-    let name = path.display().to_string();
-    let read = kinema_adm::read_text(path)
-        .map_err(|e| kinema_adm::Error::from(Diagnostic::whole_file(&name, e.to_string())))
-        .and_then(|text| Model::parse(&text, &name).map(|m| (m, text)));
-    read.map_err(|e| {
-        let file = path.display();
-        let mut out = String::new();
-        for d in e.diagnostics() {
-            out.push_str(&render(d, "error"));
-            out.push_str("\n\n");
-        }
-        let n = e.diagnostics().len();
-        let s = if n == 1 { "" } else { "s" };
-        let _ = write!(
-            out,
-            "error: could not read `{file}` due to {n} previous error{s}"
-        );
-        Failure::Input(out)
-    })
+/// [`Failure::Input`] with every located error, rendered.
+pub fn read_model(path: &Path) -> Result<(Model, Source), Failure> {
+    Model::read(path).map_err(|report| Failure::Input(report.render()))
+}
+
+/// Prints the reader's warnings on standard error: each on its own, as the
+/// warnings of a `.kin` model are.
+fn print_warnings(warnings: &Report) {
+    for warning in warnings.render_each() {
+        super::print_stderr(warning.trim_end());
+    }
 }
 
 /// Reads the analysis: the ACF at `path`, or the engine's kinematics.acf.
 ///
 /// # Errors
-/// [`Failure::Input`] with the ACF reader's located errors.
+/// [`Failure::Input`] with the ACF reader's located errors, rendered.
 pub fn read_analysis(path: Option<&Path>) -> Result<Analysis, Failure> {
     let Some(path) = path else {
         return Ok(Analysis::default());
     };
-    Analysis::read(path).map_err(|e| {
-        let out: Vec<String> = e.diagnostics().iter().map(|d| render(d, "error")).collect();
-        Failure::Input(out.join("\n\n"))
-    })
-}
-
-/// A reader diagnostic in the look of the `.kin` diagnostics (rustc's):
-/// `severity: message`, then ` --> file:line:col`, the source line and a
-/// caret.
-pub fn render(d: &Diagnostic, severity: &str) -> String {
-    let mut out = format!("{severity}: {}", d.message);
-    let Some(pos) = d.pos else {
-        let _ = write!(out, "\n --> {}", d.file);
-        return out;
-    };
-    let num = pos.line.to_string();
-    let pad = " ".repeat(num.len());
-    let _ = write!(out, "\n{pad}--> {}:{}:{}", d.file, pos.line, pos.col);
-    if let Some(line) = &d.line_text {
-        // Tabs are kept in the caret's padding so that it lines up.
-        let caret_pad: String = line
-            .chars()
-            .take(pos.col.saturating_sub(1) as usize)
-            .map(|c| if c == '\t' { '\t' } else { ' ' })
-            .collect();
-        let _ = write!(
-            out,
-            "\n{pad} |\n{num} | {}\n{pad} | {caret_pad}^",
-            line.trim_end()
-        );
-    }
-    out
+    Analysis::read(path).map_err(|report| Failure::Input(report.render()))
 }
 
 /// `kinema import MODEL.adm`: prints the model as `.kin` text. A model that
@@ -178,10 +141,8 @@ pub fn render(d: &Diagnostic, severity: &str) -> String {
 /// # Errors
 /// [`Failure::Input`] for an unreadable or invalid ADM file.
 pub fn import(path: &Path) -> Result<(), Failure> {
-    let (model, _) = read_model(path)?;
-    for w in &model.warnings {
-        super::print_stderr(&render(w, "warning"));
-    }
+    let (model, source) = read_model(path)?;
+    print_warnings(&model.warnings.report(Arc::new(source)));
     if let Err(refusal) = kinema_adm::check_kinematic(&model, &Analysis::default()) {
         super::print_stderr(&format!("note: {refusal}"));
     }

@@ -101,7 +101,7 @@ pub fn load_with(
         Some(model) => {
             let default = Analysis::default();
             let analysis = kinematic.then(|| analysis.unwrap_or(&default));
-            Some(AdmInput::checked(model, path, analysis)?)
+            Some(AdmInput::checked(model, file.source(), path, analysis)?)
         }
         None => None,
     };

@@ -148,9 +148,10 @@ pub fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         steps.unwrap_or(DEFAULT_STEPS),
     )?;
     let table_file = args.params.display().to_string();
-    let text = kinema_adm::read_text(&args.params)
-        .map_err(|e| Failure::usage(format_args!("cannot read `{table_file}`: {e}")))?;
-    let table = Table::parse(&text, &table_file)?;
+    // The one size cap and UTF-8 rule of model files.
+    let text = kinema::Source::read_text(&args.params, &table_file, "parameter table")
+        .map_err(|r| Failure::Input(r.render()))?;
+    let table = Table::parse(text.text(), &table_file)?;
     let (part, parts) = match &args.shard {
         Some(s) => parse_shard(s)?,
         None => (1, 1),
