@@ -68,21 +68,22 @@ struct NativeModel {
     motion: std::sync::OnceLock<Option<forward::DynamicsRun>>,
 }
 
-/// A [`kinema::ModelError`] as the Python `ModelError`: the rendered
-/// diagnostics its message, each diagnostic a dict in `.diagnostics`.
-fn model_error(py: Python<'_>, e: &kinema::ModelError) -> PyErr {
-    let err = ModelError::new_err(e.rendered.clone());
-    let diagnostics: Vec<Bound<'_, PyDict>> = e
-        .diagnostics
+/// A [`kinema::Report`] (a model with errors, a file that cannot be read,
+/// an ADM or ACF file's mistakes) as the Python `ModelError`: the rendered
+/// report its message, each entry a dict in `.diagnostics`.
+fn model_error(py: Python<'_>, report: &kinema::Report) -> PyErr {
+    let err = ModelError::new_err(report.render().trim_end().to_owned());
+    let file = report.source().name();
+    let diagnostics: Vec<Bound<'_, PyDict>> = report
+        .entries()
         .iter()
         .filter_map(|d| {
             let dict = PyDict::new(py);
-            dict.set_item("severity", if d.is_error { "error" } else { "warning" })
-                .ok()?;
+            dict.set_item("severity", d.severity.word()).ok()?;
             dict.set_item("message", &d.message).ok()?;
-            dict.set_item("file", &e.file).ok()?;
-            dict.set_item("line", d.at.map(|a| a.0)).ok()?;
-            dict.set_item("column", d.at.map(|a| a.1)).ok()?;
+            dict.set_item("file", file).ok()?;
+            dict.set_item("line", d.at().map(|a| a.0)).ok()?;
+            dict.set_item("column", d.at().map(|a| a.1)).ok()?;
             dict.set_item("label", &d.label).ok()?;
             dict.set_item("help", &d.help).ok()?;
             Some(dict)
@@ -92,57 +93,9 @@ fn model_error(py: Python<'_>, e: &kinema::ModelError) -> PyErr {
     err
 }
 
-/// A Python `ModelError` of a report (a file that cannot be read, an ADM or
-/// ACF file's mistakes): every diagnostic as data, all rendered against the
-/// file.
-fn report_error(py: Python<'_>, report: &kinema_adm::Report) -> PyErr {
-    let diagnostics = report
-        .diagnostics()
-        .iter()
-        .map(|d| {
-            let start = d.span.start();
-            kinema::ModelDiagnostic {
-                is_error: d.severity == kinema_adm::Severity::Error,
-                message: d.message.clone(),
-                // Line 0: about the whole file.
-                at: (start.line > 0).then_some((start.line, start.column + 1)),
-                label: d.label.clone(),
-                help: d.help.clone(),
-            }
-        })
-        .collect();
-    model_error(
-        py,
-        &kinema::ModelError {
-            file: report.source().name().to_owned(),
-            rendered: report.render().trim_end().to_owned(),
-            diagnostics,
-            errors: report.error_count(),
-        },
-    )
-}
-
 /// A Python `ModelError` with one message that concerns the whole file.
-fn file_error(py: Python<'_>, file: &str, message: String, at: Option<(u32, u32)>) -> PyErr {
-    model_error(
-        py,
-        &kinema::ModelError {
-            file: file.to_owned(),
-            rendered: if message.starts_with("error") {
-                message.clone()
-            } else {
-                format!("error: {message}")
-            },
-            diagnostics: vec![kinema::ModelDiagnostic {
-                is_error: true,
-                message,
-                at: at.map(|(l, c)| (l as usize, c as usize)),
-                label: None,
-                help: None,
-            }],
-            errors: 1,
-        },
-    )
+fn file_error(py: Python<'_>, file: &str, message: String) -> PyErr {
+    model_error(py, &kinema::Report::whole_file(file, message))
 }
 
 fn value_error(message: impl Into<String>) -> PyErr {
@@ -690,7 +643,6 @@ impl NativeModel {
                     "`{file}` is a simEngine2D analysis file, not a model: give the .adm model \
                      and pass the analysis as acf="
                 ),
-                None,
             ));
         }
         if !path.exists() {
@@ -698,22 +650,22 @@ impl NativeModel {
                 "no model file `{file}`"
             )));
         }
-        if !is_adm {
-            if acf.is_some() {
-                return Err(value_error("acf= is for simEngine2D .adm models only"));
-            }
-            // The one size cap and UTF-8 rule of model files.
-            let source = kinema_adm::Source::read(&path).map_err(|r| report_error(py, &r))?;
-            let model = py
-                .detach(|| kinema::Model::from_source(source.text(), &file))
-                .map_err(|e| model_error(py, &e))?;
-            return Ok(NativeModel::new(model, file, None));
+        if !is_adm && acf.is_some() {
+            return Err(value_error("acf= is for simEngine2D .adm models only"));
         }
+        // The front door the command line uses: the one size cap and
+        // UTF-8 rule, .kin or .adm by the extension.
+        let mut read = kinema::ModelFile::read(&path).map_err(|r| model_error(py, &r))?;
+        let Some(adm) = read.adm.take() else {
+            // The syntax tree holds spans that stay on this thread: no
+            // detach (parsing is the fast part).
+            let model = read.into_model().map_err(|r| model_error(py, &r))?;
+            return Ok(NativeModel::new(model, file, None));
+        };
         let analysis = match &acf {
             None => kinema_adm::Analysis::default(),
-            Some(p) => kinema_adm::Analysis::read(p).map_err(|r| report_error(py, &r))?,
+            Some(p) => kinema_adm::Analysis::read(p).map_err(|r| model_error(py, &r))?,
         };
-        let (adm, source) = kinema_adm::Model::read(&path).map_err(|r| report_error(py, &r))?;
         let dynamics = analysis.simulation == kinema_adm::Simulation::Dynamics;
         if dynamics {
             // As `kinema run`: a force the engine computes in MATLAB
@@ -729,19 +681,14 @@ impl NativeModel {
                         "force \"{name}\" (id {id}, PointForceFile) of `{file}` computes its force \
                          with the MATLAB function `{mfile}` ({mfile}.m), which kinema cannot run"
                     ),
-                    None,
                 ));
             }
         } else {
             kinema_adm::check_kinematic(&adm, &analysis)
-                .map_err(|r| file_error(py, &file, r.to_string(), None))?;
+                .map_err(|r| file_error(py, &file, r.to_string()))?;
         }
         let adm_qd0: Vec<Option<[f64; 3]>> = adm.bodies.iter().map(|b| b.qd0).collect();
-        let parsed = kinema_adm::build(&adm);
-        // The syntax tree holds spans that stay on this thread: no detach
-        // (an .adm model is small).
-        let model = kinema::Model::from_parsed(parsed, source.text(), &file)
-            .map_err(|e| model_error(py, &e))?;
+        let model = read.into_model().map_err(|r| model_error(py, &r))?;
         if dynamics && model.derivation().dynamics.is_none() {
             return Err(KinemaError::new_err(format!(
                 "`{file}` cannot run a Dynamics analysis: it has no inertia (every body needs \
@@ -783,7 +730,7 @@ impl NativeModel {
 
     /// The warnings of the model check, rendered.
     fn warnings(&self) -> Vec<String> {
-        self.model.warnings().to_vec()
+        self.model.warnings().render_each()
     }
 
     /// The same model with some parameters set (names checked).
@@ -838,7 +785,7 @@ impl NativeModel {
         dict.set_item("results", outs)?;
         dict.set_item("params", self.param_names())?;
         dict.set_item("inertia", d.dynamics.is_some())?;
-        dict.set_item("warnings", self.model.warnings().to_vec())?;
+        dict.set_item("warnings", self.model.warnings().render_each())?;
         Ok(dict)
     }
 
