@@ -55,9 +55,9 @@ pub const LU_CHUNK: usize = 2_000;
 pub const LOOPED_ENTRIES: usize = 256;
 
 /// The largest dimension whose solves keep every y in a register from the
-/// gather to the scatter (one function, [`emit`]); above, y lives in the
-/// solve's scratch (see [`Resident`]), as it does in a solve of more than
-/// [`LU_CHUNK`] items.
+/// gather to the scatter (one function, `solve::emit`); above, y lives in
+/// the solve's scratch (see `solve::Resident`), as it does in a solve of
+/// more than [`LU_CHUNK`] items.
 pub const REGISTER_SOLVE: usize = 32;
 
 /// How many items a resident solve reuses a value's register for.
@@ -109,6 +109,8 @@ fn calls(
 
 /// The scan's entries: where the compiled factorization writes each (the
 /// runtime's [`RawScan`] layout).
+///
+/// [`RawScan`]: kinema_runtime::linalg::RawScan
 const SCAN_SCALE: usize = FactorScan::SCALE;
 const SCAN_FINITE: usize = FactorScan::FINITE;
 const SCAN_SAME: usize = FactorScan::SAME;

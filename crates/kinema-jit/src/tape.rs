@@ -496,6 +496,8 @@ pub(crate) fn new_module() -> Result<JITModule, JitError> {
 }
 
 /// Declares the shims as imports: (id, signature) by [`Which`].
+///
+/// [`Which`]: crate::shims::Which
 fn declare_shims(module: &mut JITModule) -> Result<[(FuncId, ()); 5], JitError> {
     let all = shims::all();
     let ptr = module.target_config().pointer_type();

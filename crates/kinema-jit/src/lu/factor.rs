@@ -79,6 +79,8 @@ impl JitFactor {
 ///
 /// # Errors
 /// As [`compile_solves`].
+///
+/// [`compile_solves`]: super::compile_solves
 pub fn compile_factor(plan: &FoldedFactor<'_>) -> Result<JitFactor, JitError> {
     compile_factor_chunked(plan, LU_CHUNK, LOOPED_ENTRIES)
 }

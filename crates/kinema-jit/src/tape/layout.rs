@@ -77,6 +77,8 @@ impl SpillPlan {
 ///
 /// # Errors
 /// [`JitError::Compile`] if the length does not fit a `usize`.
+///
+/// [`compile_split_memo_at`]: super::compile_split_memo_at
 pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usize, JitError> {
     cache_len_bound_chunked(tapes, memo_base, CHUNK_INSTRUCTIONS)
 }
@@ -88,6 +90,8 @@ pub fn cache_len_bound(tapes: &[(&Tape, usize)], memo_base: usize) -> Result<usi
 ///
 /// # Errors
 /// As [`cache_len_bound`].
+///
+/// [`compile_chunked`]: super::compile_chunked
 #[doc(hidden)]
 pub fn cache_len_bound_chunked(
     tapes: &[(&Tape, usize)],
@@ -101,6 +105,8 @@ pub fn cache_len_bound_chunked(
 ///
 /// # Errors
 /// As [`cache_len_bound`].
+///
+/// [`compile_iterated`]: super::compile_iterated
 pub fn cache_len_bound_iterated(
     tapes: &[(&Tape, usize)],
     memo_base: usize,

@@ -16,6 +16,8 @@ use crate::system::System;
 /// of a quadratic through three positions only when the two steps differ by
 /// at most this factor (else a backward difference): a quadratic through
 /// unevenly spaced points extrapolates their noise.
+///
+/// [`Options::positions_only`]: crate::Options::positions_only
 const QUADRATIC_STEP_RATIO: f64 = 4.0;
 
 impl<S: System, L: LinearSolver> Solver<S, L> {
@@ -28,6 +30,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// from that quadratic or the steps differ by more than
     /// [`QUADRATIC_STEP_RATIO`], q̇ = the backward difference and q̈ = 0.
     /// Zero when there is no current state or a value is not finite.
+    ///
+    /// [`Options::positions_only`]: crate::Options::positions_only
     #[inline]
     pub(super) fn difference_rates(&mut self, t: f64) {
         let base = &self.state;
@@ -77,6 +81,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Φ_q at `self.next.q` (then in `ws.jac`) factored, q̇ and q̈ solved
     /// (with [`Options::positions_only`], estimated instead).
+    ///
+    /// [`Options::positions_only`]: crate::Options::positions_only
     pub(super) fn rates(&mut self, t: f64) -> Result<(), Error> {
         self.factored = 0;
         if self.options.positions_only {

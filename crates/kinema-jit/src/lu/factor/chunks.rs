@@ -21,6 +21,8 @@ use crate::code::{FactorNeeds, SCAN};
 /// the copied entries folded, the operations), numbered; a chunk reads the
 /// values array's earlier entries from memory, and the running folds
 /// (raw bits) from the scan, where the chunk before left them.
+///
+/// [`emit_factor`]: super::emit_factor
 pub(super) struct FactorChunks<'p> {
     plan: &'p FoldedFactor<'p>,
     needs: FactorNeeds,
@@ -31,6 +33,8 @@ pub(super) struct FactorChunks<'p> {
     /// Whether a [`Prologue`] checks the constants, copies the entries and
     /// folds them (the compiled items then start at
     /// [`FactorChunks::operations_at`]).
+    ///
+    /// [`Prologue`]: super::Prologue
     looped: bool,
 }
 

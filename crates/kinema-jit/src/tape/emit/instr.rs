@@ -23,6 +23,8 @@ impl<'t> Emitter<'t> {
     /// (sin x, cos x) of a value other than a coordinate: once per value in
     /// this function, and through a memo entry of the cache slice across
     /// calls (see [`compile_split_memo_at`]).
+    ///
+    /// [`compile_split_memo_at`]: crate::compile_split_memo_at
     fn sin_cos(
         &mut self,
         b: &mut FunctionBuilder<'_>,

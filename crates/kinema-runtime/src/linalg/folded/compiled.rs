@@ -38,6 +38,8 @@ pub enum Op {
 /// it (kinema-jit). From the Jacobian's values (`nnz` of them): value i <
 /// `inputs.len()` is `values[inputs[i]]`; op k writes value
 /// `inputs.len() + k`; the scan is a [`RawScan`].
+///
+/// [`FoldedLu`]: super::FoldedLu
 #[derive(Clone, Copy, Debug)]
 pub struct FoldedFactor<'a> {
     /// Number of Jacobian values.
@@ -70,9 +72,11 @@ pub struct FoldedFactor<'a> {
 /// [`FoldedFactor::const_scale`]: when every constant entry is its constant
 /// (the only case the order is accepted in) that is maxᵢⱼ |aᵢⱼ| and the
 /// finiteness of every value.
+///
+/// [`order_accepted`]: crate::linalg::order_accepted
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FactorScan {
-    /// maxᵢⱼ |aᵢⱼ|, as [`scale_and_finite`](super::scale_and_finite)
+    /// maxᵢⱼ |aᵢⱼ|, as [`scale_and_finite`](crate::linalg::scale_and_finite)
     /// computes it (the largest magnitude's bits).
     pub scale: f64,
     /// Every run-time Jacobian value finite.
@@ -146,6 +150,9 @@ impl FactorScan {
 /// A [`FoldedLu`]'s factorization compiled elsewhere (kinema-jit), plugged
 /// in with [`FoldedLu::set_compiled_factor`]: it must write the value array
 /// and find the scan exactly as the interpreter does.
+///
+/// [`FoldedLu`]: super::FoldedLu
+/// [`FoldedLu::set_compiled_factor`]: super::FoldedLu::set_compiled_factor
 pub trait CompiledFactor: std::fmt::Debug + Send + Sync {
     /// Factors `values` into `v` and writes every entry of the scan into
     /// `scan`; `false` (nothing written) if it cannot, for instance on
@@ -241,6 +248,8 @@ impl SolveOp {
 /// two sweeps on y in order (rounding each operation as written, no fused
 /// multiply-add), and scatters `b[scatter[k]] = y[k]`; the transposed solve
 /// the same with the `_t` lists, the gather and scatter swapped.
+///
+/// [`FoldedLu`]: super::FoldedLu
 #[derive(Clone, Copy, Debug)]
 pub struct FoldedSolves<'a> {
     /// Dimension: y, b and the orders have n entries.
@@ -266,6 +275,9 @@ pub struct FoldedSolves<'a> {
 /// Solves of a [`FoldedLu`] compiled elsewhere (kinema-jit), plugged in
 /// with [`FoldedLu::set_compiled_solves`]: each must compute exactly what
 /// the interpreted solve computes from the same v and b.
+///
+/// [`FoldedLu`]: super::FoldedLu
+/// [`FoldedLu::set_compiled_solves`]: super::FoldedLu::set_compiled_solves
 pub trait CompiledSolves: std::fmt::Debug + Send + Sync {
     /// Solves in place from the factors' values `v`; `transpose` for Aᵀ.
     /// `work` is scratch of n values (the interpreter's y; its contents on
