@@ -44,24 +44,7 @@ pub use kinema_runtime::{
 };
 pub use kinema_runtime::{Motion, Outputs, Table};
 
-#[cfg(feature = "model")]
-pub mod columns;
-#[cfg(feature = "model")]
-pub mod dynamics;
-#[cfg(feature = "model")]
-pub mod equilibrium;
-#[cfg(feature = "model")]
-mod file;
-#[cfg(feature = "model")]
-pub mod forward;
-#[cfg(feature = "model")]
-pub use file::{Format, ModelFile};
-#[cfg(feature = "jit")]
-mod jit;
-#[cfg(feature = "model")]
-mod linkage;
-#[cfg(feature = "model")]
-mod model;
+// The tape back end (kinema-tape): models read at run time.
 /// The model language (kinema-model): the front door's types, the checked
 /// model and the derivation, for programs that look inside a [`Model`].
 #[cfg(feature = "model")]
@@ -70,22 +53,13 @@ pub use kinema_model as lang;
 /// model fails with, and its warnings.
 #[cfg(feature = "model")]
 pub use kinema_model::{Report, Source};
-#[cfg(feature = "model")]
-pub use model::{Backend, Model, ModelSolver, TapeSystem, UnknownParam};
-#[cfg(feature = "model")]
-mod domains;
-#[cfg(feature = "model")]
-mod kinks;
-#[cfg(feature = "model")]
-mod model_outputs;
-#[cfg(feature = "model")]
-pub use model_outputs::OutputKink;
-#[cfg(feature = "model")]
-mod precision;
-#[cfg(feature = "model")]
-pub use precision::{Imprecision, PrecisionScope};
 #[cfg(feature = "parallel")]
-pub mod sweep;
+pub use kinema_tape::sweep;
+#[cfg(feature = "model")]
+pub use kinema_tape::{
+    Backend, Format, Imprecision, Model, ModelFile, ModelSolver, OutputKink, PrecisionScope,
+    TapeSystem, UnknownParam, columns, dynamics, equilibrium, forward,
+};
 
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
