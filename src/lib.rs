@@ -37,10 +37,11 @@ pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
     Accurate, Auto, Axis, Body, Coord, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency,
     Domain, DynDenseLu, Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht,
-    HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
-    ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Rank, RankError,
-    SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory, Undefined,
-    diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
+    HhtOptions, Imprecision, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver,
+    LinearSolverFor, ModelDiagnostic, ModelError, Options, PivotReport, PointKinematics, Precision,
+    PrecisionScope, Rank, RankError, SingularEvent, SingularKind, Solver, SparseLu, State,
+    StepStats, System, Trajectory, Undefined, diagnose, integrate, locate_undefined,
+    point_kinematics, undefined_between,
 };
 pub use kinema_runtime::{Motion, Outputs, Table};
 
@@ -48,7 +49,6 @@ pub use kinema_runtime::{Motion, Outputs, Table};
 pub mod columns;
 #[cfg(feature = "model")]
 pub mod dynamics;
-#[cfg(feature = "model")]
 pub mod equilibrium;
 #[cfg(feature = "model")]
 pub mod forward;
@@ -70,20 +70,18 @@ mod model_outputs;
 pub use model_outputs::OutputKink;
 #[cfg(feature = "model")]
 mod precision;
-#[cfg(feature = "model")]
-pub use precision::{Imprecision, PrecisionScope};
 #[cfg(feature = "parallel")]
 pub mod sweep;
 
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
 pub mod __private {
-    pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
-        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, LinalgError,
-        LinearSolver, LinearSolverFor, Motion, Options, Outputs, PivotReport, ReactionSpec, Solver,
-        SparseLu, State, System,
+        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
+        LinalgError, LinearSolver, LinearSolverFor, Motion, Options, Outputs, PivotReport,
+        ReactionSpec, Solver, SparseLu, State, System,
     };
+    pub use kinema_runtime::{linalg, roundoff};
 }
 
 /// The README's Rust examples, compiled and run as doc tests.
