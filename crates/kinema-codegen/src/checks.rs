@@ -163,8 +163,8 @@ fn bounded(
                 .expect("children precede their parents in a schedule"),
         )
     };
-    let b = quote!(#rt::roundoff::Bounded);
-    let mut stmts = TokenStream::new();
+    let b = quote!(Bounded);
+    let mut stmts = quote! { use #rt::roundoff::Bounded; };
     if large {
         let len = Literal::usize_unsuffixed(nodes.len());
         stmts.extend(quote! { let mut b = [#b::exact(0.0); #len]; });
