@@ -43,7 +43,7 @@ pub use kinema_runtime::{
     StepStats, System, Trajectory, Undefined, diagnose, integrate, locate_undefined,
     point_kinematics, undefined_between,
 };
-pub use kinema_runtime::{Motion, Outputs, Table};
+pub use kinema_runtime::{Motion, OutputKink, Outputs, Table};
 
 #[cfg(feature = "model")]
 pub mod columns;
@@ -67,8 +67,6 @@ mod kinks;
 #[cfg(feature = "model")]
 mod model_outputs;
 #[cfg(feature = "model")]
-pub use model_outputs::OutputKink;
-#[cfg(feature = "model")]
 mod precision;
 #[cfg(feature = "parallel")]
 pub mod sweep;
@@ -78,8 +76,8 @@ pub mod sweep;
 pub mod __private {
     pub use kinema_runtime::{
         Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
-        LinalgError, LinearSolver, LinearSolverFor, Motion, Options, Outputs, PivotReport,
-        ReactionSpec, Solver, SparseLu, State, System,
+        LinalgError, LinearSolver, LinearSolverFor, Motion, Options, OutputKink, Outputs,
+        PivotReport, ReactionSpec, Solver, SparseLu, State, System,
     };
     pub use kinema_runtime::{linalg, roundoff};
 }

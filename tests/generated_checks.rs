@@ -68,8 +68,14 @@ mod rounded_drive {
 mod four_bar {
     kinema::mechanism!(file = "models/four_bar.kin");
 }
+mod gap {
+    kinema::mechanism!(file = "tests/kinks/gap.kin");
+}
+mod jansen {
+    kinema::mechanism!(file = "models/jansen.kin");
+}
 
-use kinema::{Auto, Options, Precision, PrecisionScope, Solver, State, System};
+use kinema::{Auto, Options, Outputs, Precision, PrecisionScope, Solver, State, System};
 
 /// The states of `system` at `times` (all must solve), each with the
 /// precision check at its scope (`All` on the first, `Timed` after, as
@@ -167,5 +173,102 @@ fn a_generated_system_flags_the_tapes_imprecise_equation_and_passes_a_regular_on
     }
     for (s, i) in states(tape_system("models/four_bar.kin"), &grid) {
         assert_eq!(i, None, "t = {}", s.t());
+    }
+}
+
+/// The rows of `system` at `times` whose results are at a kink, with the
+/// column's name and the function (the runtime's `Outputs::output_kink`).
+fn output_kinks<S: Outputs>(system: S, times: &[f64]) -> Vec<(usize, String, &'static str)> {
+    let mut solver = Solver::<S, Auto>::with_options(system, Options::default())
+        .unwrap_or_else(|e| panic!("solver: {e}"));
+    let mut scratch = solver.system().scratch();
+    let mut out = Vec::new();
+    for (k, &t) in times.iter().enumerate() {
+        let state = solver
+            .step(t)
+            .unwrap_or_else(|e| panic!("t = {t}: {e}"))
+            .clone();
+        let size = solver.model_size();
+        let system = solver.system();
+        if let Some(kink) = system.output_kink(&mut scratch, &state, size) {
+            out.push((k, system.output_name(kink.column).to_owned(), kink.function));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_generated_result_column_at_its_kink_is_flagged_as_on_the_tape() {
+    // gap = |x| with x = t − 0.3: its rate jumps at 0.3 (0.1 · 3 is
+    // 0.3 + 5.6e-17, x there is roundoff).
+    let times: Vec<f64> = (0..=8).map(|k| f64::from(k) * 0.1).collect();
+    let generated = output_kinks(gap::Gap::default(), &times);
+    assert_eq!(generated, [(3, "gap".to_owned(), "sqrt")]);
+    assert_eq!(
+        generated,
+        output_kinks(tape_system("tests/kinks/gap.kin"), &times)
+    );
+}
+
+/// Φ's error bounds of `a` and `b` at q, t: the largest difference
+/// relative to the larger bound.
+fn bounds_differ<A: System, B: System>(a: &A, b: &B, q: &[f64], t: f64) -> f64 {
+    let n = a.len();
+    let (mut x, mut y) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+    assert!(a.phi_error_bounds(&mut a.scratch(), q, t, 1e-13, 1.0, &mut x));
+    assert!(b.phi_error_bounds(&mut b.scratch(), q, t, 1e-13, 1.0, &mut y));
+    x.iter()
+        .zip(&y)
+        .map(|(u, v)| {
+            assert!(u.is_finite() && *u > 0.0 && v.is_finite(), "{x:?} vs {y:?}");
+            (u - v).abs() / u.max(*v)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The rules are kept twice (the runtime's `roundoff` for generated code,
+/// kinema-expr's tape analysis for the tape back end): at a state of each
+/// model, both bound every equation alike: up to the unit roundoff a
+/// tape's register copies add (1e-5 of a bound of 1e-13 on Jansen's
+/// linkage), where a rule of one that the other lacks moves a bound by a
+/// factor.
+#[test]
+fn generated_and_tape_error_bounds_agree() {
+    let cases: [(&str, &dyn Fn(&[f64], f64) -> f64); 3] = [
+        ("models/four_bar.kin", &|q, t| {
+            bounds_differ(
+                &four_bar::FourBar::default(),
+                &tape_system("models/four_bar.kin"),
+                q,
+                t,
+            )
+        }),
+        ("models/jansen.kin", &|q, t| {
+            bounds_differ(
+                &jansen::Jansen::default(),
+                &tape_system("models/jansen.kin"),
+                q,
+                t,
+            )
+        }),
+        ("tests/kinks/at_origin.kin", &|q, t| {
+            bounds_differ(
+                &at_origin::AtOrigin::default(),
+                &tape_system("tests/kinks/at_origin.kin"),
+                q,
+                t,
+            )
+        }),
+    ];
+    for (path, differ) in cases {
+        let system = tape_system(path);
+        let mut q = vec![0.0; system.len()];
+        system.initial_guess(&mut q);
+        // Away from the guess's round numbers.
+        for (k, x) in q.iter_mut().enumerate() {
+            *x += 0.01 * (k as f64 + 1.0).sqrt();
+        }
+        let d = differ(&q, 0.37);
+        assert!(d < 1e-3, "{path}: bounds differ by {d:e}");
     }
 }

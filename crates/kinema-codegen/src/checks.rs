@@ -32,7 +32,8 @@ pub(crate) fn methods(d: &Derivation, params: &[Ident], rt: &syn::Path) -> Token
             READS_TIME.get(i).copied().unwrap_or(false)
         }
     };
-    if let Some(body) = kink_body(d, params, rt) {
+    let found = |equation: &Literal, function: &TokenStream| quote!(#rt::Kink { equation: ::core::option::Option::Some(#equation), function: #function });
+    if let Some(body) = kink_body(&d.arena, &d.phi, (params, rt, false), &found) {
         out.extend(quote! {
             #[allow(unused_variables, clippy::approx_constant, clippy::too_many_lines)]
             fn kink(
@@ -76,16 +77,23 @@ pub(crate) fn methods(d: &Derivation, params: &[Ident], rt: &syn::Path) -> Token
     out
 }
 
-/// The kink check's statements, or `None` when Φ has no function with a
-/// kink (the default `None` is then right) or too many nodes.
-fn kink_body(d: &Derivation, params: &[Ident], rt: &syn::Path) -> Option<TokenStream> {
-    let arena = &d.arena;
-    // The kink nodes, each with the first equation that holds it.
+/// The kink check's statements over `roots` (Φ's equations, or the
+/// results' values), returning `found(root, function)` at the first
+/// function at its kink; `None` when no root has a function with a kink
+/// (the default `None` is then right) or past [`MAX_NODES`]. Velocities
+/// read `qd` when `qd` (results), else are 0 (Φ).
+fn kink_body(
+    arena: &Arena,
+    roots: &[ExprId],
+    (params, rt, qd): (&[Ident], &syn::Path, bool),
+    found: &dyn Fn(&Literal, &TokenStream) -> TokenStream,
+) -> Option<TokenStream> {
+    // The kink nodes, each with the first root that holds it.
     let mut seen = vec![false; arena.len()];
     let mut owner = vec![usize::MAX; arena.len()];
     let mut nodes = Vec::new();
     let mut stack = Vec::new();
-    for (r, &root) in d.phi.iter().enumerate() {
+    for (r, &root) in roots.iter().enumerate() {
         stack.push(root);
         while let Some(e) = stack.pop() {
             if std::mem::replace(&mut seen[e.index()], true) {
@@ -103,27 +111,67 @@ fn kink_body(d: &Derivation, params: &[Ident], rt: &syn::Path) -> Option<TokenSt
         }
     }
     let mut has_site = false;
-    let body = bounded(arena, &nodes, params, rt, &mut |n, site| {
+    let inputs = Leaves { params, qd };
+    let body = bounded(arena, &nodes, &inputs, rt, &mut |n, site| {
         has_site = true;
-        let eq = Literal::usize_unsuffixed(owner[n.index()]);
+        let root = Literal::usize_unsuffixed(owner[n.index()]);
         let (f, x, y) = site;
+        let function = quote!(#rt::roundoff::KinkFunction::#f);
+        let result = found(&root, &quote!(#function.name()));
         quote! {
-            if let ::core::option::Option::Some(kink) = #rt::roundoff::KinkFunction::#f.check(#x, #y, #eq) {
-                return ::core::option::Option::Some(kink);
+            if #function.at(#x, #y) {
+                return ::core::option::Option::Some(#result);
             }
         }
     })?;
     has_site.then_some(body.0)
 }
 
+/// The `output_kink` method of the `Outputs` impl (nothing when the
+/// results have no function with a kink: the default `None` is right).
+pub(crate) fn output_kink(d: &Derivation, params: &[Ident], rt: &syn::Path) -> TokenStream {
+    let n = Literal::usize_unsuffixed(d.nc());
+    let values: Vec<ExprId> = d.outputs.iter().map(|o| o.value).collect();
+    let found = |column: &Literal, function: &TokenStream| quote!(#rt::OutputKink { column: #column, function: #function });
+    let Some(body) = kink_body(&d.arena, &values, (params, rt, true), &found) else {
+        return quote!();
+    };
+    quote! {
+        #[allow(unused_variables, clippy::approx_constant, clippy::too_many_lines)]
+        fn output_kink(
+            &self,
+            _scratch: &mut Self::Scratch,
+            state: &#rt::State,
+            size: f64,
+        ) -> ::core::option::Option<#rt::OutputKink> {
+            let (t, uncertainty) = (state.t(), state.stats().residual);
+            let (::core::result::Result::Ok(q), ::core::result::Result::Ok(qd)) =
+                (<&[f64; #n]>::try_from(state.q()), <&[f64; #n]>::try_from(state.qd()))
+            else {
+                return ::core::option::Option::None;
+            };
+            #body
+            ::core::option::Option::None
+        }
+    }
+}
+
 /// Φ's error bounds into `errors`, or `None` past [`MAX_NODES`].
 fn bounds_body(d: &Derivation, params: &[Ident], rt: &syn::Path) -> Option<TokenStream> {
-    let (mut body, places) = bounded(&d.arena, &d.phi, params, rt, &mut |_, _| quote!())?;
+    let inputs = Leaves { params, qd: false };
+    let (mut body, places) = bounded(&d.arena, &d.phi, &inputs, rt, &mut |_, _| quote!())?;
     for (i, place) in places.iter().enumerate() {
         let i = Literal::usize_unsuffixed(i);
         body.extend(quote! { errors[#i] = #place.error; });
     }
     Some(body)
+}
+
+/// Where the leaves of a bounded body come from: the parameters' fields,
+/// and whether velocities are read from `qd` (else 0).
+struct Leaves<'a> {
+    params: &'a [Ident],
+    qd: bool,
 }
 
 /// A kink site: the function's variant name in `KinkFunction`, its
@@ -137,7 +185,7 @@ type Site = (Ident, TokenStream, TokenStream);
 fn bounded(
     arena: &Arena,
     roots: &[ExprId],
-    params: &[Ident],
+    leaves: &Leaves<'_>,
     rt: &syn::Path,
     check: &mut dyn FnMut(ExprId, Site) -> TokenStream,
 ) -> Option<(TokenStream, Vec<TokenStream>)> {
@@ -181,9 +229,14 @@ fn bounded(
                     let k = Literal::usize_unsuffixed(k as usize);
                     quote!(#b::coordinate(q[#k], uncertainty, size))
                 }
+                SymKind::Velocity(k) if leaves.qd => {
+                    let k = Literal::usize_unsuffixed(k as usize);
+                    quote!(#b::exact(qd[#k]))
+                }
                 SymKind::Velocity(_) => quote!(#b::exact(0.0)),
                 SymKind::Parameter(k) => {
-                    let name = params
+                    let name = leaves
+                        .params
                         .get(k as usize)
                         .expect("every parameter symbol of a derivation has a field");
                     quote!(#b::exact(self.#name))

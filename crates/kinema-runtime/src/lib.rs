@@ -83,7 +83,7 @@ pub use linalg::{
 };
 pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
-pub use outputs::{Motion, Outputs, Table};
+pub use outputs::{Motion, OutputKink, Outputs, Table};
 pub use precision::{Imprecision, Precision, PrecisionScope};
 pub use solver::{Solver, locate_undefined, undefined_between};
 pub use state::{Domain, Kink, State, StepStats, Undefined};

@@ -474,16 +474,6 @@ impl KinkFunction {
             KinkFunction::Smoothstep => near(v.abs().min((v - 1.0).abs()), e),
         }
     }
-
-    /// The kink of equation `equation` if the function is
-    /// [`at`](Self::at) it (for generated checks: one call per site).
-    #[must_use]
-    pub fn check(self, x: Bounded, y: Bounded, equation: usize) -> Option<crate::Kink> {
-        self.at(x, y).then_some(crate::Kink {
-            equation: Some(equation),
-            function: self.name(),
-        })
-    }
 }
 
 #[cfg(test)]
