@@ -34,10 +34,10 @@ impl Model {
 }
 
 /// [`Model::equilibrium`] from a given configuration and parameters.
-#[cfg(feature = "model")]
 ///
 /// # Errors
 /// As [`Model::equilibrium`].
+#[cfg(feature = "model")]
 pub fn equilibrium_from(
     d: &Derivation,
     params: &[f64],

@@ -68,35 +68,14 @@ impl Bounded {
         }
     }
 
-    /// −a.
-    #[inline]
-    #[must_use]
-    pub fn neg(self) -> Bounded {
-        rounded(-self.value, self.error)
-    }
-
     /// k · a (−a for k = −1, as the tape's compiler emits it).
     #[inline]
     #[must_use]
     pub fn scale(self, k: f64) -> Bounded {
         if k == -1.0 {
-            return self.neg();
+            return -self;
         }
         rounded(k * self.value, k.abs() * self.error)
-    }
-
-    /// a + b.
-    #[inline]
-    #[must_use]
-    pub fn add(self, b: Bounded) -> Bounded {
-        rounded(self.value + b.value, self.error + b.error)
-    }
-
-    /// a − b.
-    #[inline]
-    #[must_use]
-    pub fn sub(self, b: Bounded) -> Bounded {
-        rounded(self.value - b.value, self.error + b.error)
     }
 
     /// a + k · b (a sum and a difference for k = ±1).
@@ -104,10 +83,10 @@ impl Bounded {
     #[must_use]
     pub fn mul_add(self, k: f64, b: Bounded) -> Bounded {
         if k == 1.0 {
-            return self.add(b);
+            return self + b;
         }
         if k == -1.0 {
-            return self.sub(b);
+            return self - b;
         }
         let product = k * b.value;
         rounded(
@@ -139,24 +118,6 @@ impl Bounded {
         } else {
             acc.add_const(constant)
         }
-    }
-
-    /// a · b.
-    #[inline]
-    #[must_use]
-    pub fn mul(self, b: Bounded) -> Bounded {
-        rounded(
-            self.value * b.value,
-            b.value.abs() * self.error + self.value.abs() * b.error,
-        )
-    }
-
-    /// a / b.
-    #[inline]
-    #[must_use]
-    pub fn div(self, b: Bounded) -> Bounded {
-        let q = self.value / b.value;
-        rounded(q, (self.error + q.abs() * b.error) / b.value.abs())
     }
 
     /// 1 / a.
@@ -230,12 +191,12 @@ impl Bounded {
             let part = if exp > 0.0 { &mut num } else { &mut den };
             *part = Some(match *part {
                 None => value,
-                Some(c) => c.mul(value),
+                Some(c) => c * value,
             });
         }
         let r = match (num, den) {
             (Some(a), None) => a,
-            (Some(a), Some(b)) => a.div(b),
+            (Some(a), Some(b)) => a / b,
             (None, Some(b)) => b.recip(),
             (None, None) => Bounded::exact(1.0),
         };
@@ -370,6 +331,55 @@ impl Bounded {
             yv.atan2(xv),
             (xv.abs() * self.error + yv.abs() * x.error) / (xv * xv + yv * yv),
         )
+    }
+}
+
+/// −a.
+impl std::ops::Neg for Bounded {
+    type Output = Bounded;
+    #[inline]
+    fn neg(self) -> Bounded {
+        rounded(-self.value, self.error)
+    }
+}
+
+/// a + b.
+impl std::ops::Add for Bounded {
+    type Output = Bounded;
+    #[inline]
+    fn add(self, b: Bounded) -> Bounded {
+        rounded(self.value + b.value, self.error + b.error)
+    }
+}
+
+/// a − b.
+impl std::ops::Sub for Bounded {
+    type Output = Bounded;
+    #[inline]
+    fn sub(self, b: Bounded) -> Bounded {
+        rounded(self.value - b.value, self.error + b.error)
+    }
+}
+
+/// a · b.
+impl std::ops::Mul for Bounded {
+    type Output = Bounded;
+    #[inline]
+    fn mul(self, b: Bounded) -> Bounded {
+        rounded(
+            self.value * b.value,
+            b.value.abs() * self.error + self.value.abs() * b.error,
+        )
+    }
+}
+
+/// a / b.
+impl std::ops::Div for Bounded {
+    type Output = Bounded;
+    #[inline]
+    fn div(self, b: Bounded) -> Bounded {
+        let q = self.value / b.value;
+        rounded(q, (self.error + q.abs() * b.error) / b.value.abs())
     }
 }
 

@@ -155,8 +155,8 @@ pub trait System {
     /// [`roundoff`](crate::roundoff) — a bound far above an equation's
     /// roundoff says that its value is lost to the rounding of its own
     /// operations (`sin(1e30 * t)`, a difference of two large numbers).
-    /// Returns `false`, having written anything, when the system cannot
-    /// tell (the default) or a length is wrong. What the precision check
+    /// Returns `false` when the system cannot tell (the default) or a
+    /// length is wrong; `errors` then means nothing. What the precision check
     /// ([`Precision`](crate::precision::Precision)) reads; called on kept
     /// states, not in steps: must not allocate after its first call.
     fn phi_error_bounds(
