@@ -16,10 +16,10 @@ use quote::{format_ident, quote};
 use crate::emit;
 
 /// Scheduled nodes above which a check is not generated (the system then
-/// answers that it cannot tell, the trait's default): one straight-line
-/// function over a model's whole Φ with its bounds would dominate the
-/// compile time of a large model.
-const MAX_NODES: usize = 4 * emit::CHUNK_NODES;
+/// answers that it cannot tell, the trait's default): a check is one
+/// function, not cut into chunks as Φ is, so it stays within the size
+/// that keeps LLVM's time linear ([`emit::CHUNK_NODES`]).
+const MAX_NODES: usize = emit::CHUNK_NODES;
 
 /// The `kink`, `phi_error_bounds` and `equation_reads_time` methods of the
 /// `System` impl.
