@@ -37,12 +37,24 @@ pub use kinema_macros::mechanism;
 pub use kinema_runtime::{
     Accurate, Auto, Axis, Body, Coord, CsvLine, CsvWriter, DenseLu, DenseScratch, Dependency,
     Domain, DynDenseLu, Dynamics, Error, FoldedLu, ForwardStructure, ForwardSystem, Hht,
-    HhtOptions, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver, LinearSolverFor,
-    Options, PivotReport, PointKinematics, Rank, RankError, SingularEvent, SingularKind, Solver,
-    SparseLu, State, StepStats, System, Trajectory, Undefined, diagnose, integrate,
-    locate_undefined, point_kinematics, undefined_between,
+    HhtOptions, Imprecision, IntegrateError, InverseDynamics, Kink, LinalgError, LinearSolver,
+    LinearSolverFor, Options, PivotReport, PointKinematics, Precision, PrecisionScope, Rank,
+    RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory,
+    Undefined, diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
 };
-pub use kinema_runtime::{Motion, Outputs, Table};
+pub use kinema_runtime::{Motion, OutputKink, Outputs, Table};
+
+/// Static equilibrium of a system with inertia: the runtime's descent over
+/// any [`ForwardSystem`] — a generated one (`Name::default().forward()`,
+/// see [`equilibrium_from_start`](equilibrium::equilibrium_from_start)) or a
+/// model file's (`Model::equilibrium`, with the feature `model`).
+pub mod equilibrium {
+    pub use kinema_runtime::equilibrium::{
+        Equilibrium, EquilibriumError, Stability, equilibrium, equilibrium_from_start,
+    };
+    #[cfg(feature = "model")]
+    pub use kinema_tape::equilibrium::equilibrium_from;
+}
 
 // The tape back end (kinema-tape): models read at run time.
 /// The model language (kinema-model): the front door's types, the checked
@@ -57,19 +69,19 @@ pub use kinema_model::{Report, Source};
 pub use kinema_tape::sweep;
 #[cfg(feature = "model")]
 pub use kinema_tape::{
-    Backend, Format, Imprecision, Model, ModelFile, ModelSolver, OutputKink, PrecisionScope,
-    TapeSystem, UnknownParam, columns, dynamics, equilibrium, forward,
+    Backend, Format, Model, ModelFile, ModelSolver, TapeSystem, UnknownParam, columns, dynamics,
+    forward,
 };
 
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
 pub mod __private {
-    pub use kinema_runtime::linalg;
     pub use kinema_runtime::{
-        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, LinalgError,
-        LinearSolver, LinearSolverFor, Motion, Options, Outputs, PivotReport, ReactionSpec, Solver,
-        SparseLu, State, System,
+        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
+        LinalgError, LinearSolver, LinearSolverFor, Motion, Options, OutputKink, Outputs,
+        PivotReport, ReactionSpec, Solver, SparseLu, State, System,
     };
+    pub use kinema_runtime::{linalg, roundoff};
 }
 
 /// The README's Rust examples, compiled and run as doc tests.

@@ -33,6 +33,7 @@
 //! ([`generate_source`]).
 
 mod cache;
+mod checks;
 mod dynamics;
 mod emit;
 mod forward;
@@ -589,6 +590,7 @@ fn system_impl(
         &[("q", gamma.used.q, nc), ("qd", gamma.used.qd, nc)],
         &[("out", nc)],
     );
+    let checks = checks::methods(d, params, rt);
     let scratch_fn = if cache.is_empty() {
         quote!(
             fn scratch(&self) -> Self::Scratch {}
@@ -651,6 +653,8 @@ fn system_impl(
             fn gamma(&self, #gamma_s: &mut Self::Scratch, q: &[f64], qd: &[f64], #gamma_t: f64, out: &mut [f64]) {
                 #gamma_body
             }
+
+            #checks
         }
 
         #chunks

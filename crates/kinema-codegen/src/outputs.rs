@@ -220,6 +220,7 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
     let consts = constants(d);
     let output_names = d.outputs.iter().map(|o| o.name.as_str());
     let write_results = write_results(d, params);
+    let output_kink = crate::checks::output_kink(d, params, rt);
     let m_doc =
         format!(" Number of result columns (named points' components, then measures): {m}.");
     quote! {
@@ -249,6 +250,8 @@ pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Pa
             fn output_len(&self) -> usize {
                 #m_lit
             }
+
+            #output_kink
 
             fn output_name(&self, i: usize) -> &str {
                 Self::OUTPUT_NAMES.get(i).copied().unwrap_or("")

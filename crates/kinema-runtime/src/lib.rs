@@ -23,6 +23,8 @@
 //! | [`error`] | [`Error`]: typed diagnostics (singular Φ_q with the equations involved, no convergence, non-finite values, bad time grids) |
 //! | [`diagnose`], [`event`] | the one rank rule (equilibrated SVD); singular configurations met during a run |
 //! | [`integrate`] | forward dynamics: HHT-α ([`Hht`]) over a [`ForwardSystem`] |
+//! | [`roundoff`], [`precision`] | error bounds of straight-line arithmetic, the kink test, the precision check |
+//! | [`equilibrium`] | the stable static equilibrium of a [`ForwardSystem`] and its stability |
 //! | [`trajectory`], [`state`], [`kinematics`], [`csv`] | results: states, body-point kinematics, CSV |
 //! | `handwritten` | reference mechanisms of the benchmarks (feature `handwritten`) |
 //!
@@ -46,6 +48,7 @@
 pub mod csv;
 pub mod diagnose;
 pub mod dynamics;
+pub mod equilibrium;
 pub mod error;
 pub mod event;
 #[cfg(feature = "handwritten")]
@@ -57,6 +60,8 @@ pub mod linkage;
 mod newton;
 pub mod options;
 pub mod outputs;
+pub mod precision;
+pub mod roundoff;
 pub mod solver;
 pub mod state;
 pub mod system;
@@ -78,7 +83,8 @@ pub use linalg::{
 };
 pub use linkage::{DrivenAngle, Linkage, Pin};
 pub use options::Options;
-pub use outputs::{Motion, Outputs, Table};
+pub use outputs::{Motion, OutputKink, Outputs, Table};
+pub use precision::{Imprecision, Precision, PrecisionScope};
 pub use solver::{Solver, locate_undefined, undefined_between};
 pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;

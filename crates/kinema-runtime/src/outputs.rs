@@ -34,6 +34,16 @@ impl<'a> Motion<'a> {
     }
 }
 
+/// A result column at a kink ([`Outputs::output_kink`]): its value is
+/// right, its rates are the rounding errors'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OutputKink {
+    /// The result column (its index in [`Outputs::output_name`]'s order).
+    pub column: usize,
+    /// The function, as in [`Kink::function`](crate::Kink::function).
+    pub function: &'static str,
+}
+
 /// A system whose model declares named results: m scalar columns y (points'
 /// components, then measures), evaluated at a solved state with their
 /// derivatives ẏ and ÿ.
@@ -52,6 +62,24 @@ pub trait Outputs: System {
     /// velocities and accelerations (`at`). Slices of the wrong length give
     /// NaN, never a panic.
     fn outputs(&self, scratch: &mut Self::Scratch, at: Motion<'_>, out: [&mut [f64]; 3]);
+
+    /// The first result column that, at `state`, goes through a function
+    /// at a point where it is not differentiable (a distance between two
+    /// points that coincide but for roundoff, `atan2(0, 0)`, `acos(±1)`),
+    /// within a bound on its argument's error (the state's residual and
+    /// roundoff at `size`, as [`System::kink`] for Φ): its value is right,
+    /// its rates ẏ and ÿ there are the rounding errors'. Called on kept
+    /// states, not in steps: must not allocate after its first call. The
+    /// default: `None`, the system cannot tell.
+    fn output_kink(
+        &self,
+        scratch: &mut Self::Scratch,
+        state: &State,
+        size: f64,
+    ) -> Option<OutputKink> {
+        let _ = (scratch, state, size);
+        None
+    }
 
     /// The index of the result column named `name`, if any.
     fn output_index(&self, name: &str) -> Option<usize> {

@@ -126,7 +126,14 @@ pub trait System {
     /// coordinate at 0 is 0 within the rounding of the model's other
     /// numbers). There Φ_q, ν and γ are the
     /// roundoff's, and so are q̇ and q̈: the runtime flags the state
-    /// ([`State::kink`](crate::State::kink)). Called once per
+    /// ([`State::kink`](crate::State::kink)). The bound is the one of
+    /// [`roundoff`](crate::roundoff), and "at its kink" is
+    /// [`KinkFunction::at`](crate::roundoff::KinkFunction::at): within
+    /// [`MARGIN`](crate::roundoff::MARGIN) bounds of it; "first" is in the
+    /// order the system evaluates its functions, and the equation the
+    /// first that holds the function. Generated code computes it as
+    /// straight-line code over [`Bounded`](crate::roundoff::Bounded), the
+    /// tape back end on its tapes, by the same rules. Called once per
     /// state kept; may allocate the first time (its scratch), not after.
     /// The default: `None`, the system cannot tell.
     fn kink(
@@ -139,6 +146,38 @@ pub trait System {
     ) -> Option<crate::Kink> {
         let _ = (scratch, q, uncertainty, size, t);
         None
+    }
+
+    /// Bounds on the absolute errors of Φ's equations at (q, t) into
+    /// `errors` (length n): each coordinate q_k uncertain by `uncertainty`
+    /// and by one unit roundoff of `size` + |q_k|, one unit roundoff added
+    /// by each operation, propagated to first order by the rules of
+    /// [`roundoff`](crate::roundoff) — a bound far above an equation's
+    /// roundoff says that its value is lost to the rounding of its own
+    /// operations (`sin(1e30 * t)`, a difference of two large numbers).
+    /// Returns `false` when the system cannot tell (the default) or a
+    /// length is wrong; `errors` then means nothing. What the precision check
+    /// ([`Precision`](crate::precision::Precision)) reads; called on kept
+    /// states, not in steps: must not allocate after its first call.
+    fn phi_error_bounds(
+        &self,
+        scratch: &mut Self::Scratch,
+        q: &[f64],
+        t: f64,
+        uncertainty: f64,
+        size: f64,
+        errors: &mut [f64],
+    ) -> bool {
+        let _ = (scratch, q, t, uncertainty, size, errors);
+        false
+    }
+
+    /// Whether equation `i` of Φ reads t (a driver), which
+    /// [`PrecisionScope::Timed`](crate::precision::PrecisionScope::Timed)
+    /// checks alone. The default: `true`, every equation is checked.
+    fn equation_reads_time(&self, i: usize) -> bool {
+        let _ = i;
+        true
     }
 
     /// The first equation of Φ that, at time `t` or within `t_error` of
@@ -264,6 +303,20 @@ macro_rules! forward {
                 t: f64,
             ) -> Option<crate::Kink> {
                 (**self).kink(scratch, q, uncertainty, size, t)
+            }
+            fn phi_error_bounds(
+                &self,
+                scratch: &mut S::Scratch,
+                q: &[f64],
+                t: f64,
+                uncertainty: f64,
+                size: f64,
+                errors: &mut [f64],
+            ) -> bool {
+                (**self).phi_error_bounds(scratch, q, t, uncertainty, size, errors)
+            }
+            fn equation_reads_time(&self, i: usize) -> bool {
+                (**self).equation_reads_time(i)
             }
             fn undefined(
                 &self,

@@ -29,5 +29,3 @@ pub mod sweep;
 
 pub use file::{Format, ModelFile};
 pub use model::{Backend, Model, ModelSolver, TapeSystem, UnknownParam};
-pub use model_outputs::OutputKink;
-pub use precision::{Imprecision, PrecisionScope};

@@ -2,7 +2,7 @@
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::Derivation;
-use kinema_runtime::{Motion, Outputs};
+use kinema_runtime::{Motion, OutputKink, Outputs};
 
 use crate::model::TapeSystem;
 
@@ -18,18 +18,6 @@ pub(crate) struct OutputTape {
     /// (see [`TapeSystem::output_kink`]): the rates' formulas hold the
     /// same functions of the same arguments.
     kinks: Option<crate::kinks::KinkTape>,
-}
-
-/// A result column that, at a state, goes through a function at a point
-/// where it is not differentiable, within the uncertainty of its argument
-/// (see [`TapeSystem::output_kink`]): its value is right, its rates are
-/// the rounding errors'.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct OutputKink {
-    /// The result column (its index in [`Outputs::output_name`]'s order).
-    pub column: usize,
-    /// The function, as in [`Kink::function`](kinema_runtime::Kink::function).
-    pub function: &'static str,
 }
 
 impl OutputTape {
@@ -101,6 +89,16 @@ impl TapeSystem {
 }
 
 impl Outputs for TapeSystem {
+    /// [`TapeSystem::output_kink`]: the results' kink tape.
+    fn output_kink(
+        &self,
+        scratch: &mut Vec<f64>,
+        state: &kinema_runtime::State,
+        size: f64,
+    ) -> Option<OutputKink> {
+        TapeSystem::output_kink(self, scratch, state, size)
+    }
+
     fn output_len(&self) -> usize {
         self.outputs.names.len()
     }

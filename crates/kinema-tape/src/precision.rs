@@ -1,38 +1,15 @@
-//! Precision lost to rounding: an equation of Φ whose value, at a
-//! solution, its own roundoff does not determine (see
-//! [`TapeSystem::imprecision`]).
+//! Precision lost to rounding on the tape back end: an equation of Φ
+//! whose value, at a solution, its own roundoff does not determine (see
+//! [`TapeSystem::imprecision`]). The decision is the runtime's
+//! ([`kinema_runtime::precision`], which generated systems run through
+//! [`System::phi_error_bounds`](kinema_runtime::System::phi_error_bounds));
+//! the tape back end checks the drives' rows alone on tapes of their own.
 
 use kinema_expr::{ExprId, Tape};
 use kinema_model::Derivation;
+use kinema_runtime::precision::{Imprecision, PrecisionScope};
 
 use crate::model::{TapeSystem, grow};
-
-/// An equation of Φ whose value at a state is not determined to
-/// [`Imprecision::THRESHOLD`] of the coordinates' scale by its own
-/// arithmetic (see [`TapeSystem::imprecision`]): the solution q, and q̇ and
-/// q̈ with it, are then the rounding errors' as much as the model's.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Imprecision {
-    /// The equation (its index in Φ).
-    pub equation: usize,
-    /// The bound on the equation's error: its operations' roundoff and the
-    /// coordinates' uncertainty, propagated to first order.
-    pub error: f64,
-    /// That error as a move of the coordinates, error / maxⱼ |∂Φᵢ/∂qⱼ|.
-    pub shift: f64,
-    /// The coordinates' scale it is measured against: the model's size plus
-    /// ‖q‖∞.
-    pub scale: f64,
-}
-
-impl Imprecision {
-    /// How much of the coordinates' scale an equation's error may move
-    /// them before the state counts as imprecise: fewer than six
-    /// significant digits left. A model evaluated as written stays below
-    /// 10⁻¹⁰ of it (every model of the repository, the kink cases among
-    /// them, `tests/precision.rs`).
-    pub const THRESHOLD: f64 = 1e-6;
-}
 
 /// The equations of Φ that read t, and their rows of Φ_q, compiled apart
 /// for [`PrecisionScope::Timed`].
@@ -76,18 +53,6 @@ impl TimedTapes {
             entry_rows,
         })
     }
-}
-
-/// Which equations [`TapeSystem::imprecision_at`] checks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PrecisionScope {
-    /// Every equation of Φ (costs an evaluation of Φ and Φ_q).
-    All,
-    /// The equations that read t alone: the equations whose precision can
-    /// change along a run at a given scale of the coordinates (the others
-    /// read q, whose scale the test follows, the parameters and
-    /// constants).
-    Timed,
 }
 
 /// Equations to check: their Φ tape, their Φ_q entries' tape, the output
@@ -194,31 +159,50 @@ impl TapeSystem {
         jacobian.eval_with_cache(&inputs, r, trig, jac).ok()?;
         phi.error_bounds(&inputs, uncertainty, size, r, e, trig)
             .ok()?;
-        lever.fill(0.0);
-        for (k, &v) in jac.iter().enumerate() {
-            let l = &mut lever[(equations.entry_row)(k)];
-            *l = l.max(v.abs());
+        kinema_runtime::precision::levers(jac, equations.entry_row, lever);
+        kinema_runtime::precision::worst(&e[..m], lever, equations.equation, q, size)
+    }
+
+    /// Whether equation `i` of Φ reads t (see
+    /// [`System::equation_reads_time`](kinema_runtime::System::equation_reads_time)).
+    pub(crate) fn reads_time(&self, i: usize) -> bool {
+        self.timed
+            .as_deref()
+            .is_some_and(|timed| timed.equations.binary_search(&i).is_ok())
+    }
+
+    /// Φ's error bounds on its tape (see
+    /// [`System::phi_error_bounds`](kinema_runtime::System::phi_error_bounds)),
+    /// in the scratch after the kink checks' part.
+    pub(crate) fn phi_bounds(
+        &self,
+        scratch: &mut Vec<f64>,
+        (q, t, uncertainty): (&[f64], f64, f64),
+        size: f64,
+        errors: &mut [f64],
+    ) -> bool {
+        let registers = self.phi.registers();
+        let base = self.kink_base() + self.kink_len();
+        let need = base + 2 * registers;
+        if errors.len() != self.phi.outputs() {
+            return false;
         }
-        let q_max = q.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        let scale = size.abs() + q_max;
-        let mut worst: Option<Imprecision> = None;
-        for (k, (&error, &l)) in e[..m].iter().zip(lever.iter()).enumerate() {
-            // A row without a finite lever is singular, and an error that
-            // is not a number a function at its kink: neither is this
-            // check's to report.
-            let shift = error / l;
-            if !(shift.is_finite() && shift > Imprecision::THRESHOLD * scale) {
-                continue;
-            }
-            if worst.is_none_or(|w| shift > w.shift) {
-                worst = Some(Imprecision {
-                    equation: (equations.equation)(k),
-                    error,
-                    shift,
-                    scale,
-                });
-            }
+        if scratch.len() < need {
+            grow(scratch, need);
         }
-        worst
+        let (start, rest) = scratch.split_at_mut(base);
+        let trig = &mut start[..self.trig_len()];
+        let (r, rest) = rest.split_at_mut(registers);
+        let e = &mut rest[..registers];
+        let inputs = self.inputs(q, &self.zeros, t);
+        if self
+            .phi
+            .error_bounds(&inputs, uncertainty, size, r, e, trig)
+            .is_err()
+        {
+            return false;
+        }
+        errors.copy_from_slice(&e[..errors.len()]);
+        true
     }
 }

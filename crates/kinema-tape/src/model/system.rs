@@ -105,6 +105,25 @@ impl System for TapeSystem {
         })
     }
 
+    /// Φ's tape with a bound on each value's error (see
+    /// [`Tape::error_bounds`](kinema_expr::Tape::error_bounds)), in the
+    /// scratch after the kink checks' part.
+    fn phi_error_bounds(
+        &self,
+        scratch: &mut Vec<f64>,
+        q: &[f64],
+        t: f64,
+        uncertainty: f64,
+        size: f64,
+        errors: &mut [f64],
+    ) -> bool {
+        self.phi_bounds(scratch, (q, t, uncertainty), size, errors)
+    }
+
+    fn equation_reads_time(&self, i: usize) -> bool {
+        self.reads_time(i)
+    }
+
     /// Φ's domain tape (its functions of time alone), with t uncertain by
     /// `t_error` (see [`Tape::undefined`]), in the scratch's kink part.
     #[inline]
