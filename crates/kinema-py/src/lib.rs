@@ -21,7 +21,8 @@ mod forward;
 mod run;
 mod sweep;
 
-use run::{DynamicsColumns, RunOptions, backend_name, check_times, run_kinematics, uniform_grid};
+use kinema::dynamics::DynamicsColumns;
+use run::{RunOptions, backend_name, check_times, run_kinematics, uniform_grid};
 use sweep::run_sweep;
 
 use errors::{file_error, known, model_error, value_error};
@@ -405,7 +406,7 @@ impl NativeModel {
         if !positions_only
             && let Some(dy) = DynamicsColumns::new(&self.system, d.rows.len(), self.is_adm())
         {
-            names.extend(dy.names);
+            names.extend(dy.names().iter().cloned());
         }
         Ok(names)
     }

@@ -2,7 +2,8 @@
 //! `run`): the grid, the rows (coordinates, outputs, inverse dynamics),
 //! singular configurations as data. Runs with the GIL released.
 
-use kinema::{Auto, Error, InverseDynamics, Options, SingularKind, Solver, System, TapeSystem};
+use kinema::dynamics::DynamicsColumns;
+use kinema::{Auto, Options, SingularKind, Solver, System, TapeSystem};
 use pyo3::prelude::*;
 
 use super::MAX_TIMES;
@@ -56,47 +57,6 @@ pub(crate) fn check_times(times: &[f64]) -> PyResult<()> {
     Ok(())
 }
 
-/// The inverse-dynamics columns of a kinematic run of a model with inertia,
-/// named and computed as `kinema run` does (crates/kinema-cli/src/cli/
-/// dynamics.rs): the Lagrange multipliers, the joints' reactions, the
-/// drivers' efforts.
-pub(crate) struct DynamicsColumns {
-    pub(crate) id: InverseDynamics,
-    pub(crate) names: Vec<String>,
-    pub(crate) values: Vec<f64>,
-}
-
-impl DynamicsColumns {
-    pub(crate) fn new(system: &TapeSystem, rows: usize, adm: bool) -> Option<DynamicsColumns> {
-        if !system.has_dynamics() {
-            return None;
-        }
-        let names = system.dynamics_column_names(rows, adm);
-        let values = vec![0.0; names.len()];
-        Some(DynamicsColumns {
-            id: InverseDynamics::new(system),
-            names,
-            values,
-        })
-    }
-
-    pub(crate) fn compute(
-        &mut self,
-        solver: &mut Solver<TapeSystem, Auto>,
-    ) -> Result<&[f64], Error> {
-        solver.inverse_dynamics(&mut self.id)?;
-        let flat = self
-            .id
-            .lambda()
-            .iter()
-            .chain(self.id.reactions().iter().flatten())
-            .chain(self.id.efforts());
-        for (v, &x) in self.values.iter_mut().zip(flat) {
-            *v = x;
-        }
-        Ok(&self.values)
-    }
-}
 
 /// A singular configuration met, as data.
 pub(crate) struct Event {
@@ -172,7 +132,7 @@ pub(crate) fn run_kinematics(
     let mut columns = vec!["t".to_owned()];
     columns.extend(header);
     if let Some(d) = &dynamics {
-        columns.extend(d.names.iter().cloned());
+        columns.extend(d.names().iter().cloned());
     }
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options.solver_options())
         .map_err(|e| format!("cannot set up the solver: {e}"))?;

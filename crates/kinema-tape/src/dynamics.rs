@@ -4,7 +4,9 @@
 
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::{Derivation, RowKind};
-use kinema_runtime::{Dynamics, Error, InverseDynamics, Motion, Outputs, ReactionSpec, System};
+use kinema_runtime::{
+    Auto, Dynamics, Error, InverseDynamics, Motion, Outputs, ReactionSpec, Solver, System,
+};
 
 use crate::model::TapeSystem;
 
@@ -222,5 +224,57 @@ impl DynamicsRow {
     /// between rows.
     pub fn scratch(&mut self) -> &mut Vec<f64> {
         &mut self.scratch
+    }
+}
+
+/// The inverse-dynamics columns of a kinematic run of a model with inertia
+/// (λ, the joints' reactions, the drivers' efforts, named by
+/// [`TapeSystem::dynamics_column_names`]) and the buffers that fill them:
+/// what `kinema run` and the Python package write after the kinematic
+/// columns.
+pub struct DynamicsColumns {
+    id: InverseDynamics,
+    names: Vec<String>,
+    values: Vec<f64>,
+}
+
+impl DynamicsColumns {
+    /// The columns for `system`, or `None` for a kinematic model. `adm`:
+    /// name a reaction's body `body1`/`body2` as in the simEngine2D
+    /// element, not by the body's name.
+    pub fn new(system: &TapeSystem, rows: usize, adm: bool) -> Option<DynamicsColumns> {
+        if !system.has_dynamics() {
+            return None;
+        }
+        let names = system.dynamics_column_names(rows, adm);
+        let values = vec![0.0; names.len()];
+        Some(DynamicsColumns {
+            id: InverseDynamics::new(system),
+            names,
+            values,
+        })
+    }
+
+    /// The column names, in order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Inverse dynamics at the solver's state: the row's values.
+    ///
+    /// # Errors
+    /// As [`Solver::inverse_dynamics`].
+    pub fn compute(&mut self, solver: &mut Solver<TapeSystem, Auto>) -> Result<&[f64], Error> {
+        solver.inverse_dynamics(&mut self.id)?;
+        let flat = self
+            .id
+            .lambda()
+            .iter()
+            .chain(self.id.reactions().iter().flatten())
+            .chain(self.id.efforts());
+        for (v, &x) in self.values.iter_mut().zip(flat) {
+            *v = x;
+        }
+        Ok(&self.values)
     }
 }
