@@ -41,6 +41,7 @@ pub use kinema_runtime::{
     LinearSolverFor, Options, PivotReport, PointKinematics, Precision, PrecisionScope, Rank,
     RankError, SingularEvent, SingularKind, Solver, SparseLu, State, StepStats, System, Trajectory,
     Undefined, diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
+    uniform_times,
 };
 pub use kinema_runtime::{Motion, OutputKink, Outputs, Table};
 

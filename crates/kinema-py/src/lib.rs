@@ -22,7 +22,8 @@ mod run;
 mod sweep;
 
 use kinema::dynamics::DynamicsColumns;
-use run::{RunOptions, backend_name, check_times, run_kinematics, uniform_grid};
+use kinema::uniform_times as uniform_grid;
+use run::{RunOptions, backend_name, check_times, run_kinematics};
 use sweep::run_sweep;
 
 use errors::{file_error, known, model_error, value_error};

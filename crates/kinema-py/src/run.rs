@@ -9,25 +9,6 @@ use pyo3::prelude::*;
 use super::MAX_TIMES;
 use super::errors::value_error;
 
-/// The uniform grid of `kinema run --t-end T --steps N`: N + 1 times from 0,
-/// the last exactly T (k·T/N, or (k/N)·T where k·T overflows).
-pub(crate) fn uniform_grid(t_end: f64, steps: usize) -> Vec<f64> {
-    (0..=steps)
-        .map(|k| {
-            if k == steps {
-                t_end
-            } else {
-                let p = k as f64 * t_end;
-                if p.is_finite() {
-                    p / steps as f64
-                } else {
-                    (k as f64 / steps as f64) * t_end
-                }
-            }
-        })
-        .collect()
-}
-
 /// Refuses times that are not finite and strictly increasing.
 pub(crate) fn check_times(times: &[f64]) -> PyResult<()> {
     if times.is_empty() {

@@ -88,4 +88,4 @@ pub use precision::{Imprecision, Precision, PrecisionScope};
 pub use solver::{Solver, locate_undefined, undefined_between};
 pub use state::{Domain, Kink, State, StepStats, Undefined};
 pub use system::System;
-pub use trajectory::Trajectory;
+pub use trajectory::{Trajectory, uniform_times};

@@ -134,3 +134,25 @@ impl<'a> IntoIterator for &'a Trajectory {
         self.states.iter()
     }
 }
+
+/// `steps` equal steps from 0 to `t_end`: the `steps + 1` times `k·T/N`
+/// (`(k/N)·T` where `k·T` overflows), the last exactly `t_end`. The grid of
+/// `kinema run --t-end T --steps N`, of the Python package's `steps=` and of
+/// sweeps, so that they step through the same doubles.
+#[must_use]
+pub fn uniform_times(t_end: f64, steps: usize) -> Vec<f64> {
+    (0..=steps)
+        .map(|k| {
+            if k == steps {
+                t_end
+            } else {
+                let p = k as f64 * t_end;
+                if p.is_finite() {
+                    p / steps as f64
+                } else {
+                    (k as f64 / steps as f64) * t_end
+                }
+            }
+        })
+        .collect()
+}
