@@ -4,9 +4,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use kinema::{Error, Options, Rank, System, TapeSystem, diagnose};
+use kinema::{Error, Options, Rank, System, diagnose};
 
 use super::load::Loaded;
+use super::shared::report::{assembly_warnings, redundancy_report, run_error};
 use super::{Failure, print_stdout};
 
 /// Runs `kinema check`.
@@ -19,7 +20,7 @@ pub fn check(path: &Path) -> Result<(), Failure> {
     let loaded = super::load::load_with(path, None, false)?;
     loaded.print_warnings();
     let mut report = header(&loaded);
-    if let Some(redundant) = super::forward::redundancy_report(&loaded) {
+    if let Some(redundant) = redundancy_report(&loaded) {
         report.push_str(&redundant);
         return print_stdout(&report);
     }
@@ -203,24 +204,6 @@ fn header(loaded: &Loaded) -> String {
     out
 }
 
-/// A run-time error as a message: the runtime's sentence, and for an ADM
-/// model the ADM constraints behind the equations it names.
-pub fn run_error(loaded: &Loaded, e: &Error) -> String {
-    let mut message = e.to_string();
-    if let Some(adm) = &loaded.adm {
-        let names: Vec<&str> = match e {
-            Error::Singular { dependency, .. } => {
-                dependency.equations.iter().map(String::as_str).collect()
-            }
-            Error::NoConvergence { worst_equation, .. } => vec![worst_equation.as_str()],
-            Error::NonFinite { name, .. } => vec![name.split(" / ").next().unwrap_or(name)],
-            _ => Vec::new(),
-        };
-        message.push_str(&adm.explain(&names));
-    }
-    message
-}
-
 fn list(names: &[String]) -> String {
     if names.is_empty() {
         "none found".to_string()
@@ -266,26 +249,4 @@ fn rank_at<S: System>(system: &S, q: &[f64], t: f64) -> Option<Rank> {
         Options::default().singular_tolerance,
     )
     .ok()
-}
-
-/// Warnings about an assembly that converged far from the guess: an angle
-/// that moved by more than half a turn usually means another assembly
-/// mode (or the mirror image) of the mechanism meant.
-pub fn assembly_warnings(loaded: &Loaded, system: &TapeSystem, q: &[f64]) -> Vec<String> {
-    let mut guess = vec![0.0; q.len()];
-    system.initial_guess(&mut guess);
-    let names = &loaded.model.derivation().coordinates;
-    let mut out = Vec::new();
-    for ((c, &g), &x) in names.iter().zip(&guess).zip(q) {
-        let moved = (x - g).abs();
-        if c.name.ends_with(".phi") && moved > std::f64::consts::PI {
-            out.push(format!(
-                "warning: assembly at t = 0 moved `{}` from its guess {g} to {x} (by {moved:.3} rad, \
-                 more than half a turn): the configuration found may be another assembly mode or \
-                 the mirror image of the one meant; give a guess closer to it",
-                c.name
-            ));
-        }
-    }
-    out
 }

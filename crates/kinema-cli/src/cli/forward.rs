@@ -11,14 +11,13 @@ use std::time::Instant;
 
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
-use kinema::{
-    Accurate, Axis, Body, ForwardSystem, Hht, HhtOptions, IntegrateError, PrecisionScope,
-};
+use kinema::{Accurate, Axis, Body, Hht, HhtOptions, IntegrateError, PrecisionScope};
 
 use super::args::{Integrator, RunArgs};
 use super::files::RunFiles;
 use super::load::Loaded;
 use super::output::{CsvSink, Destination, duration, time};
+use super::shared::grid::MAX_PLOT_STATES;
 use super::{Failure, print_stderr, print_stdout};
 
 /// Default step of a `.kin` model's forward dynamics.
@@ -62,53 +61,6 @@ pub use kinema::forward::DynamicsRun;
 pub fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
     let d = loaded.model.derivation();
     kinema::forward::dynamics_run(d, &d.param_values(), &loaded.model.initial_configuration())
-}
-
-/// `kinema check`'s report on a model with inertia whose equations are
-/// redundant at its assembled configuration (with what `kinema run` does
-/// with it), or `None` for any other model.
-pub fn redundancy_report(loaded: &Loaded) -> Option<String> {
-    loaded.model.derivation().dynamics.as_ref()?;
-    let dof = loaded.checked().dof();
-    if dof.ndof() > 0 || (dof.ndof() == 0 && dof.driving > 0) {
-        return None;
-    }
-    let mut fwd = loaded.model.forward_system()?;
-    let mut q = loaded.model.initial_configuration();
-    let assembled = kinema::integrate::assemble(&mut fwd, &mut q, 0.0);
-    let monitor = Monitor::new(&mut fwd, &q, 0.0, 0.0);
-    let (rank, redundancy) = match (assembled, monitor.rank(), monitor.redundancy()) {
-        (Ok(()), Some(rank), Some(redundancy)) => (rank, redundancy),
-        _ => return None,
-    };
-    let free = q.len() - rank;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "  assembly at t = 0 from the guess: converged (minimum-norm Newton steps); rank of Φ_q \
-         there {rank} of {} rows",
-        fwd.rows()
-    );
-    let _ = writeln!(
-        out,
-        "  redundant equations: {}",
-        redundancy.redundant.join(", ")
-    );
-    let _ = write!(
-        out,
-        "ok: `{}` is valid; its {} equations hold {} independent ones, leaving {free} degree{} of \
-         freedom: `kinema run` {}",
-        loaded.name(),
-        fwd.rows(),
-        rank,
-        if free == 1 { "" } else { "s" },
-        if free > 0 {
-            "integrates its forward dynamics"
-        } else {
-            "solves its prescribed motion and inverse dynamics (minimum-norm multipliers)"
-        }
-    );
-    Some(out)
 }
 
 /// Whether `loaded` runs as forward dynamics (see [`dynamics_run`]).
@@ -409,7 +361,7 @@ impl Motion {
 
     /// Integrates to every output time in turn (step `h`), writing each
     /// row and keeping the states the figure or the page draws (thinned
-    /// to at most [`super::run::MAX_PLOT_STATES`]). The CSV, to finish.
+    /// to at most [`MAX_PLOT_STATES`]). The CSV, to finish.
     ///
     /// # Errors
     /// A failed step (the rows before it kept), a failed write.
@@ -425,7 +377,7 @@ impl Motion {
         let d = loaded.model.derivation();
         let rows = d.rows.len();
         let mut row = kinema::dynamics::DynamicsRow::new(system, rows);
-        let stride = outputs_t.len().div_ceil(super::run::MAX_PLOT_STATES).max(1);
+        let stride = outputs_t.len().div_ceil(MAX_PLOT_STATES).max(1);
         // The row's extra columns with the energies appended (`--energy`).
         let mut extra = Vec::new();
         // Rows with an equation its own arithmetic does not determine (every

@@ -37,6 +37,7 @@ pub mod plot;
 pub mod progress;
 pub mod run;
 pub mod scene;
+pub mod shared;
 pub mod sweep;
 pub mod warnings;
 

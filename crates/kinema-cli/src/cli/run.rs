@@ -9,99 +9,21 @@ use kinema::{Auto, Options, SingularEvent, SingularKind, Solver, State, TapeSyst
 use kinema_adm::Analysis;
 
 use super::args::{Backend, RunArgs};
-use super::check::run_error;
 use super::files::RunFiles;
 use super::load::{Loaded, format_of, load};
 use super::output::{CsvSink, Destination, duration, time};
 use super::plot::Samples;
 use super::progress::Progress;
+use super::shared::grid::{
+    DEFAULT_STEPS, DEFAULT_T_END, Grid, MAX_PLOT_STATES, MAX_TIMES, check_grid_args,
+};
+use super::shared::report::{assembly_warnings, run_error};
 use super::warnings::{
     equation_of, kink_function, print_imprecision_warning, print_kink_warning,
     print_singular_warnings,
 };
 use super::{Failure, adm, animate};
 use kinema::Format;
-
-/// Default final time of a `.kin` run.
-pub const DEFAULT_T_END: f64 = 1.0;
-/// Default number of steps of a `.kin` run.
-pub const DEFAULT_STEPS: usize = 100;
-/// Most solve times a run may have (the grid is kept in memory: 9 bytes a
-/// time).
-pub const MAX_TIMES: usize = 10_000_000;
-/// Most states kept for a plot; longer runs are thinned evenly (the last
-/// state always kept).
-pub const MAX_PLOT_STATES: usize = 5000;
-
-/// The times to solve at, and which of them are outputs.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Grid {
-    /// Strictly increasing solve times, from 0.
-    pub times: Vec<f64>,
-    /// `output[k]`: whether `times[k]` is written out.
-    pub output: Vec<bool>,
-    /// What the grid is, for the summary.
-    pub description: String,
-}
-
-impl Grid {
-    /// `steps` equal steps from 0 to `t_end` (N + 1 times, all outputs; the
-    /// last is exactly `t_end`).
-    ///
-    /// # Errors
-    /// [`Failure::Input`] when the times do not increase: the step is below
-    /// the resolution of the times (`t_end` 5e-324 in 10 steps).
-    pub fn uniform(t_end: f64, steps: usize) -> Result<Grid, Failure> {
-        let times: Vec<f64> = (0..=steps)
-            .map(|k| {
-                if k == steps {
-                    t_end
-                } else {
-                    let p = k as f64 * t_end;
-                    if p.is_finite() {
-                        p / steps as f64
-                    } else {
-                        (k as f64 / steps as f64) * t_end
-                    }
-                }
-            })
-            .collect();
-        check_increasing(&times, &|| {
-            format!("--t-end {t_end:e} with --steps {steps}")
-        })?;
-        Ok(Grid {
-            output: vec![true; times.len()],
-            description: format!("{steps} equal steps from t = 0 to {}", time(t_end)),
-            times,
-        })
-    }
-
-    /// simEngine2D's grid: outputs at the ACF's `outputSteps + 1` times,
-    /// solves also every `stepSize` in between (warm starts, as the engine
-    /// did).
-    ///
-    /// # Errors
-    /// [`Failure::Input`] when the output times do not increase (`source`
-    /// says where `tend` and `outputSteps` came from).
-    pub fn simengine(analysis: &Analysis, source: &dyn Fn() -> String) -> Result<Grid, Failure> {
-        let outputs = analysis.output_times();
-        check_increasing(&outputs, source)?;
-        let (times, output) = analysis.grid();
-        let outputs_n = output.iter().filter(|&&o| o).count();
-        Ok(Grid {
-            description: format!(
-                "{} outputs from t = 0 to {} (outputSteps {}), solved at {} times (stepSize {})",
-                outputs_n,
-                time(analysis.tend),
-                analysis.output_steps,
-                times.len(),
-                time(analysis.step_size)
-            ),
-            times,
-            output,
-        })
-    }
-}
 
 /// What the run cost, for the summary.
 #[derive(Debug, Clone, Default)]
@@ -132,60 +54,6 @@ impl Stats {
         if first || s.residual > self.worst_residual {
             self.worst_residual = s.residual;
             self.worst_residual_t = state.t();
-        }
-    }
-}
-
-/// Checks `--t-end` and `--steps`; returns the number of steps.
-pub fn check_grid_args(t_end: Option<f64>, steps: Option<i64>) -> Result<Option<usize>, Failure> {
-    if let Some(t) = t_end
-        && !(t.is_finite() && t > 0.0)
-    {
-        return Err(Failure::usage(format_args!(
-            "--t-end must be a positive finite time (T > 0: the analysis runs from t = 0 to T), found {t}"
-        )));
-    }
-    let Some(n) = steps else {
-        return Ok(None);
-    };
-    if n < 1 {
-        return Err(Failure::usage(format_args!(
-            "--steps must be at least 1 (a whole number from 1 to {}), found {n}",
-            MAX_TIMES - 1
-        )));
-    }
-    match usize::try_from(n) {
-        Ok(n) if n < MAX_TIMES => Ok(Some(n)),
-        _ => Err(Failure::usage(format_args!(
-            "--steps {n} is more than one run takes (at most {})",
-            MAX_TIMES - 1
-        ))),
-    }
-}
-
-/// Refuses a grid whose times are not finite and strictly increasing (a
-/// step below the resolution of the times: `--t-end 5e-324 --steps 10`);
-/// `source` says where the values came from.
-fn check_increasing(times: &[f64], source: &dyn Fn() -> String) -> Result<(), Failure> {
-    let bad = times
-        .windows(2)
-        .position(|w| !(w[1] > w[0] && w[1].is_finite()));
-    match bad {
-        None if times.iter().all(|t| t.is_finite()) => Ok(()),
-        _ => {
-            let k = bad.unwrap_or(0);
-            let (a, b) = (
-                times.get(k).copied().unwrap_or(f64::NAN),
-                times.get(k + 1).copied().unwrap_or(f64::NAN),
-            );
-            Err(Failure::usage(format_args!(
-                "{}: the solve times do not increase (time {k} is {}, time {} is {}); \
-                 the step is below the resolution of the times: use fewer steps or a later final time",
-                source(),
-                time(a),
-                k + 1,
-                time(b)
-            )))
         }
     }
 }
@@ -390,7 +258,7 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
         };
         stats.record(k == 0, state);
         if k == 0 {
-            for w in super::check::assembly_warnings(loaded, solver.system(), state.q()) {
+            for w in assembly_warnings(loaded, solver.system(), state.q()) {
                 eprintln!("{w}");
             }
         }
@@ -872,6 +740,3 @@ fn summary(s: &SummaryInput<'_>) -> String {
     out.push('\n');
     out
 }
-
-#[cfg(test)]
-mod tests;

@@ -22,7 +22,7 @@ use kinema::sweep::{ModelSweep, shard};
 use super::args::SweepArgs;
 use super::load::{format_of, load};
 use super::output::{Destination, Outputs, Sink, duration, rows_at, time, write_failure};
-use super::run::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
+use super::shared::grid::{DEFAULT_STEPS, DEFAULT_T_END, Grid, check_grid_args};
 use super::{Failure, print_stderr};
 use kinema::CsvLine;
 use kinema::Format;

@@ -1,4 +1,4 @@
-//! Unit tests of the run's time grids.
+//! Unit tests of the time grids.
 
 use super::*;
 
