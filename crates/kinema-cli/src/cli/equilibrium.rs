@@ -7,53 +7,23 @@ use std::fmt::Write as _;
 
 use kinema::equilibrium::{Equilibrium, Stability};
 
-use super::args::RunArgs;
 use super::files::RunFiles;
-use super::load::{Loaded, load_with};
+use super::load::Loaded;
 use super::output::Destination;
+use super::plan::OutputPlan;
 use super::{Failure, print_stderr, print_stdout};
 
-/// Rule: kinematic analysis (and inverse dynamics) needs NDOF = 0; a model
-/// with inertia and free degrees of freedom has an equilibrium only.
+/// Runs `kinema run --equilibrium` on `loaded` (a model with dynamics:
+/// see [`super::plan`]).
 ///
 /// # Errors
-/// [`Failure::Input`] naming the NDOF and `--equilibrium`.
-pub fn refuse_free_dof(loaded: &Loaded) -> Result<(), Failure> {
-    let dof = loaded.checked().dof();
-    if dof.ndof() == 0 {
-        return Ok(());
-    }
-    Err(Failure::usage(format_args!(
-        "mechanism `{}` has NDOF = {} ({dof}): a kinematic motion needs NDOF = 0 (forward \
-         dynamics needs inertia: `mass` and `inertia` on every body)\n  = help: `kinema run {} \
-         --equilibrium` finds the stable static equilibrium of a model with inertia",
-        loaded.checked().name,
-        dof.ndof(),
-        loaded.file
-    )))
-}
-
-/// Runs `kinema run --equilibrium`.
-///
-/// # Errors
-/// Usage errors (options that describe a motion, a model without
-/// dynamics), model errors, and [`Failure::Analysis`] when no equilibrium
-/// is found.
-pub fn run(args: &RunArgs) -> Result<(), Failure> {
-    refuse_motion_options(args)?;
-    let loaded = load_with(&args.model, None, false)?;
-    loaded.print_warnings();
+/// [`Failure::Input`] for an output that cannot be created or a bad
+/// `--columns`; [`Failure::Analysis`] when no equilibrium is found.
+pub fn run(loaded: &Loaded, outputs: &OutputPlan) -> Result<(), Failure> {
     let d = loaded.model.derivation();
-    if d.dynamics.is_none() {
-        return Err(Failure::usage(format_args!(
-            "`{}` has no inertia, gravity or forces: --equilibrium needs a model with dynamics \
-             (`mass`, `inertia`, `gravity`, `force`)",
-            loaded.file
-        )));
-    }
     let system = loaded.model.system();
     let dynamics = system.dynamics_column_names(d.rows.len(), loaded.adm.is_some());
-    let mut sink = RunFiles::create(args, d, &dynamics)?.csv;
+    let mut sink = RunFiles::create(outputs, d, &dynamics)?.csv;
 
     let eq = loaded
         .model
@@ -81,32 +51,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             eq.stability
         ));
     }
-    let summary = summary(&loaded, &eq, &destination);
+    let summary = summary(loaded, &eq, &destination);
     if destination == Destination::Stdout {
         print_stderr(&summary);
         Ok(())
     } else {
         print_stdout(&summary)
     }
-}
-
-/// Rule: `--equilibrium` is one configuration; options that describe a
-/// motion are refused.
-fn refuse_motion_options(args: &RunArgs) -> Result<(), Failure> {
-    for (given, option) in [
-        (args.t_end.is_some(), "--t-end"),
-        (args.steps.is_some(), "--steps"),
-        (args.plot.is_some(), "--plot"),
-        (args.animate.is_some(), "--animate"),
-        (args.stop_at_singular, "--stop-at-singular"),
-    ] {
-        if given {
-            return Err(Failure::usage(format_args!(
-                "{option} describes a motion; --equilibrium computes one configuration at t = 0"
-            )));
-        }
-    }
-    Ok(())
 }
 
 /// The summary: descent steps, stability with the reduced Hessian's

@@ -6,9 +6,9 @@
 
 use kinema::lang::Derivation;
 
-use super::args::RunArgs;
 use super::columns::Selection;
-use super::output::{CsvSink, Destination, Outputs};
+use super::output::{CsvSink, Outputs};
+use super::plan::OutputPlan;
 use super::{Failure, animate, plot};
 
 /// The open outputs of a run.
@@ -30,23 +30,27 @@ impl RunFiles {
     /// # Errors
     /// A usage error for a bad `--columns` list or an output that cannot
     /// be created.
-    pub fn create(args: &RunArgs, d: &Derivation, extra: &[String]) -> Result<RunFiles, Failure> {
-        let selection = Selection::of_option(args.columns.as_deref(), d)?
-            .with_positions_only(args.positions_only);
+    pub fn create(
+        plan: &OutputPlan,
+        d: &Derivation,
+        extra: &[String],
+    ) -> Result<RunFiles, Failure> {
+        let selection = Selection::of_option(plan.columns.as_deref(), d)?
+            .with_positions_only(plan.positions_only);
         let mut header = selection.header(d);
         header.extend_from_slice(extra);
         let mut outputs = Outputs::new();
-        outputs.input("the model", &args.model);
-        if let Some(acf) = &args.acf {
+        outputs.input("the model", &plan.model);
+        if let Some(acf) = &plan.acf {
             outputs.input("the analysis file", acf);
         }
-        let csv = CsvSink::create(&mut outputs, Destination::of(&args.out), &header, selection)?;
-        let plot = args
+        let csv = CsvSink::create(&mut outputs, plan.csv.clone(), &header, selection)?;
+        let plot = plan
             .plot
             .as_deref()
             .map(|p| plot::Target::create(&mut outputs, p))
             .transpose()?;
-        let page = args
+        let page = plan
             .animate
             .as_deref()
             .map(|p| animate::Target::create(&mut outputs, p))

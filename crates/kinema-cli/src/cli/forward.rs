@@ -9,21 +9,18 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
+use kinema::forward::DynamicsRun;
 use kinema::forward::TapeForward;
 use kinema::integrate::{Consistency, Integrator as MotionEngine, Monitor, Prescribed};
 use kinema::{Accurate, Axis, Body, Hht, HhtOptions, IntegrateError, PrecisionScope};
 
-use super::args::{Integrator, RunArgs};
+use super::args::Integrator;
 use super::files::RunFiles;
 use super::load::Loaded;
 use super::output::{CsvSink, Destination, duration, time};
+use super::plan::{ForwardPlan, OutputPlan};
 use super::shared::grid::MAX_PLOT_STATES;
 use super::{Failure, print_stderr, print_stdout};
-
-/// Default step of a `.kin` model's forward dynamics.
-pub const DEFAULT_STEP: f64 = 1e-3;
-/// Default tolerance of `--integrator accurate`.
-pub const DEFAULT_RTOL: f64 = 1e-8;
 
 /// The motion engine of a run and the head of its summary line.
 struct Engine {
@@ -54,44 +51,6 @@ impl Engine {
     }
 }
 
-pub use kinema::forward::DynamicsRun;
-
-/// How `loaded` runs when it has inertia and is not the kinematic case
-/// ([`kinema::forward::dynamics_run`] at the model's own params and start).
-pub fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
-    let d = loaded.model.derivation();
-    kinema::forward::dynamics_run(d, &d.param_values(), &loaded.model.initial_configuration())
-}
-
-/// Whether `loaded` runs as forward dynamics (see [`dynamics_run`]).
-pub fn is_forward(loaded: &Loaded) -> bool {
-    dynamics_run(loaded).is_some()
-}
-
-/// Refuses the forward-dynamics options in a kinematic run.
-///
-/// # Errors
-/// [`Failure::Input`] naming the option.
-pub fn refuse_options(args: &RunArgs) -> Result<(), Failure> {
-    if args.rtol.is_some()
-        || args.integrator != Integrator::Hht
-        || args.energy
-        || args.project_velocity
-    {
-        return Err(Failure::usage(
-            "--integrator, --rtol, --project-velocity and --energy are for forward dynamics (a \
-             model with inertia and NDOF > 0, or a Dynamics ACF)",
-        ));
-    }
-    if args.step.is_some() {
-        return Err(Failure::usage(
-            "--step is for forward dynamics (a model with inertia and NDOF > 0, or a Dynamics ACF); \
-             a kinematic run takes --t-end and --steps",
-        ));
-    }
-    Ok(())
-}
-
 /// Most singular configurations warned about one by one; the summary
 /// counts them all.
 const MAX_PASSAGE_WARNINGS: usize = 20;
@@ -99,24 +58,16 @@ const MAX_PASSAGE_WARNINGS: usize = 20;
 /// The columns `--energy` adds after the dynamics columns.
 const ENERGY_COLUMNS: [&str; 3] = ["energy.kinetic", "energy.potential", "energy.work"];
 
-/// Runs forward dynamics of `loaded`, writing the state at each of
-/// `outputs` (increasing, from t₀ = outputs[0]). `acf_step`: the ACF's
-/// `stepSize`; `grid`: the grid's description for the summary.
+/// Runs forward dynamics of `loaded` as `plan` says, writing the state at
+/// each of its output times to `outputs`.
 ///
 /// # Errors
-/// Usage errors (a bad step, `--plot`/`--animate`, a model without
-/// inertia); [`Failure::Analysis`] when a step fails (the rows before it
+/// Usage errors (a model without inertia, an output that cannot be
+/// created); [`Failure::Analysis`] when a step fails (the rows before it
 /// are kept).
-pub fn run(
-    args: &RunArgs,
-    loaded: &Loaded,
-    outputs_t: &[f64],
-    acf_step: Option<f64>,
-    grid: &str,
-) -> Result<(), Failure> {
+pub fn run(loaded: &Loaded, plan: &ForwardPlan, outputs: &OutputPlan) -> Result<(), Failure> {
     let start = Instant::now();
-    let rtol = args.rtol.unwrap_or(DEFAULT_RTOL);
-    let h = check_options(args, rtol, acf_step)?;
+    let (h, outputs_t) = (plan.step, &plan.times[..]);
     let d = loaded.model.derivation();
     let Some(fwd) = loaded.model.forward_system() else {
         return Err(Failure::usage(format_args!(
@@ -131,10 +82,10 @@ pub fn run(
     let system = loaded.model.system();
     let dyn_names = system.dynamics_column_names(d.rows.len(), loaded.adm.is_some());
     let mut extra = dyn_names.clone();
-    if args.energy {
+    if plan.energy {
         extra.extend(ENERGY_COLUMNS.map(String::from));
     }
-    let files = RunFiles::create(args, d, &extra)?;
+    let files = RunFiles::create(outputs, d, &extra)?;
     let mut samples = files
         .keep_states()
         .then(|| super::plot::Samples::new(n).with_dynamics(&dyn_names));
@@ -146,9 +97,15 @@ pub fn run(
 
     let analysis_start = Instant::now();
     let t0 = outputs_t.first().copied().unwrap_or(0.0);
-    let kind = dynamics_run(loaded).unwrap_or(DynamicsRun::Forward);
-    let (mut motion, consistency) = Motion::start(args, (fwd, kind), [&q0, &qd0], (t0, h, rtol))?;
-    let sink = motion.integrate(args, loaded, &system, (outputs_t, h), sink, &mut samples)?;
+    let (mut motion, consistency) = Motion::start(plan, fwd, [&q0, &qd0], t0)?;
+    let sink = motion.integrate(
+        plan.energy,
+        loaded,
+        &system,
+        (outputs_t, h),
+        sink,
+        &mut samples,
+    )?;
     let csv = (sink.destination().clone(), sink.rows(), sink.columns());
     sink.finish()?;
     let analysis = analysis_start.elapsed();
@@ -161,9 +118,9 @@ pub fn run(
     }
     let s = summary(
         &Summary {
-            args,
+            plan,
+            outputs,
             loaded,
-            grid,
             consistency: &consistency,
             t0,
             times: (start.elapsed(), analysis),
@@ -177,48 +134,6 @@ pub fn run(
     } else {
         print_stdout(&s)
     }
-}
-
-/// Checks the integrator's options against each other; the step: `--step`,
-/// or the ACF's, or [`DEFAULT_STEP`].
-fn check_options(args: &RunArgs, rtol: f64, acf_step: Option<f64>) -> Result<f64, Failure> {
-    match args.integrator {
-        Integrator::Hht if args.rtol.is_some() => {
-            return Err(Failure::usage(
-                "--rtol is the tolerance of --integrator accurate; HHT takes --step",
-            ));
-        }
-        Integrator::Accurate if args.project_velocity => {
-            return Err(Failure::usage(
-                "--project-velocity is for --integrator hht: the accurate mode projects positions \
-                 and velocities after every step already",
-            ));
-        }
-        Integrator::Accurate if args.step.is_some() => {
-            return Err(Failure::usage(
-                "--step is HHT's; --integrator accurate chooses its steps to meet --rtol",
-            ));
-        }
-        Integrator::Accurate if !(rtol > 1e-14 && rtol < 1.0) => {
-            return Err(Failure::usage(format_args!(
-                "--rtol must be in (1e-14, 1), not {rtol}"
-            )));
-        }
-        _ => {}
-    }
-    if args.stop_at_singular {
-        return Err(Failure::usage(
-            "--stop-at-singular is for kinematic runs: forward dynamics stops at a step that \
-             fails",
-        ));
-    }
-    let h = args.step.or(acf_step).unwrap_or(DEFAULT_STEP);
-    if !(h.is_finite() && h > 0.0) {
-        return Err(Failure::usage(format_args!(
-            "the step must be positive and finite, not {h}"
-        )));
-    }
-    Ok(h)
 }
 
 /// q̇ at the start: the model's stated initial velocities (a `.kin`
@@ -254,16 +169,17 @@ impl Motion {
     /// HHT from (q₀, q̇₀) made consistent (the accurate mode then starts
     /// from HHT's consistent state); a note when they were corrected.
     fn start(
-        args: &RunArgs,
-        (fwd, kind): (TapeForward, DynamicsRun),
+        plan: &ForwardPlan,
+        fwd: TapeForward,
         [q0, qd0]: [&[f64]; 2],
-        (t0, h, rtol): (f64, f64, f64),
+        t0: f64,
     ) -> Result<(Motion, Consistency), Failure> {
+        let (h, rtol) = (plan.step, plan.rtol);
         let gravity_of = fwd.clone();
         let start_failure = |e: IntegrateError| {
             Failure::analysis(format_args!("forward dynamics cannot start: {e}"))
         };
-        if kind == DynamicsRun::Prescribed {
+        if plan.kind == DynamicsRun::Prescribed {
             let p = Prescribed::new(fwd, q0, t0).map_err(|e| {
                 Failure::analysis(format_args!("the prescribed motion cannot start: {e}"))
             })?;
@@ -276,9 +192,9 @@ impl Motion {
             };
             return Ok((Motion::new(engine, gravity_of), Consistency::default()));
         }
-        let accurate_system = (args.integrator == Integrator::Accurate).then(|| fwd.clone());
+        let accurate_system = (plan.integrator == Integrator::Accurate).then(|| fwd.clone());
         let options = HhtOptions {
-            project_velocity: args.project_velocity,
+            project_velocity: plan.project_velocity,
             ..HhtOptions::default()
         };
         let (hht, consistency) = Hht::new(fwd, q0, qd0, t0, options).map_err(start_failure)?;
@@ -286,7 +202,7 @@ impl Motion {
             None => Engine {
                 head: format!(
                     "HHT-α (α = -0.1, β = 0.3025, γ = 0.6){}, step ≤ {h:e}",
-                    if args.project_velocity {
+                    if plan.project_velocity {
                         " with velocity projection"
                     } else {
                         ""
@@ -367,7 +283,7 @@ impl Motion {
     /// A failed step (the rows before it kept), a failed write.
     fn integrate(
         &mut self,
-        args: &RunArgs,
+        energy_columns: bool,
         loaded: &Loaded,
         system: &kinema::TapeSystem,
         (outputs_t, h): (&[f64], f64),
@@ -443,10 +359,9 @@ impl Motion {
             extra.clear();
             extra.extend_from_slice(row.dynamics());
             let sampled = k.is_multiple_of(stride) || k + 1 == outputs_t.len();
-            let energy = (args.energy || (samples.is_some() && sampled)).then(|| self.energies());
-            if args.energy
-                && let Some(e) = energy
-            {
+            let energy =
+                (energy_columns || (samples.is_some() && sampled)).then(|| self.energies());
+            if energy_columns && let Some(e) = energy {
                 extra.extend(e);
             }
             let (q, qd, qdd) = (self.engine.q(), self.engine.qd(), self.engine.qdd());
@@ -469,10 +384,9 @@ impl Motion {
 
 /// What the summary of a forward-dynamics run reports.
 struct Summary<'a> {
-    args: &'a RunArgs,
+    plan: &'a ForwardPlan,
+    outputs: &'a OutputPlan,
     loaded: &'a Loaded,
-    /// The grid's description.
-    grid: &'a str,
     consistency: &'a Consistency,
     t0: f64,
     /// Total and analysis time.
@@ -485,7 +399,7 @@ struct Summary<'a> {
 /// energies at both ends and the balance (with a warning on standard error
 /// when it is off by more than 1 % of the energies), times, files.
 fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
-    let (args, loaded) = (s.args, s.loaded);
+    let (plan, loaded) = (s.plan, s.loaded);
     let d = loaded.model.derivation();
     let (n, rows) = (d.nc(), d.rows.len());
     let [ke, v, other] = motion.energies();
@@ -505,7 +419,7 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
             "forward dynamics"
         }
     );
-    let _ = writeln!(out, "  grid: {}", s.grid);
+    let _ = writeln!(out, "  grid: {}", plan.description);
     let _ = writeln!(out, "  integrator: {}", motion.engine.describe());
     let _ = writeln!(
         out,
@@ -524,7 +438,7 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
         out,
         "  work of the other forces and drivers {other:.9e}; balance error {balance:.3e}"
     );
-    warn_balance(args, balance, [ke, v, ke0, v0, other]);
+    warn_balance(plan.integrator, balance, [ke, v, ke0, v0, other]);
     let monitor = motion.engine.monitor();
     let passages = monitor.passages();
     if !passages.is_empty() {
@@ -566,7 +480,7 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
         Destination::File(p) => format!("`{}`", p.display()),
     };
     let _ = write!(out, "  wrote {csv} ({out_rows} rows × {columns} columns)");
-    for p in [args.plot.as_deref(), args.animate.as_deref()]
+    for p in [s.outputs.plot.as_deref(), s.outputs.animate.as_deref()]
         .into_iter()
         .flatten()
     {
@@ -577,14 +491,14 @@ fn summary(s: &Summary<'_>, motion: &mut Motion) -> String {
 
 /// The balance is the run's own accuracy check: a large error is said, not
 /// left in a number of the summary.
-fn warn_balance(args: &RunArgs, balance: f64, energies: [f64; 5]) {
+fn warn_balance(integrator: Integrator, balance: f64, energies: [f64; 5]) {
     let scale = energies.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     if balance.is_nan() || balance.abs() > 1e-2 * scale {
         print_stderr(&format!(
             "warning: the energy balance is off by {balance:.3e} ({:.1}% of the energies): the \
              results are not accurate; {}",
             100.0 * balance.abs() / scale.max(f64::MIN_POSITIVE),
-            match args.integrator {
+            match integrator {
                 Integrator::Hht => "try a smaller --step or --integrator accurate",
                 Integrator::Accurate => "try a smaller --rtol",
             }

@@ -6,7 +6,12 @@
 //! | [`load`] | reading a `.kin` or `.adm` model into a checked, derived model |
 //! | [`adm`] | simEngine2D specifics: the analysis, ignored forces, ADM names in messages |
 //! | [`check`] | `kinema check`: DOF report, assembly, rank of Φ_q |
-//! | [`run`] | `kinema run`: the time loop and its summary |
+//! | [`plan`] | `kinema run`'s arguments resolved once, and every refusal of them, into a plan the executors below take |
+//! | [`run`] | `kinema run` of a kinematic plan: the time loop and its summary |
+//! | [`forward`] | `kinema run` of a forward-dynamics plan |
+//! | [`equilibrium`] | `kinema run --equilibrium` |
+//! | [`sweep`] | `kinema sweep`: a model over a parameter table |
+//! | [`shared`] | what subcommands share (time grids, run errors, assembly and redundancy reports): no subcommand imports another's file |
 //! | [`columns`] | `run --columns`: which quantities the CSV holds |
 //! | [`files`] | a run's CSV (its header: the selected columns, then the run's own), figure and page, created before the analysis |
 //! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
@@ -33,6 +38,7 @@ pub mod files;
 pub mod forward;
 pub mod load;
 pub mod output;
+pub mod plan;
 pub mod plot;
 pub mod progress;
 pub mod run;
@@ -105,7 +111,7 @@ pub fn main() -> ExitCode {
     };
     let result = match &cli.command {
         Command::Check(a) => check::check(&a.model),
-        Command::Run(a) => run::run(a),
+        Command::Run(a) => plan::RunPlan::resolve(a).and_then(execute),
         Command::Sweep(a) => sweep::sweep(a),
         Command::Derive(a) => load::load(&a.model, None).and_then(|m| {
             m.print_warnings();
@@ -126,6 +132,21 @@ pub fn main() -> ExitCode {
             }
             ExitCode::from(failure.exit_code())
         }
+    }
+}
+
+/// Executes a resolved `kinema run`: each kind of motion has its executor,
+/// which takes the plan, never the arguments.
+fn execute(plan: plan::RunPlan) -> Result<(), Failure> {
+    let plan::RunPlan {
+        loaded,
+        motion,
+        outputs,
+    } = plan;
+    match &motion {
+        plan::Motion::Kinematic(k) => run::kinematics(&loaded, k, &outputs),
+        plan::Motion::Forward(f) => forward::run(&loaded, f, &outputs),
+        plan::Motion::Equilibrium => equilibrium::run(&loaded, &outputs),
     }
 }
 

@@ -1,29 +1,27 @@
-//! `kinema run MODEL`: kinematic analysis over a time grid through the tape
-//! back end, streaming the CSV, with a summary and an optional plot.
+//! `kinema run MODEL` of a kinematic plan ([`KinematicPlan`]): kinematic
+//! analysis over a time grid through the tape back end, streaming the CSV,
+//! with a summary and an optional plot.
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinema::{Auto, Options, SingularEvent, SingularKind, Solver, State, TapeSystem};
-use kinema_adm::Analysis;
+use kinema::{Auto, SingularEvent, SingularKind, Solver, State, TapeSystem};
 
-use super::args::{Backend, RunArgs};
+use super::args::Backend;
 use super::files::RunFiles;
-use super::load::{Loaded, format_of, load};
+use super::load::Loaded;
 use super::output::{CsvSink, Destination, duration, time};
+use super::plan::{KinematicPlan, OutputPlan};
 use super::plot::Samples;
 use super::progress::Progress;
-use super::shared::grid::{
-    DEFAULT_STEPS, DEFAULT_T_END, Grid, MAX_PLOT_STATES, MAX_TIMES, check_grid_args,
-};
+use super::shared::grid::{Grid, MAX_PLOT_STATES};
 use super::shared::report::{assembly_warnings, run_error};
 use super::warnings::{
     equation_of, kink_function, print_imprecision_warning, print_kink_warning,
     print_singular_warnings,
 };
-use super::{Failure, adm, animate};
-use kinema::Format;
+use super::{Failure, animate};
 
 /// What the run cost, for the summary.
 #[derive(Debug, Clone, Default)]
@@ -58,166 +56,21 @@ impl Stats {
     }
 }
 
-/// Where a simEngine2D analysis's `tend` and `outputSteps` came from, for
-/// messages: `--t-end 5e-324 with outputSteps 500 of kinematics.acf`.
-fn analysis_source(args: &RunArgs, analysis: &Analysis) -> String {
-    let acf = args.acf.as_ref().map_or_else(
-        || "the default kinematics.acf".to_string(),
-        |p| format!("`{}`", p.display()),
-    );
-    let tend = match args.t_end {
-        Some(t) => format!("--t-end {t:e}"),
-        None => format!("tend {:e} of {acf}", analysis.tend),
-    };
-    let steps = match args.steps {
-        Some(n) => format!("--steps {n}"),
-        None => format!("outputSteps {} of {acf}", analysis.output_steps),
-    };
-    format!("{tend} with {steps} (stepSize {:e})", analysis.step_size)
-}
-
-/// Refuses a simEngine2D analysis with more solve times than [`MAX_TIMES`].
-fn check_analysis_size(analysis: &Analysis) -> Result<(), Failure> {
-    let solves = analysis.tend / analysis.step_size + analysis.output_steps as f64;
-    if solves.is_finite() && solves < MAX_TIMES as f64 {
-        Ok(())
-    } else {
-        Err(Failure::usage(format_args!(
-            "the analysis asks for about {solves:.3e} solves (tend {} / stepSize {} + outputSteps {}); \
-             one run takes fewer than {MAX_TIMES}",
-            analysis.tend, analysis.step_size, analysis.output_steps
-        )))
-    }
-}
-
-/// Runs `kinema run`.
-///
-/// # Errors
-/// [`Failure::Input`] for bad arguments or models, [`Failure::Analysis`]
-/// when the analysis fails (the rows computed before the failure are kept)
-/// or its results cannot be written.
-/// `--positions-only` where it makes no sense: with `--equilibrium` (one
-/// static state, whose rates are zero anyway), `--plot` (which draws
-/// velocities and accelerations), and forward dynamics (`dynamics`: its
-/// positions come from integrating the accelerations).
-fn refuse_positions_only(args: &RunArgs, dynamics: bool) -> Result<(), Failure> {
-    if !args.positions_only {
-        return Ok(());
-    }
-    let conflict = if dynamics {
-        "forward dynamics: its positions are integrated from the accelerations, which it must solve"
-    } else if args.equilibrium {
-        "--equilibrium: a static equilibrium is one state, its rates zero"
-    } else if args.plot.is_some() {
-        "--plot: the figure draws velocities and accelerations (--animate needs positions only)"
-    } else {
-        return Ok(());
-    };
-    Err(Failure::usage(format_args!(
-        "--positions-only cannot be used with {conflict}"
-    )))
-}
-
-pub fn run(args: &RunArgs) -> Result<(), Failure> {
-    refuse_positions_only(args, false)?;
-    if args.equilibrium {
-        return super::equilibrium::run(args);
-    }
-    let start = Instant::now();
-    let steps = check_grid_args(args.t_end, args.steps)?;
-    let (grid, analysis) = match format_of(&args.model)? {
-        Format::Kin => (kin_grid(args, steps)?, None),
-        Format::Adm => {
-            let analysis = adm_analysis(args, steps)?;
-            if analysis.simulation == kinema_adm::Simulation::Dynamics {
-                return adm_dynamics(args, &analysis);
-            }
-            let source = || analysis_source(args, &analysis);
-            (Grid::simengine(&analysis, &source)?, Some(analysis))
-        }
-    };
-    let mut loaded = load(&args.model, analysis.as_ref())?;
-    loaded.model.set_backend(match args.backend {
-        Backend::Jit => kinema::Backend::Jit,
-        Backend::Tape => kinema::Backend::Tape,
-    });
-    loaded.print_warnings();
-    if super::forward::is_forward(&loaded) {
-        refuse_positions_only(args, true)?;
-        return super::forward::run(args, &loaded, &grid.times, None, &grid.description);
-    }
-    super::forward::refuse_options(args)?;
-    super::equilibrium::refuse_free_dof(&loaded)?;
-    kinematics(args, &loaded, &grid, start)
-}
-
-/// The grid of a `.kin` model: `--t-end` and `--steps` (no ACF).
-fn kin_grid(args: &RunArgs, steps: Option<usize>) -> Result<Grid, Failure> {
-    if args.acf.is_some() {
-        return Err(Failure::usage(
-            "--acf is for simEngine2D models (.adm); a .kin model takes --t-end and --steps",
-        ));
-    }
-    Grid::uniform(
-        args.t_end.unwrap_or(DEFAULT_T_END),
-        steps.unwrap_or(DEFAULT_STEPS),
-    )
-}
-
-/// The analysis of an `.adm` model: its ACF (or the default), with
-/// `--t-end` and `--steps` overriding `tend` and `outputSteps`, checked.
-fn adm_analysis(args: &RunArgs, steps: Option<usize>) -> Result<Analysis, Failure> {
-    let mut analysis = adm::read_analysis(args.acf.as_deref())?;
-    if let Some(t) = args.t_end {
-        analysis.tend = t;
-    }
-    if let Some(n) = steps {
-        analysis.output_steps = n;
-    }
-    check_analysis_size(&analysis)?;
-    if let Err(e) = analysis.check_times() {
-        return Err(Failure::usage(format_args!(
-            "{}: {e}",
-            analysis_source(args, &analysis)
-        )));
-    }
-    Ok(analysis)
-}
-
-/// A simEngine2D Dynamics analysis: forward dynamics at the ACF's
-/// `stepSize`, output every `outputSteps`.
-fn adm_dynamics(args: &RunArgs, analysis: &Analysis) -> Result<(), Failure> {
-    refuse_positions_only(args, true)?;
-    let loaded = super::load::load_with(&args.model, None, false)?;
-    loaded.print_warnings();
-    if loaded.model.derivation().dynamics.is_none() {
-        return Err(Failure::usage(format_args!(
-            "`{}` cannot run a Dynamics analysis: it has no inertia (every body needs `mass` and \
-             `jbar`)",
-            loaded.file
-        )));
-    }
-    let description = format!(
-        "{} outputs from t = 0 to {} (outputSteps {}, stepSize {})",
-        analysis.output_steps + 1,
-        time(analysis.tend),
-        analysis.output_steps,
-        analysis.step_size
-    );
-    let times = analysis.output_times();
-    super::forward::run(
-        args,
-        &loaded,
-        &times,
-        Some(analysis.step_size),
-        &description,
-    )
-}
-
 /// Kinematic analysis (and inverse dynamics for a model with inertia)
 /// over `grid`: the files created first, then the time loop, then the
 /// figure, the page and the summary.
-fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> Result<(), Failure> {
+///
+/// # Errors
+/// [`Failure::Input`] for an output that cannot be created or a bad
+/// `--columns`, [`Failure::Analysis`] when the analysis fails (the rows
+/// computed before the failure are kept) or its results cannot be
+/// written.
+pub fn kinematics(
+    loaded: &Loaded,
+    plan: &KinematicPlan,
+    outputs: &OutputPlan,
+) -> Result<(), Failure> {
+    let grid = &plan.grid;
     // Outputs are created before the analysis: a bad path fails at once.
     let system = loaded.model.system();
     if let Some(why) = system.jit_fallback() {
@@ -228,15 +81,12 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     // positions only.
     let dynamics =
         super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some())
-            .filter(|_| !args.positions_only);
+            .filter(|_| !plan.options.positions_only);
     let extra = dynamics.as_ref().map_or(&[][..], |d| d.names());
-    let files = RunFiles::create(args, derivation, extra)?;
+    let files = RunFiles::create(outputs, derivation, extra)?;
 
     let analysis_start = Instant::now();
-    let options = Options::default()
-        .with_stop_at_singular(args.stop_at_singular)
-        .with_positions_only(args.positions_only);
-    let mut solver = Solver::<TapeSystem, Auto>::with_options(system, options)
+    let mut solver = Solver::<TapeSystem, Auto>::with_options(system, plan.options)
         .map_err(|e| Failure::analysis(format_args!("cannot set up the solver: {e}")))?;
     let keep = files.keep_states();
     let RunFiles {
@@ -297,24 +147,24 @@ fn kinematics(args: &RunArgs, loaded: &Loaded, grid: &Grid, start: Instant) -> R
     if let (Some(target), Some(samples)) = (plot_target, &rows.samples) {
         target.write(loaded, solver.system(), samples, &title)?;
     }
-    let plot_time = args.plot.as_ref().map(|_| plot_start.elapsed());
+    let plot_time = outputs.plot.as_ref().map(|_| plot_start.elapsed());
     let page_start = Instant::now();
     if let (Some(target), Some(samples)) = (page_target, &rows.samples) {
         let markers: Vec<animate::Marker> = events.iter().map(event_marker).collect();
         target.write(loaded, solver.system(), samples, &markers, &title)?;
     }
-    let page_time = args.animate.as_ref().map(|_| page_start.elapsed());
+    let page_time = outputs.animate.as_ref().map(|_| page_start.elapsed());
 
     let destination = csv.0.clone();
     let summary = summary(&SummaryInput {
         loaded,
-        backend: (args.backend, solver.system().backend()),
+        backend: (plan.backend, solver.system().backend()),
         grid,
         stats: &stats,
         csv: (&csv.0, csv.1, csv.2),
-        plot: args.plot.as_deref(),
-        page: args.animate.as_deref(),
-        total: start.elapsed(),
+        plot: outputs.plot.as_deref(),
+        page: outputs.animate.as_deref(),
+        total: plan.start.elapsed(),
         analysis,
         write: write_time,
         plot_time,
