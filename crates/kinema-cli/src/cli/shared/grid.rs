@@ -36,20 +36,9 @@ impl Grid {
     /// [`Failure::Input`] when the times do not increase: the step is below
     /// the resolution of the times (`t_end` 5e-324 in 10 steps).
     pub fn uniform(t_end: f64, steps: usize) -> Result<Grid, Failure> {
-        let times: Vec<f64> = (0..=steps)
-            .map(|k| {
-                if k == steps {
-                    t_end
-                } else {
-                    let p = k as f64 * t_end;
-                    if p.is_finite() {
-                        p / steps as f64
-                    } else {
-                        (k as f64 / steps as f64) * t_end
-                    }
-                }
-            })
-            .collect();
+        // The runtime's grid, so that the Python package and sweeps step
+        // through the same doubles.
+        let times = kinema::uniform_times(t_end, steps);
         check_increasing(&times, &|| {
             format!("--t-end {t_end:e} with --steps {steps}")
         })?;
