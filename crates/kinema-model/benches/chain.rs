@@ -2,7 +2,7 @@
 //! `cargo bench -p kinema-model`
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use kinema_model::{Derivation, ParsedModel, chain::chain_kin};
+use kinema_model::{Derived, Parsed, Source, chain::chain_kin};
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("chain");
@@ -11,20 +11,20 @@ fn bench(c: &mut Criterion) {
         let text = chain_kin(n);
         group.bench_function(format!("parse_check_derive/{n}"), |b| {
             b.iter(|| {
-                let model = ParsedModel::parse_str(std::hint::black_box(&text));
-                let checked = model.and_then(|m| m.check());
-                checked
-                    .and_then(|c| Derivation::new(&c))
-                    .map_or(0, |d| d.phi.len())
+                let source = Source::new("chain.kin", std::hint::black_box(text.as_str()));
+                Derived::from_source(source).map_or(0, |d| d.derivation().phi.len())
             });
         });
     }
     let text = chain_kin(1000);
     group.bench_function("parse_check/1000", |b| {
         b.iter(|| {
-            ParsedModel::parse_str(std::hint::black_box(&text))
-                .and_then(|m| m.check())
-                .is_ok()
+            Parsed::from_source(Source::new(
+                "chain.kin",
+                std::hint::black_box(text.as_str()),
+            ))
+            .and_then(Parsed::check)
+            .is_ok()
         });
     });
     group.finish();

@@ -9,13 +9,17 @@ fn main() {
     let text = kinema_model::chain::chain_kin(n);
     for _ in 0..3 {
         let t0 = Instant::now();
-        let model = kinema_model::ParsedModel::parse_str(&text);
+        // The front door's phases one at a time.
+        let model = kinema_model::Parsed::from_source(kinema_model::Source::new(
+            "chain.kin",
+            text.as_str(),
+        ));
         let t1 = Instant::now();
         let checked = model.and_then(|m| m.check());
         let t2 = Instant::now();
         let rows = checked
-            .and_then(|c| kinema_model::Derivation::new(&c))
-            .map_or(0, |d| d.phi.len());
+            .and_then(|c| c.derive())
+            .map_or(0, |d| d.derivation().phi.len());
         let t3 = Instant::now();
         println!(
             "n = {n}: parse {:?}, check {:?}, derive {:?}, total {:?} ({rows} rows)",

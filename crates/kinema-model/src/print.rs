@@ -298,7 +298,7 @@ pub fn number(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Derivation, ParsedModel};
+    use crate::ParsedModel;
 
     /// Every item kind, in the printer's own layout: printed as written.
     const EVERY_ITEM: &str = "/// a model with every kind of item
@@ -375,10 +375,10 @@ mechanism Every {
         }
         assert!(paths.len() >= 10, "{paths:?}");
         let derive = |text: &str, name: &str| {
-            let checked = ParsedModel::parse_str(text)
-                .and_then(|m| m.check())
-                .unwrap_or_else(|d| panic!("{}", d.render(text, name)));
-            Derivation::new(&checked).unwrap_or_else(|d| panic!("{}", d.render(text, name)))
+            crate::Derived::from_source(crate::Source::new(name, text))
+                .unwrap_or_else(|r| panic!("{r}"))
+                .into_parts()
+                .1
         };
         for path in paths {
             let name = path.display().to_string();
