@@ -204,7 +204,9 @@ pub use front::{Checked, Derived, Entry, MAX_SOURCE_BYTES, Parsed, Report, Sourc
 pub use linkage::{LinkageAngle, LinkageDesc, LinkagePin};
 pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
-pub use sensitivity::{OutputSensitivity, ParamSensitivity, Sensitivities, SensitivityError};
+pub use sensitivity::{
+    DynamicsSensitivity, OutputSensitivity, ParamSensitivity, Sensitivities, SensitivityError,
+};
 pub use span::Span;
 pub use syntax::EquationKeyword;
 

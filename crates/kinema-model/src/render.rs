@@ -154,6 +154,9 @@ impl Derivation {
                 roots.extend([o.value, o.velocity, o.acceleration]);
                 roots.extend(o.qdd.iter().map(|&(_, e)| e));
             }
+            if let Some(dy) = &p.dynamics {
+                roots.extend(dy.mass.iter().chain(&dy.applied));
+            }
         }
         let mut deferred = Deferred {
             sizes: self.blowup_of(&roots),
@@ -209,9 +212,44 @@ with respect to {}:",
                 }
                 out.push('\n');
             }
+            if let Some(dy) = &p.dynamics {
+                self.dynamics_sensitivity(&mut out, d, name, dy);
+            }
         }
         self.shared_program(&mut out, &deferred);
         out
+    }
+
+    /// The dynamics part of one param's section: ∂M/∂p (nonzero entries)
+    /// and dQ_A/dp, per coordinate.
+    fn dynamics_sensitivity(
+        &self,
+        out: &mut String,
+        d: &mut Deferred,
+        name: &str,
+        dy: &crate::sensitivity::DynamicsSensitivity,
+    ) {
+        let _ = writeln!(
+            out,
+            "\ndynamics (p = {name}; Phi_q^T ∂lambda = dQ_A/dp - (dM/dp) qddot - M ∂qddot - W^T lambda):"
+        );
+        for (title, v) in [("dM/dp", &dy.mass), ("dQ_A/dp", &dy.applied)] {
+            let _ = write!(out, "  {title}:");
+            if v.iter().all(|&e| self.arena.is_zero(e)) {
+                let _ = writeln!(out, " (all zero)");
+                continue;
+            }
+            out.push('\n');
+            for (k, &e) in v.iter().enumerate() {
+                if self.arena.is_zero(e) {
+                    continue;
+                }
+                let q = self.coordinates.get(k).map_or("?", |c| c.name.as_str());
+                let _ = write!(out, "    [{k}] {q}: ");
+                d.write(self, out, format!("{title}[{k}] (p = {name})"), e);
+                out.push('\n');
+            }
+        }
     }
 
     /// Writes `Σ coefficient·{prefix}{q}_ddot` for the (coordinate,

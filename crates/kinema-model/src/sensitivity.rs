@@ -19,7 +19,9 @@
 //!   sparse matrix, as it enters ÿ only through y_q for the outputs
 //!   ([`crate::outputs`]), so no expression reads q̈;
 //! - a result y(q, p, t) with ẏ and ÿ = y_q q̈ + c: y_p = D y (the
-//!   position seeds), ẏ_p = D ẏ, ÿ_p = y_q s̈ + (y_p)_q q̈ + D c.
+//!   position seeds), ẏ_p = D ẏ, ÿ_p = y_q s̈ + (y_p)_q q̈ + D c;
+//! - with inertia, Φ_qᵀλ = Q_A − M q̈ gives
+//!   Φ_qᵀ λ_p = D Q_A − M_p q̈ − M s̈ − Wᵀ λ ([`DynamicsSensitivity`]).
 //!
 //! Every matrix that multiplies an unknown is Φ_q itself, so one
 //! factorization of the step serves every parameter and level: one extra
@@ -92,6 +94,28 @@ pub struct ParamSensitivity {
     pub acceleration_qdd: SparseMatrix,
     /// One per result column, in the order of [`Derivation::outputs`].
     pub outputs: Vec<OutputSensitivity>,
+    /// For a model with inertia, what the multipliers' sensitivity needs;
+    /// `None` for a kinematic model.
+    pub dynamics: Option<DynamicsSensitivity>,
+}
+
+/// The p-derivatives of the dynamics' terms: with λ solving
+/// Φ_qᵀλ = Q_A − M q̈, its sensitivity λ_p solves
+///
+/// Φ_qᵀ λ_p = `applied` − `mass` ∘ q̈ − M ∘ s̈ − Wᵀ λ
+///
+/// (∘ entrywise, M being diagonal; W = (Φ_q s + Φ_p)_q is
+/// [`ParamSensitivity::acceleration_qdd`], the derivative of Φ_q along
+/// (s, 1)), with the transposed factorization the step made. The
+/// reactions and efforts follow from λ_p as they do from λ.
+#[derive(Clone, Debug)]
+pub struct DynamicsSensitivity {
+    /// ∂(diag M)/∂p, one entry per entry of
+    /// [`crate::DynamicsDerivation::mass`]. Reads p.
+    pub mass: Vec<ExprId>,
+    /// d/dp Q_A: its directional derivative along {q → s, q̇ → ṡ, p → 1},
+    /// one entry per coordinate. Reads q, q̇, s, ṡ, p, t.
+    pub applied: Vec<ExprId>,
 }
 
 /// The sensitivity of one result column y (a named point's component or a
@@ -377,6 +401,22 @@ impl Derivation {
                 qdd,
             });
         }
+        let dynamics = match &self.dynamics {
+            Some(dy) => {
+                limit.enter(arena, APPLIED);
+                let mass = dy.mass.iter().map(|&m| arena.diff(m, p.sym)).collect();
+                let applied = dy
+                    .applied
+                    .iter()
+                    .map(|&q| arena.directional(q, along.full))
+                    .collect();
+                if limit.exceeded(arena) {
+                    return Err(too_large(APPLIED));
+                }
+                Some(DynamicsSensitivity { mass, applied })
+            }
+            None => None,
+        };
         Ok(ParamSensitivity {
             name: p.name.clone(),
             index: i,
@@ -386,9 +426,13 @@ impl Derivation {
             acceleration_rhs,
             acceleration_qdd,
             outputs,
+            dynamics,
         })
     }
 }
+
+/// How an over-budget error names the applied forces.
+const APPLIED: &str = "the applied forces Q_A";
 
 /// The budget of one declared equation or result: its rows (or
 /// components) share `budget` entries, counted from the first.

@@ -53,13 +53,15 @@ struct State {
     sd: Vec<f64>,
     sdd: Vec<f64>,
     p: Vec<f64>,
+    /// Multipliers, one per row of Φ (the dynamics level).
+    lambda: Vec<f64>,
     t: f64,
 }
 
 impl State {
     /// How many uniform numbers in [-1, 1] a state of `d` takes.
     fn len(d: &Derivation) -> usize {
-        6 * d.nc() + d.params.len() + 1
+        6 * d.nc() + d.params.len() + d.rows.len() + 1
     }
 
     fn new(d: &Derivation, u: &[f64]) -> State {
@@ -77,8 +79,10 @@ impl State {
         let sd = take(nc, &|_, x| 1.5 * x);
         let sdd = take(nc, &|_, x| 2.0 * x);
         let p = take(defaults.len(), &|k, x| defaults[k] * (1.0 + 0.1 * x));
+        let lambda = take(d.rows.len(), &|_, x| 4.0 * x);
         let t = 0.5 * (1.0 + take(1, &|_, x| x)[0]);
         State {
+            lambda,
             q,
             qd,
             qdd,
@@ -108,6 +112,7 @@ impl State {
         let mut p = self.p.clone();
         p[k] += eps;
         State {
+            lambda: self.lambda.clone(),
             q: along(&self.q, &self.s),
             qd: along(&self.qd, &self.sd),
             qdd: along(&self.qdd, &self.sdd),
@@ -162,6 +167,24 @@ fn results(d: &Derivation, x: &State) -> Vec<[f64; 3]> {
             [at(o.value), at(o.velocity), qdd + at(o.acceleration)]
         })
         .collect()
+}
+
+/// R_d = Φ_qᵀλ − Q_A + M q̈ (zero on the inverse dynamics' solution),
+/// from the derivation's Φ_q, Q_A and M.
+fn r_d(d: &Derivation, x: &State) -> Vec<f64> {
+    let Some(dy) = &d.dynamics else {
+        return Vec::new();
+    };
+    let mut out = vec![0.0; d.nc()];
+    for en in &d.phi_q.entries {
+        let v = d.eval(en.expr, &x.q, &x.qd, x.t, &x.p);
+        out[en.col as usize] += v * x.lambda[en.row as usize];
+    }
+    let at = |e| d.eval(e, &x.q, &x.qd, x.t, &x.p);
+    for (k, (&qa, &m)) in dy.applied.iter().zip(&dy.mass).enumerate() {
+        out[k] += -at(qa) + at(m) * x.qdd[k];
+    }
+    out
 }
 
 /// The largest difference of `exact` and `approx` relative to the largest
@@ -280,6 +303,25 @@ fn compare_at(d: &Derivation, sens: &Sensitivities, x: &State) -> Vec<Compared> 
                 fd,
             });
         }
+
+        // Dynamics: D R_d along (s, ṡ, s̈, 1), λ held (λ_p is the unknown):
+        // Wᵀλ − dQ_A/dp + (dM/dp) q̈ + M s̈.
+        if let (Some(dy), Some(dp)) = (&d.dynamics, &ps.dynamics) {
+            let mut exact = vec![0.0; d.nc()];
+            for en in &ps.acceleration_qdd.entries {
+                let v = d.eval(en.expr, &qa, &qda, x.t, &x.p);
+                exact[en.col as usize] += v * x.lambda[en.row as usize];
+            }
+            let e = |e| d.eval(e, &qa, &qda, x.t, &x.p);
+            for (k, v) in exact.iter_mut().enumerate().take(dy.mass.len()) {
+                *v += -e(dp.applied[k]) + e(dp.mass[k]) * x.qdd[k] + e(dy.mass[k]) * x.sdd[k];
+            }
+            out.push(Compared {
+                what: format!("dynamics (p = {})", ps.name),
+                exact,
+                fd: central(&|y| r_d(d, y)),
+            });
+        }
     }
     out
 }
@@ -300,6 +342,7 @@ impl State {
     /// A copy whose q̈ is `qdd` (the acceleration level holds q̈ fixed).
     fn clone_with_qdd(&self, qdd: &[f64]) -> State {
         State {
+            lambda: self.lambda.clone(),
             q: self.q.clone(),
             qd: self.qd.clone(),
             qdd: qdd.to_vec(),
@@ -398,6 +441,23 @@ fn every_model_agrees_with_finite_differences() {
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/followers"),
     ));
     for f in files {
+        check_model(&f, 16);
+    }
+}
+
+/// The models with inertia get the dynamics' terms, checked above with
+/// the rest (the iftomm models of `models/`, and the slider-crank of the
+/// repository's dynamics tests).
+#[test]
+fn models_with_inertia_agree_with_finite_differences() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    for f in [
+        root.join("models/iftomm/a03_andrews.kin"),
+        root.join("tests/dynamics/slider_crank.kin"),
+    ] {
+        let (d, s) = with_all_params(&f);
+        assert!(d.dynamics.is_some(), "{}", f.display());
+        assert!(s.params.iter().all(|p| p.dynamics.is_some()));
         check_model(&f, 16);
     }
 }
@@ -506,6 +566,17 @@ fn slider_crank_sensitivities_text() {
     insta::assert_snapshot!(d.render_sensitivities(&s));
     // The derivation's own text does not change.
     assert_eq!(d.render(), before);
+}
+
+/// With inertia, the text adds dM/dp and dQ_A/dp (the IFToMM pendulum,
+/// whose mass is a param: gravity's force follows it).
+#[test]
+fn pendulum_dynamics_sensitivities_text() {
+    let mut d = derive_file(&models_dir().join("iftomm/a01_pendulum.kin"));
+    let s = d
+        .sensitivities(&["m", "l"])
+        .unwrap_or_else(|e| panic!("{e}"));
+    insta::assert_snapshot!(d.render_sensitivities(&s));
 }
 
 /// Asking twice gives the same expressions (the arena memoizes), in the
