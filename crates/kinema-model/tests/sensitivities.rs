@@ -679,3 +679,32 @@ fn over_budget_is_an_error_and_changes_nothing() {
     let s = d.sensitivities(&["l1"]).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.params.len(), 1);
 }
+
+/// The serial chain of BENCHMARKS.md with its link length a param `L`.
+fn chain_with_length(n: usize) -> Derivation {
+    let src = kinema_model::chain::chain_kin(n)
+        .replace("(0.5, 0)", "(L / 2, 0)")
+        .replace("(-0.5, 0)", "(-L / 2, 0)")
+        .replacen('{', "{\n    param L = 1;", 1);
+    derive_str(&src).unwrap_or_else(|e| panic!("{}", e.render(&src, "chain.kin")))
+}
+
+/// What one param adds to the arena is linear in the size of the model
+/// (nothing quadratic in the number of bodies, no blow-up).
+#[test]
+fn one_param_costs_linear_size() {
+    let mut added = Vec::new();
+    for n in [25, 50, 100] {
+        let mut d = chain_with_length(n);
+        let before = d.arena.size();
+        let s = d.sensitivities(&["L"]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.params[0].phi_p.len(), 3 * n);
+        let grown = d.arena.size() - before;
+        eprintln!("chain{n}: the derivation {before} entries, one param adds {grown}");
+        added.push(grown as f64);
+    }
+    for w in added.windows(2) {
+        let ratio = w[1] / w[0];
+        assert!((1.5..2.5).contains(&ratio), "{added:?}");
+    }
+}
