@@ -22,6 +22,8 @@
 //!    The derivation is `src/derive.rs` and the modules it calls:
 //!    [`dynamics`], [`outputs`], [`follower`], [`linkage`], the constraint
 //!    library's rows (`library.rs`) and the text rendering (`render.rs`).
+//!    [`Derivation::sensitivities`] adds, for chosen params, Φ_p and the
+//!    right-hand sides of the sensitivity systems ([`sensitivity`]).
 //!
 //! Phases only point down: syntax ← check ← derivation. A phase imports
 //! the phases before it and the shared modules ([`span`], [`diagnostic`],
@@ -181,6 +183,7 @@ pub mod outputs;
 mod points;
 pub mod print;
 mod render;
+pub mod sensitivity;
 pub mod source;
 pub mod span;
 pub mod syntax;
@@ -201,6 +204,9 @@ pub use front::{Checked, Derived, Entry, MAX_SOURCE_BYTES, Parsed, Report, Sourc
 pub use linkage::{LinkageAngle, LinkageDesc, LinkagePin};
 pub use outputs::{OutputColumn, OutputSource};
 pub use points::EquationPoint;
+pub use sensitivity::{
+    DynamicsSensitivity, OutputSensitivity, ParamSensitivity, Sensitivities, SensitivityError,
+};
 pub use span::Span;
 pub use syntax::EquationKeyword;
 

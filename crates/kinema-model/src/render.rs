@@ -123,20 +123,181 @@ impl Derivation {
         self.vector(&mut out, d, "nu", &self.nu);
         self.vector(&mut out, d, "gamma", &self.gamma);
         self.outputs_section(&mut out, d);
-        if !deferred.entries.is_empty() {
+        self.shared_program(&mut out, &deferred);
+        out
+    }
+
+    /// The sensitivities ([`Derivation::sensitivities`]) as text, one
+    /// section per param: Φ_p, the velocity right-hand side, the
+    /// acceleration right-hand side (its q̈-free part and W, the q̈ terms
+    /// being −W q̈), and each result's y_p, ẏ_p, ÿ_p. `∂B.x` is ∂(B.x)/∂p
+    /// for the section's param p, `∂B.x_dot` and `∂B.x_ddot` its velocity
+    /// and acceleration. Deterministic, and linear in the size of the
+    /// derivation as [`Derivation::render`] is.
+    #[must_use]
+    pub fn render_sensitivities(&self, s: &crate::sensitivity::Sensitivities) -> String {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "sensitivities of {} (for each param p: Phi_q ∂q = -Phi_p, \
+             Phi_q ∂qdot = velocity rhs, Phi_q ∂qddot = acceleration rhs - W qddot; \
+             ∂B.x is ∂(B.x)/∂p)",
+            self.name
+        );
+        let mut roots: Vec<ExprId> = Vec::new();
+        for p in &s.params {
+            roots.extend_from_slice(&p.phi_p);
+            roots.extend_from_slice(&p.velocity_rhs);
+            roots.extend_from_slice(&p.acceleration_rhs);
+            roots.extend(p.acceleration_qdd.entries.iter().map(|en| en.expr));
+            for o in &p.outputs {
+                roots.extend([o.value, o.velocity, o.acceleration]);
+                roots.extend(o.qdd.iter().map(|&(_, e)| e));
+            }
+            if let Some(dy) = &p.dynamics {
+                roots.extend(dy.mass.iter().chain(&dy.applied));
+            }
+        }
+        let mut deferred = Deferred {
+            sizes: self.blowup_of(&roots),
+            entries: Vec::new(),
+        };
+        let d = &mut deferred;
+        for p in &s.params {
             let _ = writeln!(
                 out,
-                "\nshared program (entries too large to print as trees; `v0`, `v1`, … name \
-                 subexpressions used more than once):"
+                "
+with respect to {}:",
+                p.name
             );
-            let outputs: Vec<(&str, ExprId)> = deferred
-                .entries
-                .iter()
-                .map(|(l, e)| (l.as_str(), *e))
-                .collect();
-            out.push_str(&self.arena.display_program(&outputs));
+            let name = &p.name;
+            self.vector(&mut out, d, &format!("Phi_p (p = {name})"), &p.phi_p);
+            let title = format!("velocity rhs (p = {name})");
+            self.vector(&mut out, d, &title, &p.velocity_rhs);
+            let title = format!("acceleration rhs without its qddot terms (p = {name})");
+            self.vector(&mut out, d, &title, &p.acceleration_rhs);
+            let title =
+                format!("W, the acceleration rhs's qddot terms being -W qddot (p = {name})");
+            self.matrix(&mut out, d, &title, &p.acceleration_qdd);
+            if !p.outputs.is_empty() {
+                let _ = writeln!(out, "\noutputs (p = {name}):");
+            }
+            for (o, column) in p.outputs.iter().zip(&self.outputs) {
+                let _ = write!(out, "  ∂{}: ", o.name);
+                d.write(self, &mut out, format!("∂{} (p = {name})", o.name), o.value);
+                let _ = write!(out, "\n  ∂{}_dot: ", o.name);
+                d.write(
+                    self,
+                    &mut out,
+                    format!("∂{}_dot (p = {name})", o.name),
+                    o.velocity,
+                );
+                let _ = write!(out, "\n  ∂{}_ddot: ", o.name);
+                let label = format!("∂{}_ddot (p = {name})", o.name);
+                let mut first = true;
+                for (prefix, terms) in [("∂", column.jacobian.as_slice()), ("", o.qdd.as_slice())]
+                {
+                    self.qdd_terms(&mut out, d, &label, prefix, terms, &mut first);
+                }
+                if first || !self.arena.is_zero(o.acceleration) {
+                    if !first {
+                        out.push_str(" + ");
+                    }
+                    d.write(
+                        self,
+                        &mut out,
+                        format!("{label} - qddot terms"),
+                        o.acceleration,
+                    );
+                }
+                out.push('\n');
+            }
+            if let Some(dy) = &p.dynamics {
+                self.dynamics_sensitivity(&mut out, d, name, dy);
+            }
         }
+        self.shared_program(&mut out, &deferred);
         out
+    }
+
+    /// The dynamics part of one param's section: ∂M/∂p (nonzero entries)
+    /// and dQ_A/dp, per coordinate.
+    fn dynamics_sensitivity(
+        &self,
+        out: &mut String,
+        d: &mut Deferred,
+        name: &str,
+        dy: &crate::sensitivity::DynamicsSensitivity,
+    ) {
+        let _ = writeln!(
+            out,
+            "\ndynamics (p = {name}; Phi_q^T ∂lambda = dQ_A/dp - (dM/dp) qddot - M ∂qddot - W^T lambda):"
+        );
+        for (title, v) in [("dM/dp", &dy.mass), ("dQ_A/dp", &dy.applied)] {
+            let _ = write!(out, "  {title}:");
+            if v.iter().all(|&e| self.arena.is_zero(e)) {
+                let _ = writeln!(out, " (all zero)");
+                continue;
+            }
+            out.push('\n');
+            for (k, &e) in v.iter().enumerate() {
+                if self.arena.is_zero(e) {
+                    continue;
+                }
+                let q = self.coordinates.get(k).map_or("?", |c| c.name.as_str());
+                let _ = write!(out, "    [{k}] {q}: ");
+                d.write(self, out, format!("{title}[{k}] (p = {name})"), e);
+                out.push('\n');
+            }
+        }
+    }
+
+    /// Writes `Σ coefficient·{prefix}{q}_ddot` for the (coordinate,
+    /// coefficient) `terms`, a coefficient 1 as the bare acceleration.
+    fn qdd_terms(
+        &self,
+        out: &mut String,
+        d: &mut Deferred,
+        label: &str,
+        prefix: &str,
+        terms: &[(u32, ExprId)],
+        first: &mut bool,
+    ) {
+        for &(k, e) in terms {
+            let q = self
+                .coordinates
+                .get(k as usize)
+                .map_or("?", |c| c.name.as_str());
+            if !*first {
+                out.push_str(" + ");
+            }
+            *first = false;
+            if self.arena.as_num(e) == Some(1.0) {
+                let _ = write!(out, "{prefix}{q}_ddot");
+            } else {
+                out.push('(');
+                d.write(self, out, format!("{label} / {prefix}{q}_ddot"), e);
+                let _ = write!(out, ")*{prefix}{q}_ddot");
+            }
+        }
+    }
+
+    /// The program of the entries too large to print as trees, if any.
+    fn shared_program(&self, out: &mut String, deferred: &Deferred) {
+        if deferred.entries.is_empty() {
+            return;
+        }
+        let _ = writeln!(
+            out,
+            "\nshared program (entries too large to print as trees; `v0`, `v1`, … name \
+             subexpressions used more than once):"
+        );
+        let outputs: Vec<(&str, ExprId)> = deferred
+            .entries
+            .iter()
+            .map(|(l, e)| (l.as_str(), *e))
+            .collect();
+        out.push_str(&self.arena.display_program(&outputs));
     }
 
     /// The tree size of every node when printing every entry as a tree
@@ -160,11 +321,16 @@ impl Derivation {
             roots.extend([o.value, o.velocity, o.acceleration]);
             roots.extend(o.jacobian.iter().map(|&(_, e)| e));
         }
+        self.blowup_of(&roots)
+    }
+
+    /// [`Derivation::tree_blowup`] of the entries `roots`.
+    fn blowup_of(&self, roots: &[ExprId]) -> Option<Vec<u64>> {
         let sizes = self.arena.tree_sizes();
         let total = roots
             .iter()
             .fold(0u64, |acc, e| acc.saturating_add(sizes[e.index()]));
-        let dag = self.arena.dag_size(&roots) as u64;
+        let dag = self.arena.dag_size(roots) as u64;
         (total > TREE_TOTAL_MIN && total > TREE_RATIO.saturating_mul(dag)).then_some(sizes)
     }
 
