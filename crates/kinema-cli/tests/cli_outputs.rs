@@ -214,3 +214,27 @@ fn adm_vis_points_are_results() -> TestResult {
     assert!(csv.column("slider.p1.x_ddot").is_ok());
     Ok(())
 }
+
+/// `kinema derive --sensitivity`: after the derivation, Φ_p and the
+/// right-hand sides for each param asked for (issue 40's first step);
+/// a name that is not a param is a usage error naming the params.
+#[test]
+fn derive_prints_the_sensitivities_asked_for() {
+    let o = kinema(&["derive", "models/four_bar.kin", "--sensitivity", "l1,l3"]);
+    assert_status(&o, 0);
+    let text = stdout(&o);
+    let plain = stdout(&kinema(&["derive", "models/four_bar.kin"]));
+    assert!(text.starts_with(&plain), "the derivation comes first, unchanged");
+    let rest = &text[plain.len()..];
+    assert!(rest.contains("sensitivities of FourBar"), "{rest}");
+    assert!(rest.contains("with respect to l1:"), "{rest}");
+    assert!(rest.contains("with respect to l3:"), "{rest}");
+    assert!(rest.contains("Phi_p (p = l3):"), "{rest}");
+    assert!(!rest.contains("with respect to l2:"), "{rest}");
+
+    let o = kinema(&["derive", "models/four_bar.kin", "--sensitivity", "crank"]);
+    assert_status(&o, 2);
+    let err = stderr(&o);
+    assert!(err.contains("--sensitivity"), "{err}");
+    assert!(err.contains("`l1`"), "the error names the params: {err}");
+}

@@ -45,9 +45,13 @@ pub enum Command {
     /// `run`).
     #[command(after_help = SWEEP_EXAMPLES)]
     Sweep(SweepArgs),
-    /// Print the symbolic derivation: Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ.
-    #[command(after_help = "Example:\n  kinema derive models/pendulum.kin")]
-    Derive(ModelArg),
+    /// Print the symbolic derivation: Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ
+    /// (with --sensitivity, the parameter sensitivities' Φ_p and right-hand
+    /// sides too).
+    #[command(
+        after_help = "Examples:\n  kinema derive models/pendulum.kin\n  kinema derive models/four_bar.kin --sensitivity l1,l2"
+    )]
+    Derive(DeriveArgs),
     /// Print the generated Rust source of the model's solver.
     #[command(
         after_help = "Example:\n  kinema codegen models/slider_crank.kin > src/slider_crank.rs"
@@ -123,6 +127,19 @@ pub struct ModelArg {
     /// The model: a `.kin` file, or a simEngine2D `.adm` file.
     #[arg(value_name = "MODEL")]
     pub model: PathBuf,
+}
+
+/// Arguments of `kinema derive`.
+#[derive(Debug, Args)]
+pub struct DeriveArgs {
+    /// The model: a `.kin` file, or a simEngine2D `.adm` file.
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+    /// Params whose sensitivities to derive: after the derivation, Φ_p and
+    /// the velocity and acceleration right-hand sides (Φ_q ∂q/∂p = −Φ_p, …)
+    /// and the results' ∂/∂p, for each.
+    #[arg(long, value_name = "P1,P2,…", value_delimiter = ',')]
+    pub sensitivity: Vec<String>,
 }
 
 /// Arguments of `kinema run`.

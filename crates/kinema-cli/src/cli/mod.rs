@@ -115,7 +115,17 @@ pub fn main() -> ExitCode {
         Command::Sweep(a) => sweep::sweep(a),
         Command::Derive(a) => load::load(&a.model, None).and_then(|m| {
             m.print_warnings();
-            print_stdout(&m.model.derivation_text())
+            let mut text = m.model.derivation_text();
+            if !a.sensitivity.is_empty() {
+                let names: Vec<&str> = a.sensitivity.iter().map(String::as_str).collect();
+                let mut derivation = m.model.derivation().clone();
+                let s = derivation
+                    .sensitivities(&names)
+                    .map_err(|e| Failure::usage(format_args!("--sensitivity: {e}")))?;
+                text.push('\n');
+                text.push_str(&derivation.render_sensitivities(&s));
+            }
+            print_stdout(&text)
         }),
         Command::Codegen(a) => load::load(&a.model, None).and_then(|m| {
             m.print_warnings();
