@@ -236,5 +236,6 @@ fn derive_prints_the_sensitivities_asked_for() {
     assert_status(&o, 2);
     let err = stderr(&o);
     assert!(err.contains("--sensitivity"), "{err}");
-    assert!(err.contains("`l1`"), "the error names the params: {err}");
+    assert!(err.contains("`crank` is a body, not a param"), "{err}");
+    assert!(err.contains("l1, l2, l3"), "the error names the params: {err}");
 }
