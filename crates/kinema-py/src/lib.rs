@@ -624,16 +624,16 @@ impl NativeModel {
         let out = py.detach(|| {
             let kind = self.dynamics_run().unwrap_or(forward::DynamicsRun::Forward);
             let (q0, qd0) = forward::start_state(&self.model, &system, &self.adm_qd0);
-            forward::run_forward(
-                &self.model,
-                &system,
-                &self.file,
+            forward::run_forward(&forward::ForwardRun {
+                model: &self.model,
+                system: &system,
+                file: &self.file,
                 kind,
-                [&q0, &qd0],
-                &times,
-                &selection,
-                &options,
-            )
+                start: [&q0, &qd0],
+                times: &times,
+                selection: &selection,
+                options: &options,
+            })
         });
         let out = out.map_err(KinemaError::new_err)?;
         let rust_seconds = start.elapsed().as_secs_f64();
