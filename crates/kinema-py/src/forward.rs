@@ -215,22 +215,43 @@ fn failure_message(
     message
 }
 
-/// Forward dynamics (or the prescribed motion) through `outputs_t`
+/// What a forward run takes: the model and the system it runs on, how and
+/// from where it moves, and what it writes when.
+pub struct ForwardRun<'a> {
+    pub model: &'a kinema::Model,
+    /// The system at the run's parameters, on the run's back end (points,
+    /// outputs, reactions).
+    pub system: &'a TapeSystem,
+    /// The model's file, named in messages.
+    pub file: &'a str,
+    /// Forward dynamics or the prescribed motion.
+    pub kind: DynamicsRun,
+    /// q₀ and q̇₀ as declared ([`start_state`]), made consistent by the
+    /// integrator's start.
+    pub start: [&'a [f64]; 2],
+    /// The output times, increasing; the motion starts at the first.
+    pub times: &'a [f64],
+    /// The columns of each row before the dynamics columns.
+    pub selection: &'a kinema::columns::Selection,
+    pub options: &'a ForwardOptions,
+}
+
+/// Forward dynamics (or the prescribed motion) through `run.times`
 /// (increasing, from t₀ = the first), a row at each, as `kinema run`:
-/// `selection`'s columns, then λ, reactions, efforts (and the energies).
-/// Setup failures are `Err`; a failed step is `Ok` with `error` set and
-/// the rows before it.
-#[allow(clippy::too_many_arguments)]
-pub fn run_forward(
-    model: &kinema::Model,
-    system: &TapeSystem,
-    file: &str,
-    kind: DynamicsRun,
-    [q0, qd0]: [&[f64]; 2],
-    outputs_t: &[f64],
-    selection: &kinema::columns::Selection,
-    o: &ForwardOptions,
-) -> Result<ForwardOutput, String> {
+/// `run.selection`'s columns, then λ, reactions, efforts (and the
+/// energies). Setup failures are `Err`; a failed step is `Ok` with `error`
+/// set and the rows before it.
+pub fn run_forward(run: &ForwardRun<'_>) -> Result<ForwardOutput, String> {
+    let &ForwardRun {
+        model,
+        system,
+        file,
+        kind,
+        start: [q0, qd0],
+        times: outputs_t,
+        selection,
+        options: o,
+    } = run;
     let d = model.derivation();
     let Some(fwd) = TapeForward::new(d, system.params()) else {
         return Err(format!(

@@ -8,7 +8,9 @@
 //! crates/kinema-cli/src/cli/forward.rs and equilibrium.rs), a sweep the
 //! same as `kinema sweep`'s (crates/kinema-cli/src/cli/sweep.rs), so the
 //! numbers are the CLI's CSV numbers bit for bit. The Python layer (python/kinema/) shapes the API:
-//! results objects, warnings through `warnings`, pandas, Dask.
+//! results objects, warnings through `warnings`, pandas, Dask; it checks
+//! the user's arguments and hands each analysis one request dict
+//! ([`request`]), so the native signatures stay short.
 //!
 //! The GIL is released while Rust runs ([`Python::detach`]); results come
 //! back as one 2-D float64 numpy array made from the `Vec<f64>` the run
@@ -18,11 +20,13 @@ use std::path::PathBuf;
 
 mod errors;
 mod forward;
+mod request;
 mod run;
 mod sweep;
 
 use kinema::dynamics::DynamicsColumns;
 use kinema::uniform_times as uniform_grid;
+use request::{ForwardRequest, RunRequest, SweepRequest};
 use run::{RunOptions, backend_name, check_times, run_kinematics};
 use sweep::run_sweep;
 
@@ -418,22 +422,23 @@ impl NativeModel {
     /// `output_kinks`, `imprecise`, `error` (None, or why the run stopped:
     /// the rows are those before it), `backend`. `times` None: the grid of
     /// `t_end` and `steps` ([`NativeModel::grid`]), made here rather than
-    /// passed through Python lists.
-    #[pyo3(signature = (times, outputs=None, columns=None, positions_only=false,
-                        stop_at_singular=false, backend="jit", t_end=None, steps=None))]
-    #[allow(clippy::too_many_arguments)]
+    /// passed through Python lists. The arguments come as one dict, a
+    /// [`RunRequest`].
     fn run<'py>(
         &self,
         py: Python<'py>,
-        times: Option<Vec<f64>>,
-        outputs: Option<Vec<bool>>,
-        columns: Option<&str>,
-        positions_only: bool,
-        stop_at_singular: bool,
-        backend: &str,
-        t_end: Option<f64>,
-        steps: Option<i64>,
+        request: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let RunRequest {
+            times,
+            outputs,
+            columns,
+            positions_only,
+            stop_at_singular,
+            backend,
+            t_end,
+            steps,
+        } = request::extract("run", request, RunRequest::KEYS)?;
         let (times, outputs) = match times {
             Some(times) => (times, outputs),
             None => {
@@ -468,11 +473,11 @@ impl NativeModel {
                 }
             )));
         }
-        let selection = kinema::columns::Selection::of_option(columns, d)
+        let selection = kinema::columns::Selection::of_option(columns.as_deref(), d)
             .map_err(|e| value_error(e.to_string()))?
             .with_positions_only(positions_only);
         let header = selection.header(d);
-        let system = self.system_for(backend)?;
+        let system = self.system_for(&backend)?;
         let options = RunOptions {
             positions_only,
             stop_at_singular,
@@ -544,24 +549,25 @@ impl NativeModel {
     /// Forward dynamics through `times` (increasing, from t0 = times[0]),
     /// as `kinema run` of a model with inertia and free degrees of
     /// freedom. Returns a dict as `run`, with `passages`, `redundancy`,
-    /// `consistency`, `integrator`, `energies`, `motion`.
-    #[pyo3(signature = (times, columns=None, integrator="hht", step=None, rtol=None,
-                        project_velocity=false, energy=false, backend="jit"))]
-    #[allow(clippy::too_many_arguments)]
+    /// `consistency`, `integrator`, `energies`, `motion`. The arguments
+    /// come as one dict, a [`ForwardRequest`].
     fn forward<'py>(
         &self,
         py: Python<'py>,
-        times: Vec<f64>,
-        columns: Option<&str>,
-        integrator: &str,
-        step: Option<f64>,
-        rtol: Option<f64>,
-        project_velocity: bool,
-        energy: bool,
-        backend: &str,
+        request: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let ForwardRequest {
+            times,
+            columns,
+            integrator,
+            step,
+            rtol,
+            project_velocity,
+            energy,
+            backend,
+        } = request::extract("forward", request, ForwardRequest::KEYS)?;
         check_times(&times)?;
-        let integrator = match integrator {
+        let integrator = match integrator.as_str() {
             "hht" => forward::Integrator::Hht,
             "accurate" => forward::Integrator::Accurate,
             other => {
@@ -609,9 +615,9 @@ impl NativeModel {
                 self.file
             )));
         }
-        let selection = kinema::columns::Selection::of_option(columns, d)
+        let selection = kinema::columns::Selection::of_option(columns.as_deref(), d)
             .map_err(|e| value_error(e.to_string()))?;
-        let system = self.system_for(backend)?;
+        let system = self.system_for(&backend)?;
         let options = forward::ForwardOptions {
             integrator,
             step: h,
@@ -624,16 +630,16 @@ impl NativeModel {
         let out = py.detach(|| {
             let kind = self.dynamics_run().unwrap_or(forward::DynamicsRun::Forward);
             let (q0, qd0) = forward::start_state(&self.model, &system, &self.adm_qd0);
-            forward::run_forward(
-                &self.model,
-                &system,
-                &self.file,
+            forward::run_forward(&forward::ForwardRun {
+                model: &self.model,
+                system: &system,
+                file: &self.file,
                 kind,
-                [&q0, &qd0],
-                &times,
-                &selection,
-                &options,
-            )
+                start: [&q0, &qd0],
+                times: &times,
+                selection: &selection,
+                options: &options,
+            })
         });
         let out = out.map_err(KinemaError::new_err)?;
         let rust_seconds = start.elapsed().as_secs_f64();
@@ -738,22 +744,23 @@ impl NativeModel {
     /// the parameters `names`, one column each) the run over `times`. The
     /// variants are numbered from `first + 1` (a shard's offset). Returns a
     /// dict: `columns` (`row`, the names, `t`, coordinates, results),
-    /// `values`, `failures` [(variant from 0, message)], `flagged`.
-    #[pyo3(signature = (names, table, times, first=0, positions_only=false,
-                        stop_at_singular=false, backend="jit", threads=None))]
-    #[allow(clippy::too_many_arguments)]
+    /// `values`, `failures` [(variant from 0, message)], `flagged`. The
+    /// arguments come as one dict, a [`SweepRequest`].
     fn sweep<'py>(
         &self,
         py: Python<'py>,
-        names: Vec<String>,
-        table: &Bound<'py, PyAny>,
-        times: Vec<f64>,
-        first: usize,
-        positions_only: bool,
-        stop_at_singular: bool,
-        backend: &str,
-        threads: Option<usize>,
+        request: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let SweepRequest {
+            names,
+            table,
+            times,
+            first,
+            positions_only,
+            stop_at_singular,
+            backend,
+            threads,
+        } = request::extract("sweep", request, SweepRequest::KEYS)?;
         check_times(&times)?;
         let d = self.model.derivation();
         if d.rows.len() != d.nc() {
@@ -809,7 +816,7 @@ impl NativeModel {
                 rows[k][j]
             )));
         }
-        let system = self.system_for(backend)?;
+        let system = self.system_for(&backend)?;
         let options = RunOptions {
             positions_only,
             stop_at_singular,

@@ -38,7 +38,6 @@ pub(crate) fn check_times(times: &[f64]) -> PyResult<()> {
     Ok(())
 }
 
-
 /// A singular configuration met, as data.
 pub(crate) struct Event {
     pub(crate) kind: &'static str,

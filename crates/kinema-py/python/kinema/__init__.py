@@ -629,14 +629,15 @@ class Model:
         else:
             grid = None  # the grid of t_end and steps, made in Rust
         out = self._native.run(
-            grid,
-            None,
-            _columns_spec(columns),
-            bool(positions_only),
-            bool(stop_at_singular),
-            backend,
-            t_end,
-            steps,
+            {
+                "times": grid,
+                "columns": _columns_spec(columns),
+                "positions_only": bool(positions_only),
+                "stop_at_singular": bool(stop_at_singular),
+                "backend": backend,
+                "t_end": t_end,
+                "steps": steps,
+            }
         )
         _warn_run(out, stacklevel=3)
         return _raise_if_failed(out, _results_of_run(out))
@@ -749,14 +750,16 @@ class Model:
             if not isinstance(value, str):
                 raise TypeError(f"{name} must be a str, found {type(value).__name__}")
         out = self._native.forward(
-            grid,
-            _columns_spec(columns),
-            integrator,
-            _check_real("step", step),
-            _check_real("rtol", rtol),
-            bool(project_velocity),
-            bool(energy),
-            backend,
+            {
+                "times": grid,
+                "columns": _columns_spec(columns),
+                "integrator": integrator,
+                "step": _check_real("step", step),
+                "rtol": _check_real("rtol", rtol),
+                "project_velocity": bool(project_velocity),
+                "energy": bool(energy),
+                "backend": backend,
+            }
         )
         _warn_forward(out, integrator, stacklevel=stacklevel)
         return _raise_if_failed(out, _results_of_forward(out))
@@ -828,7 +831,15 @@ class Model:
         if threads is not None and threads < 1:
             raise ValueError(f"threads must be at least 1, found {threads}")
         out = self._native.sweep(
-            names, array, grid, 0, bool(positions_only), bool(stop_at_singular), backend, threads
+            {
+                "names": names,
+                "table": array,
+                "times": grid,
+                "positions_only": bool(positions_only),
+                "stop_at_singular": bool(stop_at_singular),
+                "backend": backend,
+                "threads": threads,
+            }
         )
         return _finish_sweep(out["columns"], out["values"], out["failures"], out["flagged"], names, array, errors, stacklevel=3)
 

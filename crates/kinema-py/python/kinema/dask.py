@@ -63,16 +63,7 @@ def _run_shard(
 ) -> Dict[str, Any]:
     """One shard on a worker: the native sweep of rows ``first ..``."""
     model = _model(model_path)
-    out = model._native.sweep(
-        names,
-        block,
-        grid,
-        first,
-        bool(options.get("positions_only", False)),
-        bool(options.get("stop_at_singular", False)),
-        options.get("backend", "jit"),
-        options.get("threads", 1),
-    )
+    out = model._native.sweep({"names": names, "table": block, "times": grid, "first": first, **options})
     return {
         "columns": list(out["columns"]),
         "values": out["values"],
@@ -122,8 +113,8 @@ def sweep(
         workers = max(1, len(client.scheduler_info().get("workers", {})))
         n_shards = workers * max(1, int(shards_per_worker))
     options = {
-        "positions_only": positions_only,
-        "stop_at_singular": stop_at_singular,
+        "positions_only": bool(positions_only),
+        "stop_at_singular": bool(stop_at_singular),
         "backend": backend,
         "threads": threads,
     }
@@ -133,7 +124,7 @@ def sweep(
         for a, b in ranges
     ]
     parts = client.gather(futures)
-    columns = model._native.sweep(names, array[:0], grid, 0, positions_only, stop_at_singular, backend, 1)["columns"]
+    columns = model._native.sweep({"names": names, "table": array[:0], "times": grid, **options, "threads": 1})["columns"]
     if parts:
         values = np.concatenate([p["values"] for p in parts], axis=0)
     else:
