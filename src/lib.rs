@@ -78,9 +78,9 @@ pub use kinema_tape::{
 #[doc(hidden)]
 pub mod __private {
     pub use kinema_runtime::{
-        Auto, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
+        Auto, Body, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
         LinalgError, LinearSolver, LinearSolverFor, Motion, Options, OutputKink, Outputs,
-        PivotReport, ReactionSpec, Solver, SparseLu, State, System,
+        PivotReport, ReactionSpec, RowRange, Solver, SparseLu, State, System,
     };
     pub use kinema_runtime::{linalg, roundoff};
 }

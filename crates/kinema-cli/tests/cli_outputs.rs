@@ -224,7 +224,10 @@ fn derive_prints_the_sensitivities_asked_for() {
     assert_status(&o, 0);
     let text = stdout(&o);
     let plain = stdout(&kinema(&["derive", "models/four_bar.kin"]));
-    assert!(text.starts_with(&plain), "the derivation comes first, unchanged");
+    assert!(
+        text.starts_with(&plain),
+        "the derivation comes first, unchanged"
+    );
     let rest = &text[plain.len()..];
     assert!(rest.contains("sensitivities of FourBar"), "{rest}");
     assert!(rest.contains("with respect to l1:"), "{rest}");
@@ -237,5 +240,8 @@ fn derive_prints_the_sensitivities_asked_for() {
     let err = stderr(&o);
     assert!(err.contains("--sensitivity"), "{err}");
     assert!(err.contains("`crank` is a body, not a param"), "{err}");
-    assert!(err.contains("l1, l2, l3"), "the error names the params: {err}");
+    assert!(
+        err.contains("l1, l2, l3"),
+        "the error names the params: {err}"
+    );
 }

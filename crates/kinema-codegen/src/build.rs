@@ -15,7 +15,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use kinema_model::{Derivation, Derived, Source};
+use kinema_model::{Derivation, Derived, Report, Source};
 
 use crate::{Config, generate_source};
 
@@ -29,11 +29,9 @@ pub enum Error {
         /// What went wrong.
         source: std::io::Error,
     },
-    /// The model has errors; `rendered` shows each with `file:line:col`.
-    Model {
-        /// The diagnostics, rendered with source snippets.
-        rendered: String,
-    },
+    /// The model cannot be read or has errors: the report (diagnostics as
+    /// data; its `Display` shows each with `file:line:col` and the source).
+    Model(Report),
     /// `OUT_DIR` is not set: not running inside a build script.
     NoOutDir,
 }
@@ -42,7 +40,7 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Error::Model { rendered } => f.write_str(rendered),
+            Error::Model(report) => f.write_str(report.render().trim_end()),
             Error::NoOutDir => f.write_str("OUT_DIR is not set (call this from a build script)"),
         }
     }
@@ -52,7 +50,8 @@ impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Error::Io { source, .. } => Some(source),
-            _ => None,
+            // The report is the message itself (Display), not a cause.
+            Error::Model(_) | Error::NoOutDir => None,
         }
     }
 }
@@ -61,7 +60,7 @@ impl std::error::Error for Error {
 /// rendered diagnostics.
 ///
 /// # Errors
-/// [`Error::Model`] with every diagnostic rendered.
+/// [`Error::Model`] with every diagnostic.
 pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
     derive(Source::new(file, source))
 }
@@ -69,9 +68,7 @@ pub fn derive_source(source: &str, file: &str) -> Result<Derivation, Error> {
 fn derive(source: Source) -> Result<Derivation, Error> {
     match Derived::from_source(source) {
         Ok(derived) => Ok(derived.into_parts().1),
-        Err(report) => Err(Error::Model {
-            rendered: report.render_each().join("\n"),
-        }),
+        Err(report) => Err(Error::Model(report)),
     }
 }
 
@@ -81,9 +78,7 @@ fn derive(source: Source) -> Result<Derivation, Error> {
 /// [`Error::Model`] if the file cannot be read (its size, UTF-8) or the
 /// model has errors.
 pub fn source_for_file(model: impl AsRef<Path>, options: &Config) -> Result<String, Error> {
-    let source = Source::read(model.as_ref()).map_err(|report| Error::Model {
-        rendered: report.render_each().join("\n"),
-    })?;
+    let source = Source::read(model.as_ref()).map_err(Error::Model)?;
     let derivation = derive(source)?;
     Ok(generate_source(&derivation, options))
 }

@@ -51,11 +51,14 @@ pub(crate) fn dynamics_impl(
     let t = Method::arg(method.used.t, "t");
     let specs = dy.reactions.iter().map(|r| {
         let (a, b, k) = (
-            Literal::u32_unsuffixed(u32_of(r.rows.0, "a reaction's row")),
-            Literal::u32_unsuffixed(u32_of(r.rows.1, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.rows.start, "a reaction's row")),
+            Literal::u32_unsuffixed(u32_of(r.rows.end, "a reaction's row")),
             Literal::u32_unsuffixed(u32_of(r.body, "a reaction's body")),
         );
-        quote!(#rt::ReactionSpec { rows: (#a, #b), body: #k })
+        quote!(#rt::ReactionSpec {
+            rows: #rt::RowRange { start: #a, end: #b },
+            body: #rt::Body::from_u32(#k),
+        })
     });
     let driving = Literal::usize_unsuffixed(driving_pos(d));
     let names = dy.reactions.iter().map(|r| {
@@ -115,7 +118,7 @@ fn reactions_method(d: &Derivation, dy: &DynamicsDerivation, driving: usize) -> 
         let mut comps = [Vec::new(), Vec::new(), Vec::new()];
         for (k, e) in d.phi_q.entries.iter().enumerate() {
             let (row, col) = (e.row as usize, Coord::of_index(e.col as usize));
-            if (r.rows.0..r.rows.1).contains(&row) && col.body == Body::new(r.body) {
+            if r.rows.contains(&row) && col.body == Body::new(r.body) {
                 let (k, row) = (lit(k), lit(row));
                 comps[col.axis.index()].push(quote!(- jac[#k] * lambda[#row]));
             }

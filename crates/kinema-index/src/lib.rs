@@ -101,6 +101,14 @@ macro_rules! entity {
                 Self($crate::u32_of(index, stringify!($name)))
             }
 
+            /// The id at position `index`, already a `u32` (for constants,
+            /// e.g. in generated code).
+            #[inline]
+            #[must_use]
+            $vis const fn from_u32(index: u32) -> Self {
+                Self(index)
+            }
+
             /// The id's position (dense, from 0).
             #[inline]
             #[must_use]

@@ -25,8 +25,8 @@ pub struct Reaction {
     /// The body's position among the element's body arguments, ground
     /// counted (0 for the first): simEngine2D's `body1`/`body2`.
     pub slot: usize,
-    /// The element's rows of Φ, `rows.0..rows.1`.
-    pub rows: (usize, usize),
+    /// The element's rows of Φ.
+    pub rows: std::ops::Range<usize>,
     /// A(φ) s'P: from the body's origin to the element's point on it
     /// (zero when the element has none on this body), global.
     pub arm: [ExprId; 2],
@@ -322,7 +322,7 @@ fn reactions(
                 element: name.clone(),
                 body,
                 slot,
-                rows: (start, end),
+                rows: start..end,
                 arm,
             });
         }

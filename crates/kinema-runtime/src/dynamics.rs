@@ -22,13 +22,31 @@ use crate::linalg::{LinearSolver, scale_and_finite};
 use crate::solver::Solver;
 use crate::system::System;
 
+/// Rows `start..end` of Φ: the rows of one element.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RowRange {
+    /// The first row.
+    pub start: u32,
+    /// One past the last row.
+    pub end: u32,
+}
+
+impl RowRange {
+    /// Whether `row` is one of these rows.
+    #[inline]
+    #[must_use]
+    pub fn contains(self, row: u32) -> bool {
+        (self.start..self.end).contains(&row)
+    }
+}
+
 /// One reaction a [`Dynamics`] system reports: one body of one element of Φ.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ReactionSpec {
-    /// The element's rows of Φ: `rows.0..rows.1`.
-    pub rows: (u32, u32),
-    /// The body (its coordinates are 3·body, 3·body + 1, 3·body + 2).
-    pub body: u32,
+    /// The element's rows of Φ.
+    pub rows: RowRange,
+    /// The body.
+    pub body: Body,
 }
 
 /// A [`System`] with inertia and applied forces.
@@ -118,10 +136,9 @@ impl InverseDynamics {
         let pattern = system.jacobian_pattern();
         let mut entries = Vec::new();
         for (reaction, r) in (0u32..).zip(system.reactions()) {
-            let body = Body::new(r.body as usize);
             for (k, &(row, col)) in (0u32..).zip(pattern) {
                 let col = Coord::of_index(col as usize);
-                if (r.rows.0..r.rows.1).contains(&row) && col.body == body {
+                if r.rows.contains(row) && col.body == r.body {
                     entries.push(ReactionEntry {
                         k,
                         row,

@@ -69,7 +69,7 @@ pub mod trajectory;
 
 pub use csv::{CsvLine, CsvWriter};
 pub use diagnose::{Rank, RankError};
-pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec};
+pub use dynamics::{Dynamics, InverseDynamics, ReactionSpec, RowRange};
 pub use error::{Dependency, Error, Quantity, Time};
 pub use event::{SingularEvent, SingularKind};
 pub use integrate::{

@@ -5,7 +5,8 @@
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::{Derivation, RowKind};
 use kinema_runtime::{
-    Auto, Dynamics, Error, InverseDynamics, Motion, Outputs, ReactionSpec, Solver, System,
+    Auto, Body, Dynamics, Error, InverseDynamics, Motion, Outputs, ReactionSpec, RowRange, Solver,
+    System,
 };
 
 use crate::model::TapeSystem;
@@ -53,15 +54,18 @@ impl TapeDynamics {
             outputs.extend(r.arm);
         }
         let tape = Tape::compile(&d.arena, &outputs);
-        let u = |i: usize| kinema_index::u32_of(i, "a reaction's row or body");
+        let u = |i: usize| kinema_index::u32_of(i, "a reaction's row");
         TapeDynamics {
             tape: Some(tape),
             specs: dy
                 .reactions
                 .iter()
                 .map(|r| ReactionSpec {
-                    rows: (u(r.rows.0), u(r.rows.1)),
-                    body: u(r.body),
+                    rows: RowRange {
+                        start: u(r.rows.start),
+                        end: u(r.rows.end),
+                    },
+                    body: Body::new(r.body),
                 })
                 .collect(),
             names: dy
