@@ -100,7 +100,7 @@ fn kink_body(
                 continue;
             }
             owner[e.index()] = r;
-            if applies_kink(arena, e) {
+            if arena.applies_kink(e) {
                 nodes.push(e);
             }
             arena.for_each_child(e, |c| {
@@ -323,19 +323,5 @@ fn power_kink(p: f64) -> Option<&'static str> {
         Some("Power")
     } else {
         None
-    }
-}
-
-/// Whether node `e` applies a function that can have a kink (a superset of
-/// the sites: every fractional power).
-fn applies_kink(arena: &Arena, e: ExprId) -> bool {
-    match arena.node(e) {
-        NodeRef::Unary(op, _) => matches!(
-            op,
-            UnaryOp::Abs | UnaryOp::Asin | UnaryOp::Acos | UnaryOp::Ln | UnaryOp::Smooth(_)
-        ),
-        NodeRef::Atan2(..) | NodeRef::Pow(..) => true,
-        NodeRef::Mul { factors, .. } => factors.iter().any(|f| f.exp.fract() != 0.0),
-        NodeRef::Num(_) | NodeRef::Sym(_) | NodeRef::Add { .. } => false,
     }
 }

@@ -4,7 +4,7 @@ use std::cmp::Ordering;
 
 use rustc_hash::FxHashMap;
 
-use crate::node::{ExprId, Factor, Node, NodeRef, SymId, SymKind, Symbol, Term};
+use crate::node::{ExprId, Factor, Node, NodeRef, SymId, SymKind, Symbol, Term, UnaryOp};
 
 /// No node: end of an interning chain.
 const NONE: u32 = u32::MAX;
@@ -258,6 +258,23 @@ impl Arena {
     }
 
     // ------------------------------------------------------------ views
+
+    /// Whether node `e` applies a function that can have a kink (a
+    /// superset of the sites [`Tape::kink`](crate::Tape::kink) checks:
+    /// every fractional power): the nodes a kink check must evaluate,
+    /// which the tape back end and generated code both select with this.
+    #[must_use]
+    pub fn applies_kink(&self, e: ExprId) -> bool {
+        match self.node(e) {
+            NodeRef::Unary(op, _) => matches!(
+                op,
+                UnaryOp::Abs | UnaryOp::Asin | UnaryOp::Acos | UnaryOp::Ln | UnaryOp::Smooth(_)
+            ),
+            NodeRef::Atan2(..) | NodeRef::Pow(..) => true,
+            NodeRef::Mul { factors, .. } => factors.iter().any(|f| f.exp.fract() != 0.0),
+            NodeRef::Num(_) | NodeRef::Sym(_) | NodeRef::Add { .. } => false,
+        }
+    }
 
     /// A view of the node `e`.
     #[must_use]

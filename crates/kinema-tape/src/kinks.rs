@@ -3,7 +3,7 @@
 //! the subexpressions that hold a function with a kink, so that a check
 //! costs a fraction of an evaluation of the whole.
 
-use kinema_expr::{Arena, ExprId, NodeRef, Tape, TapeInputs, UnaryOp};
+use kinema_expr::{Arena, ExprId, Tape, TapeInputs};
 
 /// The subexpressions of some roots (Φ's rows, the results' values) that
 /// apply a function with a kink, compiled as one tape, and the first root
@@ -33,7 +33,7 @@ impl KinkTape {
                 if std::mem::replace(&mut seen[e.index()], true) {
                     continue;
                 }
-                if applies_kink(arena, e) {
+                if arena.applies_kink(e) {
                     nodes.push(e);
                     owners.push(r);
                 }
@@ -79,19 +79,5 @@ impl KinkTape {
             root: *self.roots.get(kink.output?)?,
             function: kink.function,
         })
-    }
-}
-
-/// Whether node `e` applies a function that can have a kink (a superset of
-/// what [`Tape::kink`] checks: every fractional power).
-fn applies_kink(arena: &Arena, e: ExprId) -> bool {
-    match arena.node(e) {
-        NodeRef::Unary(op, _) => matches!(
-            op,
-            UnaryOp::Abs | UnaryOp::Asin | UnaryOp::Acos | UnaryOp::Ln | UnaryOp::Smooth(_)
-        ),
-        NodeRef::Atan2(..) | NodeRef::Pow(..) => true,
-        NodeRef::Mul { factors, .. } => factors.iter().any(|f| f.exp.fract() != 0.0),
-        NodeRef::Num(_) | NodeRef::Sym(_) | NodeRef::Add { .. } => false,
     }
 }
