@@ -24,6 +24,7 @@ mod linkage;
 mod model;
 mod model_outputs;
 mod precision;
+pub mod sensitivity;
 #[cfg(feature = "parallel")]
 pub mod sweep;
 
