@@ -272,3 +272,75 @@ fn refused_with_forward_dynamics() -> TestResult {
     );
     Ok(())
 }
+
+/// A row at a kink (tests/kinks/fold.kin with its offset a param) is named
+/// by the kink's warning and by one for its sensitivity columns; the run
+/// succeeds, and the columns elsewhere are the closed form's
+/// (x + |x|/2 = t − c: ∂x/∂c = −1/(1 + sign(x)/2)).
+#[test]
+fn rows_at_a_kink_are_flagged_for_the_sensitivities_too() -> TestResult {
+    let dir = TempDir::new("sens-kink");
+    let model = dir.path("fold.kin");
+    std::fs::write(
+        &model,
+        "mechanism Fold {
+            param c = 0.3;
+            body bar { guess: (-1, 0, 0) }
+            constraint level: bar.y == 0;
+            constraint square: bar.phi == 0;
+            driver slide: bar.x + abs(bar.x) / 2 == t - c;
+        }",
+    )?;
+    let out = dir.path("fold.csv");
+    let o = kinema(&[
+        "run",
+        &model,
+        "--t-end",
+        "0.8",
+        "--steps",
+        "8",
+        "--sensitivity",
+        "c",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 0);
+    let e = stderr(&o);
+    assert!(
+        e.contains("warning: 1 row at t = 0.3 (the warnings above): its `d(…)/d(…)` sensitivity columns are not determined"),
+        "{e}"
+    );
+    let csv = Csv::read(&out)?;
+    let (x, dx) = (csv.column("bar.x")?, csv.column("d(bar.x)/d(c)")?);
+    for r in csv.rows.iter().filter(|r| (r[0] - 0.3).abs() > 1e-9) {
+        let exact = -1.0 / (1.0 + r[x].signum() / 2.0);
+        assert!((r[dx] - exact).abs() < 1e-12, "t = {}: {}", r[0], r[dx]);
+    }
+    Ok(())
+}
+
+/// A row exactly at a singular configuration (a parallelogram that starts
+/// flat) has no ∂q/∂p: the run stops there with exit status 1 and says
+/// why, where the same run without `--sensitivity` passes it.
+#[test]
+fn a_row_at_a_singular_configuration_stops_the_run_with_a_reason() {
+    let dir = TempDir::new("sens-singular");
+    let out = dir.path("p.csv");
+    let o = kinema(&[
+        "run",
+        "tests/singular/parallelogram.kin",
+        "--steps",
+        "36",
+        "--sensitivity",
+        "l1",
+        "--out",
+        &out,
+    ]);
+    assert_status(&o, 1);
+    let e = stderr(&o);
+    assert!(
+        e.contains("error: at t = 0: sensitivities:")
+            && e.contains("at a singular configuration ∂q/∂p does not exist"),
+        "{e}"
+    );
+}

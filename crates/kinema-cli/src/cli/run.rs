@@ -303,10 +303,16 @@ impl Rows {
     ) -> Result<(), Failure> {
         if let Some(s) = &mut self.sensitivity {
             s.compute(solver).map_err(|e| {
+                // The step's own factorization serves every row but those
+                // flagged near singular, factored again at their q: exactly
+                // singular there, ∂q/∂p does not exist.
                 Failure::Analysis(format!(
-                    "error: at t = {}: sensitivities: {}",
+                    "error: at t = {}: sensitivities: {}\n  = note: at a singular \
+                     configuration ∂q/∂p does not exist (it grows without bound near one); \
+                     the rows before t = {} are kept",
                     time(t),
-                    run_error(loaded, &e)
+                    run_error(loaded, &e),
+                    time(t),
                 ))
             })?;
         }
