@@ -64,8 +64,9 @@ pub struct KinematicPlan {
     /// When the command started (the summary's total time includes
     /// reading the model).
     pub start: Instant,
-    /// `--sensitivity`: the params' sensitivity systems, compiled.
-    pub sensitivity: Option<kinema::sensitivity::Sensitivity>,
+    /// `--sensitivity`: the params' sensitivity systems, compiled (boxed:
+    /// the plan stays small without them).
+    pub sensitivity: Option<Box<kinema::sensitivity::Sensitivity>>,
 }
 
 /// A forward-dynamics run.
@@ -300,7 +301,7 @@ fn refuse_sensitivity(args: &RunArgs, forward: Option<&Loaded>) -> Result<(), Fa
 fn sensitivity(
     args: &RunArgs,
     loaded: &Loaded,
-) -> Result<Option<kinema::sensitivity::Sensitivity>, Failure> {
+) -> Result<Option<Box<kinema::sensitivity::Sensitivity>>, Failure> {
     if args.sensitivity.is_empty() {
         return Ok(None);
     }
@@ -308,7 +309,7 @@ fn sensitivity(
     loaded
         .model
         .sensitivity(&names)
-        .map(Some)
+        .map(|s| Some(Box::new(s)))
         .map_err(|e| Failure::usage(format_args!("--sensitivity: {e}")))
 }
 
