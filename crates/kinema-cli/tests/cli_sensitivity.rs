@@ -344,3 +344,38 @@ fn a_row_at_a_singular_configuration_stops_the_run_with_a_reason() {
         "{e}"
     );
 }
+
+/// With inertia (inverse dynamics' columns), the sensitivity columns come
+/// after those, and every other column is the run's without
+/// `--sensitivity`, bit for bit.
+#[test]
+fn with_inertia_the_columns_follow_the_dynamics_and_change_nothing() -> TestResult {
+    let dir = TempDir::new("sens-dynamics");
+    let (with, without) = (dir.path("with.csv"), dir.path("without.csv"));
+    let model = "tests/dynamics/slider_crank.kin";
+    let o = kinema(&["run", model, "--steps", "8", "--out", &without]);
+    assert_status(&o, 0);
+    let o = kinema(&[
+        "run",
+        model,
+        "--steps",
+        "8",
+        "--sensitivity",
+        "l2,l1",
+        "--out",
+        &with,
+    ]);
+    assert_status(&o, 0);
+    let (a, b) = (Csv::read(&with)?, Csv::read(&without)?);
+    let n = b.header.len();
+    assert_eq!(a.header[..n], b.header[..], "the other columns first");
+    assert!(b.header.iter().any(|h| h.starts_with("lambda.")));
+    assert_eq!(a.header[n], "d(crank.x)/d(l2)");
+    let sensitivities = a.header.len() - n;
+    assert_eq!(sensitivities % 2, 0, "two params, as many columns each");
+    assert_eq!(a.header[n + sensitivities / 2], "d(crank.x)/d(l1)");
+    for (ra, rb) in a.rows.iter().zip(&b.rows) {
+        assert_eq!(ra[..n], rb[..], "t = {}", rb[0]);
+    }
+    Ok(())
+}
