@@ -6,7 +6,8 @@
 //! [`System`](kinema_runtime::System)). Around it: the result columns of a
 //! run ([`columns`]), inverse and forward dynamics of a loaded model
 //! ([`dynamics`], [`forward`]), its static equilibrium ([`equilibrium`]),
-//! and parameter sweeps on every core ([`sweep`], feature `parallel`).
+//! parameter sensitivities solved after each step ([`sensitivity`]), and
+//! parameter sweeps on every core ([`sweep`], feature `parallel`).
 //!
 //! Users reach all of it through the `kinema` facade (`kinema::Model`, …);
 //! the tests and examples are written that way.
@@ -24,6 +25,7 @@ mod linkage;
 mod model;
 mod model_outputs;
 mod precision;
+pub mod sensitivity;
 #[cfg(feature = "parallel")]
 pub mod sweep;
 

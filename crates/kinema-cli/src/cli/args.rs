@@ -231,6 +231,13 @@ pub struct RunArgs {
     /// per step. `--integrator accurate` always projects and refuses it.
     #[arg(long)]
     pub project_velocity: bool,
+    /// Parameter sensitivities of a kinematic run, for the params named:
+    /// after the other columns, `d(COLUMN)/d(PARAM)` for every coordinate
+    /// and result column written (values, `_dot`, `_ddot`), param by param
+    /// — derived symbolically, solved with each step's factorization. Not
+    /// with forward dynamics, `--equilibrium` or `--positions-only`.
+    #[arg(long, value_name = "P1,P2,…", value_delimiter = ',')]
+    pub sensitivity: Vec<String>,
 }
 
 /// Forward-dynamics integrators.

@@ -13,6 +13,7 @@
 //! | [`sweep`] | `kinema sweep`: a model over a parameter table |
 //! | [`shared`] | what subcommands share (time grids, run errors, assembly and redundancy reports): no subcommand imports another's file |
 //! | [`columns`] | `run --columns`: which quantities the CSV holds |
+//! | [`sensitivity`] | `run --sensitivity`: the params' sensitivity columns after the others |
 //! | [`files`] | a run's CSV (its header: the selected columns, then the run's own), figure and page, created before the analysis |
 //! | [`output`] | output files (refused when an input or another output; temporary file renamed on success), the CSV sink; durations and times for people |
 //! | [`progress`] | the progress bar on standard error |
@@ -43,6 +44,7 @@ pub mod plot;
 pub mod progress;
 pub mod run;
 pub mod scene;
+pub mod sensitivity;
 pub mod shared;
 pub mod sweep;
 pub mod warnings;

@@ -64,6 +64,9 @@ pub struct KinematicPlan {
     /// When the command started (the summary's total time includes
     /// reading the model).
     pub start: Instant,
+    /// `--sensitivity`: the params' sensitivity systems, compiled (boxed:
+    /// the plan stays small without them).
+    pub sensitivity: Option<Box<kinema::sensitivity::Sensitivity>>,
 }
 
 /// A forward-dynamics run.
@@ -128,6 +131,7 @@ impl RunPlan {
     /// model's run does not take, or a model that cannot be read.
     pub fn resolve(args: &RunArgs) -> Result<RunPlan, Failure> {
         refuse_positions_only(args, false)?;
+        refuse_sensitivity(args, None)?;
         let outputs = OutputPlan::of(args);
         if args.equilibrium {
             let loaded = equilibrium_model(args)?;
@@ -144,6 +148,12 @@ impl RunPlan {
             Format::Adm => {
                 let analysis = adm_analysis(args, steps)?;
                 if analysis.simulation == Simulation::Dynamics {
+                    if !args.sensitivity.is_empty() {
+                        return Err(Failure::usage(
+                            "--sensitivity cannot be used with a Dynamics analysis: \
+                             sensitivities are computed for kinematic runs only",
+                        ));
+                    }
                     return adm_dynamics(args, &analysis, outputs);
                 }
                 let source = || analysis_source(args, &analysis);
@@ -158,6 +168,7 @@ impl RunPlan {
         loaded.print_warnings();
         if let Some(kind) = dynamics_run(&loaded) {
             refuse_positions_only(args, true)?;
+            refuse_sensitivity(args, Some(&loaded))?;
             let forward = ForwardPlan::of(args, kind, grid.times, grid.description, None)?;
             return Ok(RunPlan {
                 loaded,
@@ -170,6 +181,7 @@ impl RunPlan {
         let options = Options::default()
             .with_stop_at_singular(args.stop_at_singular)
             .with_positions_only(args.positions_only);
+        let sensitivity = sensitivity(args, &loaded)?;
         Ok(RunPlan {
             loaded,
             motion: Motion::Kinematic(KinematicPlan {
@@ -177,6 +189,7 @@ impl RunPlan {
                 backend: args.backend,
                 options,
                 start,
+                sensitivity,
             }),
             outputs,
         })
@@ -250,6 +263,54 @@ impl ForwardPlan {
 fn dynamics_run(loaded: &Loaded) -> Option<DynamicsRun> {
     let d = loaded.model.derivation();
     kinema::forward::dynamics_run(d, &d.param_values(), &loaded.model.initial_configuration())
+}
+
+/// `--sensitivity` where there is none yet: with `--equilibrium`, with
+/// `--positions-only` (no rates, no factorization at each row), and with
+/// forward dynamics (`loaded`, the model of a forward run).
+fn refuse_sensitivity(args: &RunArgs, forward: Option<&Loaded>) -> Result<(), Failure> {
+    if args.sensitivity.is_empty() {
+        return Ok(());
+    }
+    let why = if let Some(loaded) = forward {
+        format!(
+            "`{}` runs forward dynamics: sensitivities are computed for kinematic runs only \
+             (NDOF = 0)",
+            loaded.file
+        )
+    } else if args.equilibrium {
+        "--equilibrium: sensitivities are computed for kinematic runs only".to_owned()
+    } else if args.positions_only {
+        "--positions-only: the sensitivities' rate columns need the rates' solves; run \
+         without --positions-only"
+            .to_owned()
+    } else {
+        return Ok(());
+    };
+    Err(Failure::usage(format_args!(
+        "--sensitivity cannot be used with {why}"
+    )))
+}
+
+/// `--sensitivity`'s params' sensitivity systems, derived and compiled;
+/// none without the option.
+///
+/// # Errors
+/// A usage error naming the model's params for a name that is not one (or
+/// one named twice), or derivatives too large.
+fn sensitivity(
+    args: &RunArgs,
+    loaded: &Loaded,
+) -> Result<Option<Box<kinema::sensitivity::Sensitivity>>, Failure> {
+    if args.sensitivity.is_empty() {
+        return Ok(None);
+    }
+    let names: Vec<&str> = args.sensitivity.iter().map(|s| s.trim()).collect();
+    loaded
+        .model
+        .sensitivity(&names)
+        .map(|s| Some(Box::new(s)))
+        .map_err(|e| Failure::usage(format_args!("--sensitivity: {e}")))
 }
 
 /// `--positions-only` where it makes no sense: with `--equilibrium` (one

@@ -11,10 +11,11 @@ use kinema::{Auto, SingularEvent, SingularKind, Solver, State, TapeSystem};
 use super::args::Backend;
 use super::files::RunFiles;
 use super::load::Loaded;
-use super::output::{CsvSink, Destination, duration, time};
+use super::output::{CsvSink, Destination, duration, rows_at, time};
 use super::plan::{KinematicPlan, OutputPlan};
 use super::plot::Samples;
 use super::progress::Progress;
+use super::sensitivity::SensitivityColumns;
 use super::shared::grid::{Grid, MAX_PLOT_STATES};
 use super::shared::report::{assembly_warnings, run_error};
 use super::warnings::{
@@ -82,8 +83,14 @@ pub fn kinematics(
     let dynamics =
         super::dynamics::DynamicsColumns::new(&system, derivation.rows.len(), loaded.adm.is_some())
             .filter(|_| !plan.options.positions_only);
-    let extra = dynamics.as_ref().map_or(&[][..], |d| d.names());
-    let files = RunFiles::create(outputs, derivation, extra)?;
+    let sensitivity = plan
+        .sensitivity
+        .clone()
+        .map(|s| SensitivityColumns::new(*s, outputs, derivation))
+        .transpose()?;
+    let mut extra: Vec<String> = dynamics.as_ref().map_or(&[][..], |d| d.names()).to_vec();
+    extra.extend_from_slice(sensitivity.as_ref().map_or(&[][..], |s| s.names()));
+    let files = RunFiles::create(outputs, derivation, &extra)?;
 
     let analysis_start = Instant::now();
     let mut solver = Solver::<TapeSystem, Auto>::with_options(system, plan.options)
@@ -94,7 +101,14 @@ pub fn kinematics(
         plot: plot_target,
         page: page_target,
     } = files;
-    let mut rows = Rows::new(csv, &solver, derivation, dynamics, keep, grid);
+    let mut rows = Rows::new(
+        csv,
+        &solver,
+        derivation,
+        (dynamics, sensitivity),
+        keep,
+        grid,
+    );
     let mut stats = Stats::default();
     let mut progress = Progress::new(grid.times.len());
     for (k, (&t, &is_output)) in grid.times.iter().zip(&grid.output).enumerate() {
@@ -134,6 +148,7 @@ pub fn kinematics(
     print_singular_warnings(&events, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
     print_imprecision_warning(solver.system(), &rows.imprecise);
+    print_sensitivity_warning(&rows);
     stats.events = events.len();
     let w = Instant::now();
     let sink = &rows.sink;
@@ -185,6 +200,10 @@ pub fn kinematics(
 struct Rows {
     sink: CsvSink,
     dynamics: Option<super::dynamics::DynamicsColumns>,
+    /// `--sensitivity`'s columns, after the dynamics'.
+    sensitivity: Option<SensitivityColumns>,
+    /// A row's extra columns: inverse dynamics', then the sensitivities'.
+    extra: Vec<f64>,
     results: [Vec<f64>; 3],
     scratch: <TapeSystem as kinema::System>::Scratch,
     samples: Option<Samples>,
@@ -213,7 +232,10 @@ impl Rows {
         sink: CsvSink,
         solver: &Solver<TapeSystem, Auto>,
         derivation: &kinema::lang::Derivation,
-        dynamics: Option<super::dynamics::DynamicsColumns>,
+        (dynamics, sensitivity): (
+            Option<super::dynamics::DynamicsColumns>,
+            Option<SensitivityColumns>,
+        ),
         keep: bool,
         grid: &Grid,
     ) -> Rows {
@@ -226,9 +248,13 @@ impl Rows {
             }
         });
         let outputs = grid.output.iter().filter(|&&o| o).count();
+        let extra = dynamics.as_ref().map_or(0, |d| d.names().len())
+            + sensitivity.as_ref().map_or(0, |s| s.names().len());
         Rows {
             sink,
             dynamics,
+            sensitivity,
+            extra: Vec::with_capacity(extra),
             results: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
             scratch: kinema::System::scratch(solver.system()),
             samples,
@@ -275,7 +301,22 @@ impl Rows {
         loaded: &Loaded,
         t: f64,
     ) -> Result<(), Failure> {
-        let extra = match &mut self.dynamics {
+        if let Some(s) = &mut self.sensitivity {
+            s.compute(solver).map_err(|e| {
+                // The step's own factorization serves every row but those
+                // flagged near singular, factored again at their q: exactly
+                // singular there, ∂q/∂p does not exist.
+                Failure::Analysis(format!(
+                    "error: at t = {}: sensitivities: {}\n  = note: at a singular \
+                     configuration ∂q/∂p does not exist (it grows without bound near one); \
+                     the rows before t = {} are kept",
+                    time(t),
+                    run_error(loaded, &e),
+                    time(t),
+                ))
+            })?;
+        }
+        let dynamics = match &mut self.dynamics {
             Some(d) => d.compute(solver).map_err(|e| {
                 Failure::Analysis(format!(
                     "error: inverse dynamics: {}",
@@ -284,6 +325,12 @@ impl Rows {
             })?,
             None => &[],
         };
+        self.extra.clear();
+        self.extra.extend_from_slice(dynamics);
+        if let Some(s) = &self.sensitivity {
+            self.extra.extend_from_slice(s.values());
+        }
+        let extra = &self.extra[..];
         let Some(state) = solver.state() else {
             return Ok(());
         };
@@ -312,7 +359,7 @@ impl Rows {
             && (self.written.is_multiple_of(self.stride) || self.written + 1 == self.outputs)
         {
             s.push(state);
-            s.push_dynamics(extra);
+            s.push_dynamics(&extra[..dynamics.len()]);
             self.skipped = None;
         }
         self.written += 1;
@@ -351,6 +398,7 @@ fn step_failure(
     print_singular_warnings(&passed, &rows.flagged);
     print_kink_warnings(solver.system(), &rows);
     print_imprecision_warning(solver.system(), &rows.imprecise);
+    print_sensitivity_warning(&rows);
     // The rows before the failure are the CSV (the plot, not drawn, leaves
     // any earlier file in place).
     let rows_note = rows.sink.finish_after_failure();
@@ -487,6 +535,35 @@ fn print_kink_warnings(system: &TapeSystem, rows: &Rows) {
             ),
         );
     }
+}
+
+/// With `--sensitivity`, one `warning:` line for the rows whose
+/// sensitivity columns the model does not determine: rows flagged near
+/// singular (∂q/∂p grows without bound as Φ_q becomes singular: the
+/// columns there are large and inaccurate) and rows at a kink (of an
+/// equation: every column; of a result: that result's).
+fn print_sensitivity_warning(rows: &Rows) {
+    if rows.sensitivity.is_none() {
+        return;
+    }
+    let mut times: Vec<f64> = rows
+        .flagged
+        .iter()
+        .copied()
+        .chain(rows.kinks.iter().map(|k| k.0))
+        .chain(rows.output_kinks.iter().map(|k| k.0))
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    let Some(at) = rows_at(&times) else {
+        return;
+    };
+    let their = if times.len() == 1 { "its" } else { "their" };
+    eprintln!(
+        "warning: {at} (the warnings above): {their} `d(…)/d(…)` sensitivity columns are not \
+         determined by the model there — near a singular configuration ∂q/∂p grows without \
+         bound, and at a kink the derivatives are the rounding errors'"
+    );
 }
 
 fn plot_title(loaded: &Loaded, grid: &Grid) -> String {

@@ -171,6 +171,31 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         &mut self,
         rhs: &mut [f64],
     ) -> Result<(&S, &[f64]), Error> {
+        self.factor_at_state()?;
+        self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
+        Ok((&self.system, &self.ws.jac))
+    }
+
+    /// Overwrites `rhs` = b with x = Φ_q⁻¹ b at the current state
+    /// (Φ_q x = b): the solve q̇ and q̈ had, for another right-hand side —
+    /// what parameter sensitivities need (one solve per parameter and
+    /// level). The factorization of the step is reused; only when it is
+    /// not that of the state kept (an interpolated near-singular row, a
+    /// changed parameter, `positions_only`) is Φ_q evaluated and factored
+    /// again. Does not allocate when the step's factorization is current.
+    ///
+    /// # Errors
+    /// No state ([`LinalgError::NotFactored`]), `rhs` of the wrong length,
+    /// or Φ_q singular at the state when it had to be factored again.
+    pub fn solve_at_state(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        self.factor_at_state()?;
+        self.ws.scaling.solve(&mut self.lu, rhs)?;
+        Ok(())
+    }
+
+    /// Makes the LU that of Φ_q at the current state: the step's when it
+    /// is current, else evaluated and factored again.
+    fn factor_at_state(&mut self) -> Result<(), Error> {
         if !self.assembled {
             return Err(Error::Setup(LinalgError::NotFactored));
         }
@@ -187,7 +212,6 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             self.factored = self.state.tag;
             self.factored_scaled = self.ws.scaling.active;
         }
-        self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
-        Ok((&self.system, &self.ws.jac))
+        Ok(())
     }
 }

@@ -1,0 +1,85 @@
+//! `kinema run --sensitivity P1,P2`: the parameter sensitivities' columns
+//! after the others (docs/src/cli.md, "Sensitivities"): for each param in
+//! the order given, `d(COLUMN)/d(PARAM)` for every coordinate and result
+//! column the run writes, in the order they are written.
+
+use kinema::lang::Derivation;
+use kinema::sensitivity::Sensitivity;
+use kinema::{Auto, Solver, TapeSystem};
+
+use super::Failure;
+use super::columns::Selection;
+use super::plan::OutputPlan;
+
+/// The sensitivity columns of a kinematic run and their row's values.
+pub struct SensitivityColumns {
+    sensitivity: Sensitivity,
+    selection: Selection,
+    names: Vec<String>,
+    values: Vec<f64>,
+}
+
+impl SensitivityColumns {
+    /// The columns for the run's selection (`--columns`) of `d`.
+    ///
+    /// # Errors
+    /// A bad `--columns` list (a usage error, as the CSV's own).
+    pub fn new(
+        sensitivity: Sensitivity,
+        outputs: &OutputPlan,
+        d: &Derivation,
+    ) -> Result<SensitivityColumns, Failure> {
+        let selection = Selection::of_option(outputs.columns.as_deref(), d)?
+            .with_positions_only(outputs.positions_only);
+        let header = selection.header(d);
+        let names: Vec<String> = sensitivity
+            .params()
+            .iter()
+            .flat_map(|p| header.iter().map(move |c| format!("d({c})/d({p})")))
+            .collect();
+        Ok(SensitivityColumns {
+            sensitivity,
+            selection,
+            values: Vec::with_capacity(names.len()),
+            names,
+        })
+    }
+
+    /// The columns' names, in the order of [`Self::compute`]'s values.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// The row's values at the solver's state (after a successful step),
+    /// solved with the step's factorization. Does not allocate.
+    ///
+    /// # Errors
+    /// As [`Sensitivity::compute`]: Φ_q singular where it had to be
+    /// factored again (a row flagged near singular).
+    pub fn compute(&mut self, solver: &mut Solver<TapeSystem, Auto>) -> Result<(), kinema::Error> {
+        self.sensitivity.compute(solver)?;
+        let (s, sel) = (&self.sensitivity, &self.selection);
+        self.values.clear();
+        for k in 0..s.params().len() {
+            let orders = sel.orders();
+            for (quantities, picked) in [
+                (s.coordinates(k), &sel.coordinates),
+                (s.outputs(k), &sel.outputs),
+            ] {
+                for values in &quantities[..orders] {
+                    self.values.extend(
+                        picked
+                            .iter()
+                            .map(|&j| values.get(j).copied().unwrap_or(f64::NAN)),
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The values of the last [`Self::compute`].
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+}
