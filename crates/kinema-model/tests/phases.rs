@@ -303,7 +303,7 @@ fn the_rule_refuses_each_way_of_naming_a_later_phase() {
         use super::lower::Lowerer;
         /// A link to [`crate::derive::Derivation`] is documentation, not a use.
         fn f(lo: &crate::check::lower::Lowerer<'_>) {
-            let d: crate::Derivation = todo!();
+            let d: crate::Derivation = Default::default();
             crate::dynamics::derive(lo);
             let v = vec![crate::library::rows(lo)];
         }
