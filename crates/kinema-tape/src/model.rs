@@ -250,6 +250,9 @@ pub struct TapeSystem {
     jit: Option<std::sync::Arc<crate::jit::Jit>>,
     /// Why the JIT was asked for and is not used.
     jit_fallback: Option<String>,
+    /// Assembly's start in place of the model's guesses, if set
+    /// ([`TapeSystem::set_guess`]).
+    pub(crate) guess_override: Option<Vec<f64>>,
 }
 
 impl TapeSystem {
@@ -351,6 +354,25 @@ impl TapeSystem {
             #[cfg(feature = "jit")]
             jit,
             jit_fallback,
+            guess_override: None,
+        }
+    }
+
+    /// Where assembly ([`Solver::assemble`](kinema_runtime::Solver::assemble))
+    /// starts Newton: `Some(q)` in place of the model's guesses — a
+    /// continuation's solution at nearby parameters, to assemble on its
+    /// branch — or `None` for the model's guesses again. A `q` of another
+    /// length than the coordinates' is ignored (the guesses stay).
+    /// Allocates only when first set.
+    pub fn set_guess(&mut self, q: Option<&[f64]>) {
+        match q {
+            Some(q) if q.len() == self.coordinate_names.len() => {
+                let guess = self.guess_override.get_or_insert_with(Vec::new);
+                guess.clear();
+                guess.extend_from_slice(q);
+            }
+            Some(_) => {}
+            None => self.guess_override = None,
         }
     }
 

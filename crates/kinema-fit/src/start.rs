@@ -1,0 +1,294 @@
+//! One start: Levenberg–Marquardt from a starting design to a local
+//! optimum, then the optimum's defect checks.
+
+use std::f64::consts::TAU;
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use lm_nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use crate::bounds::Map;
+use crate::eval::{Failure, Worker};
+use crate::plan::Plan;
+use crate::{Design, Reason, Rejection};
+
+/// A start's outcome: a design that passed the checks, or why not.
+pub(crate) type StartResult = Result<Design, Rejection>;
+
+/// The problem MINPACK's LM sees: internal unknowns u (bounded ones through
+/// their [`Map`]), residuals and Jacobian from the worker.
+struct Problem<'a> {
+    worker: &'a mut Worker,
+    plan: &'a Plan,
+    maps: Vec<Map>,
+    u: DVector<f64>,
+    /// The outer values of u: params, then times.
+    x: Vec<f64>,
+    /// The last evaluation's failure, if it failed.
+    failed: Option<Failure>,
+    /// The residuals of the last design that evaluated: a failed trial
+    /// design is answered with ten times these, so LM shrinks its step
+    /// (a failed evaluation must not end the fit).
+    last_good: Option<Vec<f64>>,
+    /// The varied params of the design LM last accepted (its Jacobian was
+    /// asked for) and its q at the run's first time: later designs
+    /// assemble on its branch.
+    accepted: std::cell::RefCell<(Vec<f64>, Vec<f64>)>,
+    evaluations: usize,
+}
+
+impl Problem<'_> {
+    fn evaluate(&mut self) {
+        for (x, (u, map)) in self.x.iter_mut().zip(self.u.iter().zip(&self.maps)) {
+            *x = map.outer(*u);
+        }
+        let k = self.plan.vary.len();
+        let (params, times) = self.x.split_at(k);
+        let times = if self.plan.times_unknown() {
+            times
+        } else {
+            self.plan.targets.times().unwrap_or(&[])
+        };
+        let span = self.plan.fit_span(times);
+        // Assembly from the accepted design's start keeps its branch.
+        {
+            let (p0, q0) = &*self.accepted.borrow();
+            self.worker.start_at(p0, q0);
+        }
+        self.evaluations += 1;
+        match self.worker.evaluate(self.plan, params, times, span, true) {
+            Ok(()) => {
+                self.failed = None;
+                let good = self.last_good.get_or_insert_with(Vec::new);
+                good.clear();
+                good.extend_from_slice(&self.worker.residuals);
+            }
+            Err(f) => self.failed = Some(f),
+        }
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, u: &DVector<f64>) {
+        self.u.copy_from(u);
+        self.evaluate();
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.u.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        if self.failed.is_none() {
+            return Some(DVector::from_column_slice(&self.worker.residuals));
+        }
+        let good = self.last_good.as_ref()?;
+        Some(DVector::from_iterator(
+            good.len(),
+            good.iter().map(|r| 10.0 * r + 1.0),
+        ))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        if self.failed.is_some() {
+            return None;
+        }
+        // LM asks for the Jacobian of the design it accepted: later designs
+        // assemble from its start.
+        {
+            let (p0, q0) = &mut *self.accepted.borrow_mut();
+            q0.clear();
+            q0.extend_from_slice(&self.worker.first_q);
+            p0.clear();
+            p0.extend_from_slice(&self.x[..self.plan.vary.len()]);
+        }
+        let n = self.maps.len();
+        let m = self.worker.residuals.len();
+        let j = &self.worker.jacobian;
+        Some(DMatrix::from_fn(m, n, |r, c| {
+            j[r * n + c] * self.maps[c].slope(self.u[c])
+        }))
+    }
+}
+
+/// Fits from the start `x0` (params, then times when unknown) and checks
+/// the optimum's defects.
+pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
+    let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
+    if plan.times_unknown() {
+        maps.extend(std::iter::repeat_n(plan.time_map(), plan.targets.rows()));
+    }
+    let u = DVector::from_iterator(
+        maps.len(),
+        x0.iter().zip(&maps).map(|(&x, map)| map.inner(x)),
+    );
+    worker.start_at(&[], &[]);
+    let mut problem = Problem {
+        worker,
+        plan,
+        maps,
+        u,
+        x: vec![0.0; x0.len()],
+        failed: None,
+        last_good: None,
+        accepted: std::cell::RefCell::new((Vec::new(), Vec::new())),
+        evaluations: 0,
+    };
+    problem.evaluate();
+    if let Some(f) = problem.failed.take() {
+        return Err(rejection(index, &f, plan));
+    }
+    let lm = LevenbergMarquardt::new()
+        .with_ftol(1e-14)
+        .with_xtol(1e-14)
+        .with_gtol(1e-15)
+        .with_patience(200);
+    let (mut problem, report) = lm.minimize(problem);
+    // The minimizer leaves the problem at its best design; make sure the
+    // worker's buffers are that design's.
+    let u = problem.u.clone();
+    problem.set_params(&u);
+    if let Some(f) = problem.failed.take() {
+        return Err(rejection(index, &f, plan));
+    }
+    let evaluations = problem.evaluations;
+    let x = problem.x.clone();
+    let q0 = problem.worker.first_q.clone();
+    let p0 = x[..plan.vary.len()].to_vec();
+    let worker = problem.worker;
+    check(
+        worker,
+        plan,
+        index,
+        &x,
+        (&p0, &q0),
+        evaluations,
+        &format!("{:?}", report.termination),
+    )
+}
+
+/// A fitted design's defect checks, and the design: it must assemble at
+/// every target time on the branch it starts on (it does, being run by
+/// continuation), pass no singular configuration between its first and
+/// last target (no branch defect), visit the targets in order within one
+/// cycle (no order defect), and with `--full-turn` turn that body fully
+/// over the cycle with no singular configuration.
+fn check(
+    worker: &mut Worker,
+    plan: &Plan,
+    index: usize,
+    x: &[f64],
+    (p0, q0): (&[f64], &[f64]),
+    evaluations: usize,
+    termination: &str,
+) -> StartResult {
+    let k = plan.vary.len();
+    let (params, times) = x.split_at(k);
+    let times: Vec<f64> = if plan.times_unknown() {
+        times.to_vec()
+    } else {
+        plan.targets.times().unwrap_or(&[]).to_vec()
+    };
+    let reject = |reason: Reason, detail: String| Rejection {
+        start: index,
+        reason,
+        detail,
+    };
+    if plan.times_unknown() {
+        for (i, w) in times.windows(2).enumerate() {
+            if w[1] <= w[0] {
+                return Err(reject(
+                    Reason::Order,
+                    format!(
+                        "target {} is reached at t = {:.6}, before target {} at t = {:.6}",
+                        i + 2,
+                        w[1],
+                        i + 1,
+                        w[0]
+                    ),
+                ));
+            }
+        }
+        let (first, last) = (times[0], times[times.len() - 1]);
+        if last - first >= plan.t_end {
+            return Err(reject(
+                Reason::Order,
+                format!(
+                    "the targets take t = {first:.6} to {last:.6}, more than one cycle ({})",
+                    plan.t_end
+                ),
+            ));
+        }
+    }
+    // The objectives' samples are already in the fitted design's
+    // residuals; the check runs the whole cycle.
+    let residuals = worker.residuals.clone();
+    let span = plan.check_span(&times);
+    worker.start_at(p0, q0);
+    if let Err(f) = worker.evaluate(plan, params, &times, span, false) {
+        return Err(rejection(index, &f, plan));
+    }
+    let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if let Some(e) = worker
+        .events
+        .iter()
+        .find(|e| e.t >= first - 1e-9 && e.t <= last + 1e-9)
+    {
+        return Err(reject(Reason::Branch, format!("between the targets: {e}")));
+    }
+    if let Some((body, i)) = &plan.full_turn {
+        if let Some(e) = worker.events.first() {
+            return Err(reject(
+                Reason::FullTurn,
+                format!("{body} does not turn fully: {e}"),
+            ));
+        }
+        let turned = (worker.last_q[*i] - worker.first_q[*i]).abs();
+        if turned < TAU * (1.0 - 1e-9) {
+            return Err(reject(
+                Reason::FullTurn,
+                format!(
+                    "{body} turns {turned:.6} rad over t = {} to {}, less than a full turn (is --t-end one turn of its driver?)",
+                    span[0], span[1]
+                ),
+            ));
+        }
+    }
+    let objectives = worker.objective_values(plan);
+    Ok(Design::new(
+        plan,
+        index,
+        params,
+        &times,
+        &residuals,
+        &objectives,
+        q0,
+        evaluations,
+        termination,
+    ))
+}
+
+fn rejection(start: usize, f: &Failure, plan: &Plan) -> Rejection {
+    let _ = plan;
+    match f {
+        Failure::Assembly { t, why } => Rejection {
+            start,
+            reason: Reason::Assembly,
+            detail: format!("no solution at t = {t}: {why}"),
+        },
+        Failure::Singular { t } => Rejection {
+            start,
+            reason: Reason::Singular,
+            detail: format!("a target at a singular configuration (t = {t})"),
+        },
+        Failure::NotFinite { t } => Rejection {
+            start,
+            reason: Reason::NotFinite,
+            detail: format!("a result that is not finite (by t = {t})"),
+        },
+    }
+}
