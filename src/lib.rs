@@ -58,6 +58,10 @@ pub mod equilibrium {
 }
 
 // The tape back end (kinema-tape): models read at run time.
+/// Dimensional synthesis: a model's params fitted to target results (see
+/// the crate's documentation).
+#[cfg(feature = "fit")]
+pub use kinema_fit as fit;
 /// The model language (kinema-model): the front door's types, the checked
 /// model and the derivation, for programs that look inside a [`Model`].
 #[cfg(feature = "model")]

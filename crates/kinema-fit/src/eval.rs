@@ -229,21 +229,19 @@ impl Worker {
     }
 
     /// Assembly at `t` of the design whose varied params are `params`
-    /// (already set), on the branch of the anchor ([`start_at`](Self::start_at):
-    /// the design a fit last accepted) or, without one, of the model's own
-    /// design assembled from the model's guesses: directly from the
-    /// anchor's configuration, else continued in the params from the
-    /// anchor's design. So every start is on the branch the model's
-    /// guesses select, a fit stays on its branch, and a design that cannot
-    /// be reached on it does not assemble.
+    /// (already set). With an anchor ([`start_at`](Self::start_at): the
+    /// design a fit last accepted), on its branch: from its configuration,
+    /// else continued in the params from it. Without one (a start), from
+    /// the model's guesses — they select the branch, as in a run; a model
+    /// can write them as functions of its params (the closed-form
+    /// assembly) — else continued in the params from the model's own
+    /// design. A design that cannot be reached so does not assemble.
     fn assemble(&mut self, plan: &Plan, params: &[f64], t: f64) -> Result<(), Failure> {
-        if !self.start_q.is_empty() {
-            let q = std::mem::take(&mut self.start_q);
-            let warm = self.assemble_from(Some(&q), t);
-            self.start_q = q;
-            if warm.is_ok() {
-                return Ok(());
-            }
+        let q = std::mem::take(&mut self.start_q);
+        let direct = self.assemble_from((!q.is_empty()).then_some(&q[..]), t);
+        self.start_q = q;
+        if direct.is_ok() {
+            return Ok(());
         }
         self.continue_to(plan, params, t)
     }
@@ -421,7 +419,7 @@ impl Worker {
                     let (norm, grad) = p_norm(samples, sens, k);
                     self.residuals[row] = w * norm;
                     if jacobian {
-                        for (j, g) in grad.iter().enumerate() {
+                        for (j, g) in grad.iter().take(k).enumerate() {
                             self.jacobian[row * unknowns + j] = w * g;
                         }
                     }
@@ -467,5 +465,118 @@ fn sensitivity(sens: &Sensitivity, j: usize, column: &Column) -> f64 {
     match *column {
         Column::Coordinate(i) => sens.coordinates(j)[0][i],
         Column::Output(i) => sens.outputs(j)[0][i],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Objective, Spec, Targets};
+
+    const FOUR_BAR: &str = "mechanism FourBar {
+        param l1 = 0.3;
+        param l2 = 1.0;
+        param l3 = 0.8;
+        param px = 0.2;
+        param py = 0.3;
+        body crank   { guess: (0.1, 0.1, 0.8) }
+        body coupler { guess: (0.6, 0.5, 0.6) }
+        body rocker  { guess: (1.0, 0.4, 1.5) }
+        point coupler.p = (px, py);
+        joint o: revolute(crank(-l1 / 2, 0), ground(0, 0));
+        joint a: revolute(crank(l1 / 2, 0), coupler(-l2 / 2, 0));
+        joint b: revolute(coupler(l2 / 2, 0), rocker(l3 / 2, 0));
+        joint d: revolute(rocker(-l3 / 2, 0), ground(1, 0));
+        driver crank_angle: abs_angle(crank, pi / 4 + 2 * pi * t);
+        output mu: acos(dot(rot(coupler.phi, (1, 0)), rot(rocker.phi, (1, 0))));
+    }";
+
+    /// The residuals' Jacobian — params through the symbolic sensitivities,
+    /// unknown times through the results' rates, RMS and peak objectives
+    /// through both — against central differences of whole evaluations.
+    #[test]
+    fn the_jacobian_is_the_residuals_derivative() {
+        let model = Model::from_source(FOUR_BAR, "four_bar.kin").unwrap();
+        let rows = vec![
+            vec![0.5, 0.6, 1.0],
+            vec![0.4, 0.7, 1.1],
+            vec![0.3, 0.7, 1.2],
+        ];
+        for times in [None, Some(&[0.1, 0.35, 0.6][..])] {
+            let targets =
+                Targets::new(&["coupler.p.x", "coupler.p.y", "rocker.phi"], &rows, times).unwrap();
+            let spec = Spec::new(&["l1", "l2", "l3", "px", "py"], targets)
+                .with_t_end(1.0)
+                .with_objectives(vec![
+                    "rms(mu)*0.5".parse::<Objective>().unwrap(),
+                    "peak(coupler.p.y)".parse().unwrap(),
+                ]);
+            let mut spec = spec;
+            spec.steps = 40;
+            let plan = Plan::new(&model, &spec).unwrap();
+            let mut worker = Worker::new(&model, &plan).unwrap();
+            let params = [0.31, 0.98, 0.83, 0.21, 0.28];
+            let unknown_times = [0.12, 0.33, 0.61];
+            let x: Vec<f64> = if times.is_some() {
+                params.to_vec()
+            } else {
+                params.iter().chain(&unknown_times).copied().collect()
+            };
+            let n = x.len();
+            let eval = |worker: &mut Worker, x: &[f64], jacobian: bool| -> Vec<f64> {
+                let (p, t) = x.split_at(5);
+                let t = times.unwrap_or(t);
+                let span = plan.fit_span(t);
+                worker.evaluate(&plan, p, t, span, jacobian).unwrap();
+                worker.residuals.clone()
+            };
+            eval(&mut worker, &x, true);
+            let jacobian = worker.jacobian.clone();
+            let m = worker.residuals.len();
+            assert_eq!(m, 9 + 40 + 1);
+            for j in 0..n {
+                let h = 1e-6 * x[j].abs().max(1.0);
+                let mut up = x.clone();
+                up[j] += h;
+                let mut down = x.clone();
+                down[j] -= h;
+                let (ru, rd) = (
+                    eval(&mut worker, &up, false),
+                    eval(&mut worker, &down, false),
+                );
+                let scale = (0..m)
+                    .map(|r| jacobian[r * n + j].abs())
+                    .fold(1e-3, f64::max);
+                for r in 0..m {
+                    let fd = (ru[r] - rd[r]) / (2.0 * h);
+                    let exact = jacobian[r * n + j];
+                    assert!(
+                        (fd - exact).abs() <= 1e-6 * scale,
+                        "times {times:?}: ∂r{r}/∂x{j}: exact {exact}, differences {fd}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_smooth_peak_is_near_the_peak_and_its_gradient_exact() {
+        let samples = [0.3, -1.2, 0.9, 1.1];
+        let sens = [1.0, 0.0, 0.5, 2.0, -1.0, 0.3, 0.2, 0.1];
+        let (norm, grad) = p_norm(&samples, &sens, 2);
+        assert!(norm <= 1.2 && norm > 1.2 * 0.9, "{norm}");
+        for j in 0..2 {
+            let h = 1e-7;
+            let shifted = |s: f64| -> f64 {
+                let y: Vec<f64> = samples
+                    .iter()
+                    .enumerate()
+                    .map(|(i, y)| y + s * sens[i * 2 + j])
+                    .collect();
+                p_norm(&y, &sens, 2).0
+            };
+            let fd = (shifted(h) - shifted(-h)) / (2.0 * h);
+            assert!((fd - grad[j]).abs() < 1e-7, "{fd} {}", grad[j]);
+        }
     }
 }

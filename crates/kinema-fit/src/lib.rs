@@ -358,6 +358,7 @@ pub struct Design {
     times: Vec<f64>,
     rms: f64,
     max: f64,
+    errors: Vec<f64>,
     cost: f64,
     objectives: Vec<(String, f64)>,
     start: usize,
@@ -407,6 +408,7 @@ impl Design {
             times: times.to_vec(),
             rms,
             max,
+            errors: targets.to_vec(),
             cost,
             objectives,
             start,
@@ -439,6 +441,13 @@ impl Design {
     #[must_use]
     pub fn max_error(&self) -> f64 {
         self.max
+    }
+
+    /// The differences achieved − target, row by row in the targets'
+    /// column order.
+    #[must_use]
+    pub fn errors(&self) -> &[f64] {
+        &self.errors
     }
 
     /// The minimized sum of squares (targets and weighted objectives).
@@ -526,8 +535,7 @@ impl Fitter {
     /// [`FitError::Usage`] for a name in `vary` that is not a param, a
     /// bound on a param not varied or excluding the model's value, a
     /// target or objective column that is not a result, a missing cycle
-    /// length, an unknown `full_turn` body, fewer target values than
-    /// unknowns; [`FitError::Model`] for a model that is not driven (NDOF
+    /// length, an unknown `full_turn` body; [`FitError::Model`] for a model that is not driven (NDOF
     /// ≠ 0).
     pub fn new(model: &Model, spec: Spec) -> Result<Fitter, FitError> {
         let plan = Plan::new(model, &spec)?;
@@ -712,6 +720,15 @@ impl Fitter {
     #[must_use]
     pub fn model(&self) -> &Model {
         &self.model
+    }
+
+    /// `(target values, unknowns)` when there are fewer target values than
+    /// unknowns: the exact fits, if any, form a family, and each start
+    /// ends at one member of it (MINPACK's LM takes such problems).
+    #[must_use]
+    pub fn underdetermined(&self) -> Option<(usize, usize)> {
+        let (m, n) = (self.plan.target_residuals(), self.plan.unknowns());
+        (m < n).then_some((m, n))
     }
 }
 

@@ -244,20 +244,6 @@ impl Plan {
             objectives,
             full_turn,
         };
-        let (m, n) = (plan.residuals(), plan.unknowns());
-        if plan.target_residuals() < n {
-            return Err(FitError::Usage(format!(
-                "{} target values for {n} unknowns ({} params{}): the fit is underdetermined — add targets or vary fewer params",
-                plan.target_residuals(),
-                plan.vary.len(),
-                if plan.times_unknown() {
-                    format!(" and {} unknown times", plan.targets.rows())
-                } else {
-                    String::new()
-                }
-            )));
-        }
-        debug_assert!(m >= n);
         Ok(plan)
     }
 
@@ -315,13 +301,6 @@ impl Plan {
     /// Row `i`, column `c`'s target value.
     pub(crate) fn target(&self, i: usize, c: usize) -> f64 {
         self.targets.values[i * self.columns.len() + c]
-    }
-
-    /// The bounds of the unknown times: two cycles from 0, so that the
-    /// targets may start anywhere in the first and still be visited in
-    /// order within one cycle.
-    pub(crate) fn time_map(&self) -> Map {
-        Map::Both(0.0, 2.0 * self.t_end)
     }
 
     /// The span a design is run over while it is fitted: from the cycle's

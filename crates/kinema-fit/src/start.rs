@@ -21,8 +21,11 @@ struct Problem<'a> {
     plan: &'a Plan,
     maps: Vec<Map>,
     u: DVector<f64>,
-    /// The outer values of u: params, then times.
+    /// The outer values of u: params, then (unknown times) the first time
+    /// and the gaps between consecutive ones.
     x: Vec<f64>,
+    /// The target times those give (their running sums).
+    times: Vec<f64>,
     /// The last evaluation's failure, if it failed.
     failed: Option<Failure>,
     /// The residuals of the last design that evaluated: a failed trial
@@ -42,9 +45,10 @@ impl Problem<'_> {
             *x = map.outer(*u);
         }
         let k = self.plan.vary.len();
-        let (params, times) = self.x.split_at(k);
+        let (params, gaps) = self.x.split_at(k);
         let times = if self.plan.times_unknown() {
-            times
+            running_sums(gaps, &mut self.times);
+            &self.times[..]
         } else {
             self.plan.targets.times().unwrap_or(&[])
         };
@@ -106,24 +110,46 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             p0.extend_from_slice(&self.x[..self.plan.vary.len()]);
         }
         let n = self.maps.len();
+        let k = self.plan.vary.len();
         let m = self.worker.residuals.len();
         let j = &self.worker.jacobian;
-        Some(DMatrix::from_fn(m, n, |r, c| {
-            j[r * n + c] * self.maps[c].slope(self.u[c])
-        }))
+        // With respect to the times, then to the first time and the gaps:
+        // t_i is the sum of the first i of those, so the column of the
+        // c-th is the sum of the times' columns from c on.
+        let mut jacobian = DMatrix::from_fn(m, n, |r, c| j[r * n + c]);
+        for c in (k..n.saturating_sub(1)).rev() {
+            let later = jacobian.column(c + 1).clone_owned();
+            let mut column = jacobian.column_mut(c);
+            column += &later;
+        }
+        for (c, mut column) in jacobian.column_iter_mut().enumerate() {
+            column *= self.maps[c].slope(self.u[c]);
+        }
+        Some(jacobian)
     }
 }
 
 /// Fits from the start `x0` (params, then times when unknown) and checks
 /// the optimum's defects.
+///
+/// Unknown times are fitted as the first time, in [0, t_end], and the gaps
+/// between consecutive ones, each in [0, t_end]: the targets are visited in
+/// their order by construction (an order defect is then only a visit
+/// spanning more than one cycle, which the check rejects).
 pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
+    let k = plan.vary.len();
     let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
+    let mut start: Vec<f64> = x0[..k].to_vec();
     if plan.times_unknown() {
-        maps.extend(std::iter::repeat_n(plan.time_map(), plan.targets.rows()));
+        let time = Map::Both(0.0, plan.t_end);
+        maps.extend(std::iter::repeat_n(time, plan.targets.rows()));
+        let times = &x0[k..];
+        start.push(times[0]);
+        start.extend(times.windows(2).map(|w| w[1] - w[0]));
     }
     let u = DVector::from_iterator(
         maps.len(),
-        x0.iter().zip(&maps).map(|(&x, map)| map.inner(x)),
+        start.iter().zip(&maps).map(|(&x, map)| map.inner(x)),
     );
     worker.start_at(&[], &[]);
     let mut problem = Problem {
@@ -132,6 +158,7 @@ pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) ->
         maps,
         u,
         x: vec![0.0; x0.len()],
+        times: Vec::with_capacity(plan.targets.rows()),
         failed: None,
         last_good: None,
         accepted: std::cell::RefCell::new((Vec::new(), Vec::new())),
@@ -155,15 +182,19 @@ pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) ->
         return Err(rejection(index, &f, plan));
     }
     let evaluations = problem.evaluations;
-    let x = problem.x.clone();
+    let p0 = problem.x[..k].to_vec();
+    let times = if plan.times_unknown() {
+        problem.times.clone()
+    } else {
+        plan.targets.times().unwrap_or(&[]).to_vec()
+    };
     let q0 = problem.worker.first_q.clone();
-    let p0 = x[..plan.vary.len()].to_vec();
     let worker = problem.worker;
     check(
         worker,
         plan,
         index,
-        &x,
+        &times,
         (&p0, &q0),
         evaluations,
         &format!("{:?}", report.termination),
@@ -180,18 +211,11 @@ fn check(
     worker: &mut Worker,
     plan: &Plan,
     index: usize,
-    x: &[f64],
-    (p0, q0): (&[f64], &[f64]),
+    times: &[f64],
+    (params, q0): (&[f64], &[f64]),
     evaluations: usize,
     termination: &str,
 ) -> StartResult {
-    let k = plan.vary.len();
-    let (params, times) = x.split_at(k);
-    let times: Vec<f64> = if plan.times_unknown() {
-        times.to_vec()
-    } else {
-        plan.targets.times().unwrap_or(&[]).to_vec()
-    };
     let reject = |reason: Reason, detail: String| Rejection {
         start: index,
         reason,
@@ -226,9 +250,9 @@ fn check(
     // The objectives' samples are already in the fitted design's
     // residuals; the check runs the whole cycle.
     let residuals = worker.residuals.clone();
-    let span = plan.check_span(&times);
-    worker.start_at(p0, q0);
-    if let Err(f) = worker.evaluate(plan, params, &times, span, false) {
+    let span = plan.check_span(times);
+    worker.start_at(params, q0);
+    if let Err(f) = worker.evaluate(plan, params, times, span, false) {
         return Err(rejection(index, &f, plan));
     }
     let first = times.iter().copied().fold(f64::INFINITY, f64::min);
@@ -263,7 +287,7 @@ fn check(
         plan,
         index,
         params,
-        &times,
+        times,
         &residuals,
         &objectives,
         q0,
@@ -290,5 +314,103 @@ fn rejection(start: usize, f: &Failure, plan: &Plan) -> Rejection {
             reason: Reason::NotFinite,
             detail: format!("a result that is not finite (by t = {t})"),
         },
+    }
+}
+
+/// `out` = the running sums of `parts` (the first time, then the gaps).
+fn running_sums(parts: &[f64], out: &mut Vec<f64>) {
+    out.clear();
+    let mut sum = 0.0;
+    for &p in parts {
+        sum += p;
+        out.push(sum);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Spec, Targets};
+    use kinema_tape::Model;
+
+    /// LM's Jacobian — through the bounds' maps and, for unknown times,
+    /// the first time and the gaps — against central differences of the
+    /// residuals in LM's own unknowns.
+    #[test]
+    fn the_internal_jacobian_is_exact() {
+        let model = Model::from_source(
+            "mechanism FourBar {
+                param l1 = 0.3;
+                param l2 = 1.0;
+                param l3 = 0.8;
+                body crank   { guess: (0.1, 0.1, 0.8) }
+                body coupler { guess: (0.6, 0.5, 0.6) }
+                body rocker  { guess: (1.0, 0.4, 1.5) }
+                point coupler.p = (0.2, 0.3);
+                joint o: revolute(crank(-l1 / 2, 0), ground(0, 0));
+                joint a: revolute(crank(l1 / 2, 0), coupler(-l2 / 2, 0));
+                joint b: revolute(coupler(l2 / 2, 0), rocker(l3 / 2, 0));
+                joint d: revolute(rocker(-l3 / 2, 0), ground(1, 0));
+                driver crank_angle: abs_angle(crank, pi / 4 + 2 * pi * t);
+            }",
+            "four_bar.kin",
+        )
+        .unwrap();
+        let rows = vec![
+            vec![0.5, 0.6],
+            vec![0.4, 0.7],
+            vec![0.3, 0.7],
+            vec![0.2, 0.6],
+        ];
+        let targets = Targets::new(&["coupler.p.x", "coupler.p.y"], &rows, None).unwrap();
+        let spec = Spec::new(&["l1", "l2", "l3"], targets)
+            .with_t_end(1.0)
+            .with_bounds(vec![
+                "l1=0.1:0.5".parse().unwrap(),
+                "l3=0.5:".parse().unwrap(),
+            ]);
+        let plan = Plan::new(&model, &spec).unwrap();
+        let mut worker = Worker::new(&model, &plan).unwrap();
+        let x0 = [0.31, 0.98, 0.83, 0.1, 0.3, 0.45, 0.6];
+        let k = 3;
+        let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
+        maps.extend(std::iter::repeat_n(Map::Both(0.0, 1.0), 4));
+        let mut start: Vec<f64> = x0[..k].to_vec();
+        start.push(x0[k]);
+        start.extend(x0[k..].windows(2).map(|w| w[1] - w[0]));
+        let u = DVector::from_iterator(7, start.iter().zip(&maps).map(|(&x, m)| m.inner(x)));
+        let mut problem = Problem {
+            worker: &mut worker,
+            plan: &plan,
+            maps,
+            u: u.clone(),
+            x: vec![0.0; 7],
+            times: Vec::new(),
+            failed: None,
+            last_good: None,
+            accepted: std::cell::RefCell::new((Vec::new(), Vec::new())),
+            evaluations: 0,
+        };
+        problem.set_params(&u);
+        let jacobian = problem.jacobian().unwrap();
+        for j in 0..7 {
+            let h = 1e-6;
+            let mut up = u.clone();
+            up[j] += h;
+            problem.set_params(&up);
+            let ru = problem.residuals().unwrap();
+            let mut down = u.clone();
+            down[j] -= h;
+            problem.set_params(&down);
+            let rd = problem.residuals().unwrap();
+            for r in 0..ru.len() {
+                let fd = (ru[r] - rd[r]) / (2.0 * h);
+                assert!(
+                    (fd - jacobian[(r, j)]).abs() < 1e-6,
+                    "∂r{r}/∂u{j}: {} against {fd}",
+                    jacobian[(r, j)]
+                );
+            }
+        }
     }
 }

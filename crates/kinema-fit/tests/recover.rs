@@ -119,7 +119,16 @@ fn a_four_bar_path_without_its_timing() {
     let start: [f64; 6] = away(&KNOWN).try_into().unwrap();
     let model = Model::from_source(&four_bar(&start), "start.kin").unwrap();
     let targets = Targets::new(&["coupler.p.x", "coupler.p.y"], &rows, None).unwrap();
-    let spec = Spec::new(&NAMES, targets).with_starts(8).with_t_end(1.0);
+    // Lengths are positive: a crank of length −l1 half a turn later is the
+    // same motion (and another exact fit).
+    let bounds = ["l1", "l2", "l3", "l0"]
+        .iter()
+        .map(|n| format!("{n}=0.05:3").parse::<Bound>().unwrap())
+        .collect();
+    let spec = Spec::new(&NAMES, targets)
+        .with_bounds(bounds)
+        .with_starts(8)
+        .with_t_end(1.0);
     let outcome = Fitter::new(&model, spec).unwrap().run().unwrap();
     let best = &outcome.designs()[0];
     assert!(best.rms() < 1e-9, "rms {} ({outcome:?})", best.rms());

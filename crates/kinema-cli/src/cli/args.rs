@@ -45,6 +45,11 @@ pub enum Command {
     /// `run`).
     #[command(after_help = SWEEP_EXAMPLES)]
     Sweep(SweepArgs),
+    /// Dimensional synthesis: fit the model's params so that its results meet
+    /// a target table (a coupler path, a rocker's angles), with exact
+    /// Jacobians, many starts on every core, and only defect-free designs.
+    #[command(after_help = FIT_EXAMPLES)]
+    Fit(FitArgs),
     /// Print the symbolic derivation: Φ, Φ_q, Φ_t, Φ_qt, Φ_tt, (Φ_q q̇)_q q̇, ν, γ
     /// (with --sensitivity, the parameter sensitivities' Φ_p and right-hand
     /// sides too).
@@ -119,6 +124,85 @@ pub struct SweepArgs {
     /// `_dot` and `_ddot` columns.
     #[arg(long)]
     pub positions_only: bool,
+}
+
+const FIT_EXAMPLES: &str = "\
+Examples:
+  kinema fit models/path_generation.kin --target models/path_generation.csv \\
+      --vary l1,l2,l3,l0,px,py --t-end 1 --full-turn crank --out fitted.kin --plot fit.svg
+  kinema fit models/function_generation.kin --target models/function_generation.csv \\
+      --vary l1,l2,l3 --bounds l1=0.1:1,l2=0.2:3,l3=0.2:3
+
+The target table's header names result columns of `kinema run` (coordinates such as
+rocker.phi, named points' components such as coupler.p.x, outputs), one target per row.
+With a `t` column the timing is prescribed; without one each row's time is an unknown,
+the rows visited in their order within one cycle of --t-end. The summary lists the best
+defect-free designs (no circuit, branch or order defect) and counts the rejected starts
+by reason. Exit status: 0 a design was found; 1 every start was rejected; 2 bad input.";
+
+/// Arguments of `kinema fit`.
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    /// The model: a `.kin` file whose params' values are the first start.
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+    /// The target table (CSV): a header naming result columns (and `t` to
+    /// prescribe the timing), one row per target.
+    #[arg(long, value_name = "TARGET.csv")]
+    pub target: PathBuf,
+    /// The params to fit, comma-separated.
+    #[arg(long, value_name = "P1,P2,…", value_delimiter = ',', required = true)]
+    pub vary: Vec<String>,
+    /// Bounds on varied params, comma-separated `NAME=LO:HI` (either side
+    /// may be left out). Starts are drawn within them.
+    #[arg(
+        long,
+        value_name = "P=LO:HI,…",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub bounds: Vec<String>,
+    /// Number of starts: the model's design and N − 1 space-filling designs
+    /// within the bounds (unbounded params: ±50 % of the model's value).
+    #[arg(long, value_name = "N", default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub starts: u32,
+    /// The cycle's length [s]: unknown times lie in it, objectives are
+    /// measured and --full-turn checked over it. Required without a `t`
+    /// column; else the last target's time.
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
+    pub t_end: Option<f64>,
+    /// A body (the crank) that must turn fully over the cycle, with no
+    /// singular configuration on the way.
+    #[arg(long, value_name = "BODY")]
+    pub full_turn: Option<String>,
+    /// An objective beside the targets, `rms(COLUMN)` or `peak(COLUMN)`,
+    /// with `*WEIGHT` (repeatable): e.g. `rms(mu)*0.1`.
+    #[arg(long, value_name = "MEASURE(COLUMN)*W")]
+    pub objective: Vec<String>,
+    /// Steps per cycle of each run (the largest step between targets; the
+    /// objectives' samples).
+    #[arg(long, value_name = "N", default_value_t = 360, value_parser = clap::value_parser!(u32).range(4..=100_000))]
+    pub steps: u32,
+    /// How many of the best designs the summary lists.
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    pub designs: u32,
+    /// The scrambling seed of the space-filling starts.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub seed: u32,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
+    /// Write the model with the best design's param values (`.kin`).
+    #[arg(long, value_name = "FITTED.kin")]
+    pub out: Option<PathBuf>,
+    /// Write the summary of the best designs as CSV (rank, errors,
+    /// objectives, params).
+    #[arg(long, value_name = "FILE.csv")]
+    pub summary: Option<PathBuf>,
+    /// Draw the best design's path (or columns against time) over the
+    /// targets (SVG).
+    #[arg(long, value_name = "FIT.svg")]
+    pub plot: Option<PathBuf>,
 }
 
 /// A model file.

@@ -11,6 +11,7 @@
 //! | [`forward`] | `kinema run` of a forward-dynamics plan |
 //! | [`equilibrium`] | `kinema run --equilibrium` |
 //! | [`sweep`] | `kinema sweep`: a model over a parameter table |
+//! | [`fit`] | `kinema fit`: dimensional synthesis — params fitted to a target table |
 //! | [`shared`] | what subcommands share (time grids, run errors, assembly and redundancy reports): no subcommand imports another's file |
 //! | [`columns`] | `run --columns`: which quantities the CSV holds |
 //! | [`sensitivity`] | `run --sensitivity`: the params' sensitivity columns after the others |
@@ -36,6 +37,7 @@ pub mod columns;
 pub mod dynamics;
 pub mod equilibrium;
 pub mod files;
+pub mod fit;
 pub mod forward;
 pub mod load;
 pub mod output;
@@ -115,6 +117,7 @@ pub fn main() -> ExitCode {
         Command::Check(a) => check::check(&a.model),
         Command::Run(a) => plan::RunPlan::resolve(a).and_then(execute),
         Command::Sweep(a) => sweep::sweep(a),
+        Command::Fit(a) => fit::fit(a),
         Command::Derive(a) => load::load(&a.model, None).and_then(|m| {
             m.print_warnings();
             let mut text = m.model.derivation_text();
