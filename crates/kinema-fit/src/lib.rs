@@ -365,8 +365,9 @@ pub struct Design {
     merged: usize,
     evaluations: usize,
     termination: String,
-    /// q at the first time of its runs: its branch.
+    /// q at the first time of its runs (`start_t`): its branch.
     start_q: Vec<f64>,
+    start_t: f64,
 }
 
 impl Design {
@@ -416,6 +417,7 @@ impl Design {
             evaluations,
             termination: termination.to_owned(),
             start_q: start_q.to_vec(),
+            start_t: plan.fit_span(times)[0],
         }
     }
 
@@ -716,6 +718,54 @@ impl Fitter {
         Ok(trace)
     }
 
+    /// The model's text `source` with `design`'s param values
+    /// ([`fitted_kin`]) — and, when the model's guesses at those values
+    /// would assemble it on another configuration than the one fitted (the
+    /// fit continued it from elsewhere), its bodies' and coordinates'
+    /// guesses written as the fitted configuration, so that the fitted
+    /// model runs the motion that was fitted.
+    ///
+    /// # Errors
+    /// As [`fitted_kin`].
+    pub fn fitted_kin(&self, source: &str, design: &Design) -> Result<FittedKin, FittedKinError> {
+        let same = self.guesses_assemble(design);
+        let d = self.model.derivation();
+        let q = &design.start_q;
+        let value = |name: &str| -> Option<f64> {
+            d.coordinates
+                .iter()
+                .position(|c| c.name == name)
+                .and_then(|i| q.get(i).copied())
+        };
+        let text = kin::write(source, &design.params, (!same).then_some(&value))?;
+        Ok(FittedKin {
+            text,
+            guesses_written: !same,
+        })
+    }
+
+    /// Whether the model's own guesses, at `design`'s params, assemble the
+    /// configuration the design was fitted on (to 1e-9 of the model's
+    /// size; angles not taken modulo 2π — an output reading one would
+    /// change).
+    fn guesses_assemble(&self, design: &Design) -> bool {
+        let Ok(mut solver) = self.model.solver(kinema_runtime::Options::default()) else {
+            return false;
+        };
+        for (v, (_, value)) in self.plan.vary.iter().zip(&design.params) {
+            let _ = solver.system_mut().set_param_at(v.index, *value);
+        }
+        let Ok(state) = solver.assemble(design.start_t) else {
+            return false;
+        };
+        let size = design.start_q.iter().fold(1.0f64, |m, q| m.max(q.abs()));
+        state
+            .q()
+            .iter()
+            .zip(&design.start_q)
+            .all(|(a, b)| (a - b).abs() <= 1e-9 * size)
+    }
+
     /// The model being fitted.
     #[must_use]
     pub fn model(&self) -> &Model {
@@ -730,6 +780,15 @@ impl Fitter {
         let (m, n) = (self.plan.target_residuals(), self.plan.unknowns());
         (m < n).then_some((m, n))
     }
+}
+
+/// A fitted model's text ([`Fitter::fitted_kin`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FittedKin {
+    /// The model's text with the fitted values.
+    pub text: String,
+    /// Whether its guesses were rewritten as the fitted configuration.
+    pub guesses_written: bool,
 }
 
 /// A fitted design's target columns over time ([`Fitter::trace`]).

@@ -129,10 +129,19 @@ fn a_four_bar_path_without_its_timing() {
         .with_bounds(bounds)
         .with_starts(8)
         .with_t_end(1.0);
-    let outcome = Fitter::new(&model, spec).unwrap().run().unwrap();
+    let fitter = Fitter::new(&model, spec).unwrap();
+    let outcome = fitter.run().unwrap();
     let best = &outcome.designs()[0];
     assert!(best.rms() < 1e-9, "rms {} ({outcome:?})", best.rms());
     assert_recovered(best.params(), &NAMES, &KNOWN);
+    // The fitted model's text runs the fitted motion: through the targets
+    // at the fitted times.
+    let fitted = fitter.fitted_kin(&four_bar(&start), best).unwrap();
+    let again = Model::from_source(&fitted.text, "fitted.kin").unwrap();
+    let rows_again = sample(&again, &["coupler.p.x", "coupler.p.y"], best.times());
+    for (a, b) in rows_again.iter().flatten().zip(rows.iter().flatten()) {
+        assert!((a - b).abs() < 1e-8, "{rows_again:?} against {rows:?}");
+    }
     // The crank turns once per unit of time: a time is known up to whole
     // cycles (the fit may find the targets one turn later).
     for (fitted, known) in best.times().iter().zip(&times) {

@@ -121,9 +121,16 @@ pub fn fit(args: &FitArgs) -> Result<(), Failure> {
     let best = &outcome.designs()[0];
     print_stdout(&summary_text(&outcome, args.designs as usize))?;
     if let (Some(mut file), Some(source)) = (out, source) {
-        let text = kinema::fit::fitted_kin(&source, best.params())
+        let fitted = fitter
+            .fitted_kin(&source, best)
             .map_err(|e| Failure::analysis(format_args!("--out: {e}")))?;
-        file.write_all(text.as_bytes()).map_err(|e| {
+        if fitted.guesses_written {
+            print_stderr(&format!(
+                "note: {}: the model's guesses would assemble the fitted design on another configuration, so its guesses are written as the fitted one",
+                file.path().display()
+            ));
+        }
+        file.write_all(fitted.text.as_bytes()).map_err(|e| {
             Failure::analysis(format_args!(
                 "cannot write `{}`: {e}",
                 file.path().display()
