@@ -102,4 +102,6 @@ mod guide {
     mod rust_api {}
     #[doc = include_str!("../docs/src/dynamics.md")]
     mod dynamics {}
+    #[doc = include_str!("../docs/src/design.md")]
+    mod design {}
 }
