@@ -253,3 +253,27 @@ fn a_target_no_design_can_meet_is_reported() {
         Err(e) => panic!("{e}"),
     }
 }
+
+#[test]
+fn a_cam_with_a_roller_follower() {
+    // A model with coordinates of its own (the contact parameters) fits
+    // like any other. The follower's centre sees R0 + rr and h only, so
+    // its lift at eight times gives back R0 (rr held) and h.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../models/roller_cam.kin"
+    ))
+    .unwrap();
+    let with = |r0: f64, h: f64| {
+        text.replace("param R0 = 1;", &format!("param R0 = {r0:?};"))
+            .replace("param h = 0.3;", &format!("param h = {h:?};"))
+    };
+    let truth = Model::from_source(&with(1.0, 0.3), "truth.kin").unwrap();
+    let times: Vec<f64> = (0..8).map(|i| 0.05 + 0.11 * f64::from(i)).collect();
+    let rows = sample(&truth, &["follower.y"], &times);
+    let model = Model::from_source(&with(1.25, 0.22), "start.kin").unwrap();
+    let targets = Targets::new(&["follower.y"], &rows, Some(&times)).unwrap();
+    let spec = Spec::new(&["R0", "h"], targets).with_starts(3);
+    let outcome = Fitter::new(&model, spec).unwrap().run().unwrap();
+    assert_recovered(outcome.designs()[0].params(), &["R0", "h"], &[1.0, 0.3]);
+}
