@@ -133,12 +133,7 @@ impl Worker {
         for s in 0..self.schedule.len() {
             let (t, tag) = self.schedule[s];
             if t > last {
-                if let Err(e) = self.solver.step(t) {
-                    return Err(Failure::Assembly {
-                        t,
-                        why: e.to_string(),
-                    });
-                }
+                self.step(last, t)?;
                 last = t;
             }
             if tag == Tag::Step {
@@ -226,6 +221,39 @@ impl Worker {
             self.last_q.extend_from_slice(state.q());
         }
         Ok(())
+    }
+
+    /// A step from `last` to `t`; where the motion changes too much over
+    /// it to be followed (Newton's failure or a branch the solver cannot
+    /// tell from another), eight sub-steps before giving up — the grid is
+    /// a user's choice, not the mechanism's limit.
+    fn step(&mut self, last: f64, t: f64) -> Result<(), Failure> {
+        let first = match self.solver.step(t) {
+            Ok(_) => return Ok(()),
+            Err(e) => e,
+        };
+        let retry = matches!(
+            first,
+            kinema_runtime::Error::BranchJump { .. } | kinema_runtime::Error::NoConvergence { .. }
+        );
+        if retry {
+            let h = (t - last) / 8.0;
+            let mut ok = true;
+            for i in 1..=8 {
+                let ti = if i == 8 { t } else { last + h * f64::from(i) };
+                if self.solver.step(ti).is_err() {
+                    ok = false;
+                    break;
+                }
+            }
+            if ok {
+                return Ok(());
+            }
+        }
+        Err(Failure::Assembly {
+            t,
+            why: first.to_string(),
+        })
     }
 
     /// Assembly at `t` of the design whose varied params are `params`

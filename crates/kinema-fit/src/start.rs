@@ -172,7 +172,7 @@ pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) ->
         .with_ftol(1e-14)
         .with_xtol(1e-14)
         .with_gtol(1e-15)
-        .with_patience(200);
+        .with_patience(100);
     let (mut problem, report) = lm.minimize(problem);
     // The minimizer leaves the problem at its best design; make sure the
     // worker's buffers are that design's.
