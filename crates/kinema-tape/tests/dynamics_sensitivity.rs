@@ -42,7 +42,7 @@ fn driven(rel: &str, driver: &str) -> Model {
 }
 
 fn from_file(rel: &str) -> Model {
-    Model::from_file(&root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {}", e.render()))
+    Model::from_file(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {}", e.render()))
 }
 
 /// The dynamics columns of a whole run with param `param` set to `value`,
