@@ -75,7 +75,7 @@ pub use kinema_tape::sweep;
 #[cfg(feature = "model")]
 pub use kinema_tape::{
     Backend, Format, Model, ModelFile, ModelSolver, TapeSystem, UnknownParam, columns, dynamics,
-    forward, sensitivity,
+    dynamics_sensitivity, forward, sensitivity,
 };
 
 /// What generated code refers to. Not public API: paths may change.

@@ -141,6 +141,15 @@ fn four_bar_columns_match_differences() {
     worst("four_bar.kin", &["l1", "l2", "l3", "l0"]);
 }
 
+/// With inertia, gravity and a gas force that reads q̇: the
+/// inverse-dynamics columns' sensitivities (λ, reactions, the driver's
+/// effort) after the coordinates', per param (`models/../tests/dynamics`:
+/// the helpers read `models/NAME`).
+#[test]
+fn efforts_and_reactions_match_differences() {
+    worst("../tests/dynamics/slider_crank.kin", &["l1", "l2"]);
+}
+
 #[test]
 fn follower_with_outputs_matches_differences() {
     worst("parabola_follower.kin", &["l1", "k", "y0"]);
@@ -346,8 +355,8 @@ fn a_row_at_a_singular_configuration_stops_the_run_with_a_reason() {
 }
 
 /// With inertia (inverse dynamics' columns), the sensitivity columns come
-/// after those, and every other column is the run's without
-/// `--sensitivity`, bit for bit.
+/// after those, each param's ending with the dynamics columns' own, and
+/// every other column is the run's without `--sensitivity`, bit for bit.
 #[test]
 fn with_inertia_the_columns_follow_the_dynamics_and_change_nothing() -> TestResult {
     let dir = TempDir::new("sens-dynamics");
@@ -374,6 +383,17 @@ fn with_inertia_the_columns_follow_the_dynamics_and_change_nothing() -> TestResu
     let sensitivities = a.header.len() - n;
     assert_eq!(sensitivities % 2, 0, "two params, as many columns each");
     assert_eq!(a.header[n + sensitivities / 2], "d(crank.x)/d(l1)");
+    // Per param, d(…) of every column of the run but t, dynamics last.
+    assert_eq!(sensitivities, 2 * (n - 1));
+    assert_eq!(
+        a.header[n + sensitivities / 2 - 1],
+        "d(driver.crank_angle)/d(l2)"
+    );
+    assert_eq!(
+        a.header.last().map(String::as_str),
+        Some("d(driver.crank_angle)/d(l1)")
+    );
+    assert!(a.header.iter().any(|h| h == "d(reaction.pin.rod.T)/d(l1)"));
     for (ra, rb) in a.rows.iter().zip(&b.rows) {
         assert_eq!(ra[..n], rb[..], "t = {}", rb[0]);
     }

@@ -156,6 +156,7 @@ impl Derivation {
             }
             if let Some(dy) = &p.dynamics {
                 roots.extend(dy.mass.iter().chain(&dy.applied));
+                roots.extend(dy.arms.iter().flatten());
             }
         }
         let mut deferred = Deferred {
@@ -247,6 +248,29 @@ with respect to {}:",
                 let q = self.coordinates.get(k).map_or("?", |c| c.name.as_str());
                 let _ = write!(out, "    [{k}] {q}: ");
                 d.write(self, out, format!("{title}[{k}] (p = {name})"), e);
+                out.push('\n');
+            }
+        }
+        // The reactions' arms (their torques are about the element's
+        // point): only those that move with p.
+        let reactions = self.dynamics.as_ref().map_or(&[][..], |dd| &dd.reactions);
+        let moving: Vec<_> = reactions
+            .iter()
+            .zip(&dy.arms)
+            .filter(|(_, a)| a.iter().any(|&e| !self.arena.is_zero(e)))
+            .collect();
+        let _ = write!(out, "  d(arm)/dp, the reactions' arms (element.body):");
+        if moving.is_empty() {
+            let _ = writeln!(out, " (all zero)");
+            return;
+        }
+        out.push('\n');
+        for (r, arm) in moving {
+            let body = self.bodies.get(r.body).map_or("?", String::as_str);
+            for (c, &e) in ["x", "y"].iter().zip(arm) {
+                let label = format!("d(arm)/dp {}.{body}.{c}", r.element);
+                let _ = write!(out, "    {}.{body}.{c}: ", r.element);
+                d.write(self, out, format!("{label} (p = {name})"), e);
                 out.push('\n');
             }
         }

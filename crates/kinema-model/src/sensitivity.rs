@@ -21,7 +21,11 @@
 //! - a result y(q, p, t) with ẏ and ÿ = y_q q̈ + c: y_p = D y (the
 //!   position seeds), ẏ_p = D ẏ, ÿ_p = y_q s̈ + (y_p)_q q̈ + D c;
 //! - with inertia, Φ_qᵀλ = Q_A − M q̈ gives
-//!   Φ_qᵀ λ_p = D Q_A − M_p q̈ − M s̈ − Wᵀ λ ([`DynamicsSensitivity`]).
+//!   Φ_qᵀ λ_p = D Q_A − M_p q̈ − M s̈ − Wᵀ λ ([`DynamicsSensitivity`]);
+//!   a reaction [F; T_O] = −Φ_q,bᵀ λ_c, its torque moved to the element's
+//!   point by the arm a(q, p), has F_p = −Φ_q,bᵀ (λ_p)_c − W_bᵀ λ_c (W is
+//!   the derivative of Φ_q along (s, 1)) and needs a's derivative D a
+//!   ([`DynamicsSensitivity::arms`]); a driver's effort −λ has −λ_p.
 //!
 //! Every matrix that multiplies an unknown is Φ_q itself, so one
 //! factorization of the step serves every parameter and level: one extra
@@ -107,7 +111,8 @@ pub struct ParamSensitivity {
 /// (∘ entrywise, M being diagonal; W = (Φ_q s + Φ_p)_q is
 /// [`ParamSensitivity::acceleration_qdd`], the derivative of Φ_q along
 /// (s, 1)), with the transposed factorization the step made. The
-/// reactions and efforts follow from λ_p as they do from λ.
+/// reactions' sensitivities follow from λ_p, W and the arms' derivatives
+/// (module docs); the efforts' are −λ_p.
 #[derive(Clone, Debug)]
 pub struct DynamicsSensitivity {
     /// ∂(diag M)/∂p, one entry per entry of
@@ -116,6 +121,10 @@ pub struct DynamicsSensitivity {
     /// d/dp Q_A: its directional derivative along {q → s, q̇ → ṡ, p → 1},
     /// one entry per coordinate. Reads q, q̇, s, ṡ, p, t.
     pub applied: Vec<ExprId>,
+    /// d/dp of each reaction's arm ([`crate::Reaction::arm`]): its
+    /// directional derivative along {q → s, p → 1}, one pair per entry of
+    /// [`crate::DynamicsDerivation::reactions`]. Reads q, s, p, t.
+    pub arms: Vec<[ExprId; 2]>,
 }
 
 /// The sensitivity of one result column y (a named point's component or a
@@ -413,7 +422,19 @@ impl Derivation {
                 if limit.exceeded(arena) {
                     return Err(too_large(APPLIED));
                 }
-                Some(DynamicsSensitivity { mass, applied })
+                let mut arms = Vec::with_capacity(dy.reactions.len());
+                for r in &dy.reactions {
+                    limit.enter(arena, &r.element);
+                    arms.push(r.arm.map(|a| arena.directional(a, along.position)));
+                    if limit.exceeded(arena) {
+                        return Err(too_large(&r.element));
+                    }
+                }
+                Some(DynamicsSensitivity {
+                    mass,
+                    applied,
+                    arms,
+                })
             }
             None => None,
         };

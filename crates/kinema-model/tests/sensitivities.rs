@@ -321,6 +321,22 @@ fn compare_at(d: &Derivation, sens: &Sensitivities, x: &State) -> Vec<Compared> 
                 exact,
                 fd: central(&|y| r_d(d, y)),
             });
+
+            // The reactions' arms along (s, 1).
+            assert_eq!(dp.arms.len(), dy.reactions.len());
+            if !dy.reactions.is_empty() {
+                let arms = |y: &State| -> Vec<f64> {
+                    dy.reactions
+                        .iter()
+                        .flat_map(|r| r.arm.map(|a| d.eval(a, &y.q, &y.qd, y.t, &y.p)))
+                        .collect()
+                };
+                out.push(Compared {
+                    what: format!("reaction arms (p = {})", ps.name),
+                    exact: dp.arms.iter().flat_map(|a| a.map(e)).collect(),
+                    fd: central(&arms),
+                });
+            }
         }
     }
     out

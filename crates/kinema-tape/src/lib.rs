@@ -6,7 +6,8 @@
 //! [`System`](kinema_runtime::System)). Around it: the result columns of a
 //! run ([`columns`]), inverse and forward dynamics of a loaded model
 //! ([`dynamics`], [`forward`]), its static equilibrium ([`equilibrium`]),
-//! parameter sensitivities solved after each step ([`sensitivity`]), and
+//! parameter sensitivities solved after each step ([`sensitivity`], and of
+//! inverse dynamics: [`dynamics_sensitivity`]), and
 //! parameter sweeps on every core ([`sweep`], feature `parallel`).
 //!
 //! Users reach all of it through the `kinema` facade (`kinema::Model`, …);
@@ -15,6 +16,7 @@
 pub mod columns;
 mod domains;
 pub mod dynamics;
+pub mod dynamics_sensitivity;
 pub mod equilibrium;
 mod file;
 pub mod forward;

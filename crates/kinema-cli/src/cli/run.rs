@@ -86,7 +86,10 @@ pub fn kinematics(
     let sensitivity = plan
         .sensitivity
         .clone()
-        .map(|s| SensitivityColumns::new(*s, outputs, derivation))
+        .map(|s| {
+            let columns = dynamics.as_ref().map(|d| d.names());
+            SensitivityColumns::new(*s, outputs, &loaded.model, columns)
+        })
         .transpose()?;
     let mut extra: Vec<String> = dynamics.as_ref().map_or(&[][..], |d| d.names()).to_vec();
     extra.extend_from_slice(sensitivity.as_ref().map_or(&[][..], |s| s.names()));

@@ -166,11 +166,15 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// (Φ_qᵀ λ = b), and returns the system and Φ_q's values there
     /// (pattern order). The factorization of the step is reused; only when
     /// it is not that of the state kept (an interpolated near-singular row,
-    /// a changed parameter) is Φ_q evaluated and factored again.
-    pub(crate) fn solve_transposed_at_state(
-        &mut self,
-        rhs: &mut [f64],
-    ) -> Result<(&S, &[f64]), Error> {
+    /// a changed parameter) is Φ_q evaluated and factored again. Inverse
+    /// dynamics solves λ with it, and the multipliers' parameter
+    /// sensitivities λ_p (one solve per parameter). Does not allocate when
+    /// the step's factorization is current.
+    ///
+    /// # Errors
+    /// No state ([`LinalgError::NotFactored`]), `rhs` of the wrong length,
+    /// or Φ_q singular at the state when it had to be factored again.
+    pub fn solve_transposed_at_state(&mut self, rhs: &mut [f64]) -> Result<(&S, &[f64]), Error> {
         self.factor_at_state()?;
         self.ws.scaling.solve_transpose(&mut self.lu, rhs)?;
         Ok((&self.system, &self.ws.jac))
