@@ -273,6 +273,11 @@ def defects(name, x):
     g = grashof(r1, r2, r3, r4)
     if g != "crank":
         found.append(g)
+    links = sorted([r1, r2, r3, r4])
+    margin = (links[1] + links[2]) - (links[0] + links[3])
+    if abs(margin) <= 1e-5 * links[3]:
+        found.append(f"change point: s + l = p + q to {abs(margin):.1e}; the links fold into a "
+                     "line (a singular configuration, where the branch can switch)")
     # Branch: the literature formula's branch at each target.
     sig = []
     for i, th2 in enumerate(ths):

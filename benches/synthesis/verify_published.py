@@ -13,6 +13,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from make_models import design_params, timing_of, write_model  # noqa: E402
 from problems import PROBLEMS, PUBLISHED, defects, error_literature  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -33,32 +34,50 @@ def point_at(kinema, model, t):
     return (last[head.index("coupler.p.x")], last[head.index("coupler.p.y")]), warn
 
 
+def error_through_kinema(kinema, model, name, times):
+    """The error at the targets (one run per target from t = 0) and kinema's warnings."""
+    total, warns = 0.0, set()
+    for (tx, ty), t in zip(PROBLEMS[name]["targets"], times):
+        pt, warn = point_at(kinema, model, t)
+        if pt is None:
+            return float("nan"), {f"failed at t = {t:.4g}: {warn.splitlines()[0] if warn else ''}"}
+        if warn:
+            warns.update(warn.splitlines())
+        total += (pt[0] - tx) ** 2 + (pt[1] - ty) ** 2
+    return total, warns
+
+
 def main():
     kinema = sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "../../target/debug/kinema")
-    for name, p in PROBLEMS.items():
+    tmp = os.path.join(HERE, "results")
+    os.makedirs(tmp, exist_ok=True)
+    print("Best published design per problem (the .published.kin files):")
+    for name in PROBLEMS:
         model = os.path.join(HERE, f"{name}.published.kin")
         with open(os.path.join(HERE, f"{name}.published.times")) as f:
             times = [float(v) for v in f if not v.startswith("#")]
         label, _via, x = min(PUBLISHED[name], key=lambda d: error_literature(name, d[2]))
-        total, warns = 0.0, set()
-        for (tx, ty), t in zip(p["targets"], times):
-            pt, warn = point_at(kinema, model, t)
-            if pt is None:
-                print(f"{name}: kinema failed at t = {t}: {warn}")
-                total = float("nan")
-                break
-            if warn:
-                warns.add(warn)
-            total += (pt[0] - tx) ** 2 + (pt[1] - ty) ** 2
+        total, _ = error_through_kinema(kinema, model, name, times)
         lit = error_literature(name, x)
-        found, _, _ = defects(name, x)
         rel = abs(total - lit) / max(lit, 1e-300)
-        print(f"{name:12s} {label:36s} kinema {total:.10g}  literature formula {lit:.10g}"
+        print(f"  {name:12s} {label:36s} kinema {total:.10g}  literature formula {lit:.10g}"
               f"  (relative difference {rel:.1e})")
-        for w in sorted(warns):
-            print(f"    kinema: {w}")
-        for d in found:
-            print(f"    defect (problems.py): {d}")
+    print("Every published design, through kinema (error, warnings) and problems.py (defects):")
+    for name in PROBLEMS:
+        print(f"  {name}")
+        for label, _via, x in PUBLISHED[name]:
+            t, phase, sense = timing_of(name, x)
+            params = design_params(name, x, sense)
+            params["phase"] = phase
+            model = os.path.join(tmp, f"{name}.check.kin")
+            write_model(model, name, params, f"A published design: {label}.")
+            total, warns = error_through_kinema(kinema, model, name, t)
+            found, _, _ = defects(name, x)
+            print(f"    {label:38s} kinema {total:.6g} (formula {error_literature(name, x):.6g})")
+            for w in sorted(warns):
+                print(f"        kinema: {w}")
+            for d in found:
+                print(f"        defect: {d}")
 
 
 if __name__ == "__main__":
