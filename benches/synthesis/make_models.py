@@ -9,9 +9,11 @@ The model is the literature's four-bar: ground pivot O = (x0, y0), the
 ground link O->D of length r1 at theta0, crank r2, coupler r3 (A->B),
 rocker r4 (D->B), the coupler point (rcx, rcy) in a frame at A with x along
 A->B. The crank angle measured from the ground link is th2 = phase + sense * t:
-with prescribed timing t is th2 itself (phase = 0, sense = 1); without it
-each target's time is an unknown in one turn [0, 2 pi), phase is the crank
-angle at t = 0 and sense (+1 or -1, not varied) the way it turns.
+with prescribed timing t = th2 - th2_1 (phase = th2_1, sense = 1); without
+it each target's time is an unknown in one turn [0, 2 pi), phase is the
+crank angle at t = 0 (a design variable) and sense (+1 or -1, not varied)
+the way it turns. Function generation (log10) reads the output psi, the
+rocker's turn from psi0 (a design variable).
 """
 
 import math
@@ -48,7 +50,9 @@ mechanism {mech} {{
     /// +1: the crank angle grows with t; -1: it falls (not to be varied)
     param sense = {sense!r};
     /// assembly branch at t = 0: +1 with B left of A->D, -1 right (not to be varied)
-    param branch = 1;
+    param branch = {branch!r};
+    /// function generation: the rocker angle at t = 0, from the ground link [rad]
+    param psi0 = {psi0!r};
 
     // The guesses are the closed-form assembly at t = 0 on `branch` (the
     // coupler turned from A->D by the triangle ABD's angle at A), so the
@@ -73,8 +77,8 @@ mechanism {mech} {{
     /// th2 = phase + sense * t, measured from the ground link
     driver crank_angle: crank.phi == theta0 + phase + sense * t;
 
-    /// the rocker angle from the ground link [rad]
-    output psi: rocker.phi - theta0;
+    /// function generation: the rocker's turn from psi0 [rad]
+    output psi: rocker.phi - theta0 - psi0;
 }}
 """
 
@@ -96,13 +100,14 @@ def design_params(name, x, sense=1.0):
     p.update({k: float(v) for k, v in fixed.items()})
     p["phase"] = 0.0
     p["sense"] = float(sense)
+    p["branch"] = 1.0
+    p["psi0"] = 0.0
     return p
 
 
-def write_model(path, name, params, design_note):
-    mech = "".join(w.capitalize() for w in name.replace("5", "_5").split("_")) or name
+def write_model(path, name, params, design_note, title=None):
     mech = "Bench" + "".join(c for c in name.title() if c.isalnum())
-    text = TEMPLATE.format(title=PROBLEMS[name]["title"], name=name, mech=mech,
+    text = TEMPLATE.format(title=title or PROBLEMS[name]["title"], name=name, mech=mech,
                            design=design_note, **params, **geometry_exprs())
     with open(path, "w") as f:
         f.write(text)
@@ -164,6 +169,27 @@ def main():
         with open(f"{here}/{name}.published.times", "w") as f:
             f.write("# times t_i of the targets for the published design (th2 = phase + sense t)\n")
             f.write("\n".join(repr(v) for v in t) + "\n")
+    write_function_problem(here)
+
+
+def write_function_problem(here):
+    """log10.csv (t, psi), log10.kin (a start) and log10.reference.kin
+    (Freudenstein's three-point Chebyshev design, the textbook method)."""
+    from problems import FUNCTION, freudenstein_reference, function_targets
+    with open(f"{here}/log10.csv", "w") as f:
+        f.write("t,psi\n")
+        for t, psi in function_targets():
+            f.write(f"{t!r},{psi!r}\n")
+    base = dict(x0=0.0, y0=0.0, theta0=0.0, r1=1.0, rcx=0.0, rcy=0.0, sense=1.0)
+    start = dict(base, r2=1.0, r3=2.0, r4=2.0, phase=PI / 4, psi0=PI / 2, branch=-1.0)
+    write_model(f"{here}/log10.kin", "log10", start,
+                "The values are a start for `kinema fit` (see README.md).", FUNCTION["title"])
+    r2, r3, r4, th2s, psis = (float(v) for v in freudenstein_reference(PI / 6, 5 * PI / 12))
+    ref = dict(base, r2=r2, r3=r3, r4=r4, phase=th2s, psi0=psis, branch=-1.0)
+    write_model(f"{here}/log10.reference.kin", "log10", ref,
+                "The values are Freudenstein's three-point design at Chebyshev spacing "
+                "with th2s = 30 deg, psis = 75 deg (a textbook baseline, not a published optimum).",
+                FUNCTION["title"])
 
 
 def _err(name, x):

@@ -336,3 +336,66 @@ def main():
 
 if __name__ == "__main__":
     main()
+
+
+# ------------------------------------------------------ function generation
+# kinema's own statement in the textbook style (no published optimum was
+# found to compare with; see README.md): y = log10(x), 1 <= x <= 10, eleven
+# equally spaced x; crank th2 = th2s + (x - 1)/9 * 90 deg, rocker
+# psi = psis + y * 90 deg (both from the ground link, r1 = 1, frame fixed).
+# Design variables r2, r3, r4 in [0.05, 5], th2s, psis in [0, 2 pi].
+FUNCTION = dict(
+    name="log10",
+    title="function generation: y = log10(x), 1 <= x <= 10, 90 deg in and 90 deg out",
+    xs=[1 + 0.9 * i for i in range(11)],
+    span_in=PI / 2,
+    span_out=PI / 2,
+    bounds=dict(r=(0.05, 5), ang=(0, 2 * PI)),
+)
+
+
+def function_targets():
+    """(t_i, psi_i - psis) of the function-generation targets."""
+    f = FUNCTION
+    return [((x - 1) / 9 * f["span_in"], math.log10(x) * f["span_out"]) for x in f["xs"]]
+
+
+def rocker_angle(r1, r2, r3, r4, th2, sigma):
+    """The rocker angle (D->B from the ground link) on branch sigma, or None."""
+    th3 = th3_branch(r1, r2, r3, r4, th2, sigma)
+    if th3 is None:
+        return None
+    bx = r2 * math.cos(th2) + r3 * math.cos(th3)
+    by = r2 * math.sin(th2) + r3 * math.sin(th3)
+    return math.atan2(by, bx - r1)
+
+
+def function_error(r2, r3, r4, th2s, psis, sigma=1):
+    """Sum of squared rocker-angle errors [rad^2] (angles compared modulo 2 pi)."""
+    f = 0.0
+    for t, dpsi in function_targets():
+        psi = rocker_angle(1.0, r2, r3, r4, th2s + t, sigma)
+        if psi is None:
+            return float("nan")
+        e = (psi - psis - dpsi + PI) % (2 * PI) - PI
+        f += e * e
+    return f
+
+
+def freudenstein_reference(th2s=PI / 4, psis=2 * PI / 3):
+    """Freudenstein's three-point design at Chebyshev spacing (the textbook method).
+
+    K1 cos(psi) - K2 cos(th2) + K3 = cos(th2 - psi), K1 = r1/r2, K2 = r1/r4,
+    K3 = (r2^2 - r3^2 + r4^2 + r1^2) / (2 r2 r4), r1 = 1.
+    """
+    xs = [5.5 - 4.5 * math.cos((2 * k - 1) * PI / 6) for k in (1, 2, 3)]
+    rows, rhs = [], []
+    for x in xs:
+        th2 = th2s + (x - 1) / 9 * FUNCTION["span_in"]
+        psi = psis + math.log10(x) * FUNCTION["span_out"]
+        rows.append([math.cos(psi), -math.cos(th2), 1.0])
+        rhs.append(math.cos(th2 - psi))
+    k1, k2, k3 = np.linalg.solve(np.array(rows), np.array(rhs))
+    r2, r4 = 1 / k1, 1 / k2
+    r3 = math.sqrt(r2 * r2 + r4 * r4 + 1 - 2 * k3 * r2 * r4)
+    return r2, r3, r4, th2s, psis

@@ -38,7 +38,17 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from problems import PI, PROBLEMS, PUBLISHED, defects, error_literature  # noqa: E402
+from problems import (  # noqa: E402
+    FUNCTION,
+    PI,
+    PROBLEMS,
+    PUBLISHED,
+    defects,
+    error_literature,
+    freudenstein_reference,
+    function_error,
+    function_targets,
+)
 
 import pylinkage  # noqa: E402
 from pylinkage.actuators import Crank  # noqa: E402
@@ -109,7 +119,17 @@ def ordered(ths):
     return sum(v % (2 * PI) for v in d) < 2 * PI + 1e-9 or sum((-v) % (2 * PI) for v in d) < 2 * PI + 1e-9
 
 
-def coupler_points(x, ths):
+def rocker_angles(x, ths, sigma):
+    """pylinkage's rocker angle (D->B from the ground link) at each crank angle."""
+    pts = coupler_points(x, ths, sigma, joint="B")
+    if pts is None:
+        return None
+    r1, t0, x0, y0 = x[0], x[8], x[6], x[7]
+    dx, dy = x0 + r1 * math.cos(t0), y0 + r1 * math.sin(t0)
+    return [math.atan2(by - dy, bx - dx) - t0 for bx, by in pts]
+
+
+def coupler_points(x, ths, sigma=1, joint="C"):
     """pylinkage's coupler point at each crank angle (th2 from the ground link)."""
     r1, r2, r3, r4, rcx, rcy, x0, y0, t0 = x[:9]
     o = Ground(x0, y0, name="O")
@@ -127,34 +147,50 @@ def coupler_points(x, ths):
         return None
     h = math.sqrt(h2)
     b = RRRDyad(anchor1=crank.output, anchor2=d, distance1=r3, distance2=r4, name="B")
-    b.x, b.y = ax + (a * ux - h * uy) / dist, ay + (a * uy + h * ux) / dist
+    b.x, b.y = ax + (a * ux - sigma * h * uy) / dist, ay + (a * uy + sigma * h * ux) / dist
     c = FixedDyad(anchor1=crank.output, anchor2=b, distance=math.hypot(rcx, rcy),
                   angle=math.atan2(rcy, rcx), name="C")
     linkage = Linkage([o, d, crank, b, c], name="fourbar")
+    tip = c if joint == "C" else b
     out = []
     try:
         for _ in linkage.step(iterations=1, dt=0.0):
             pass
-        out.append((c.x, c.y))
+        out.append((tip.x, tip.y))
         for prev, nxt in zip(ths, ths[1:]):
             delta = nxt - prev
             k = max(1, math.ceil(abs(delta) / MAX_STEP))
             for _ in linkage.step(iterations=k, dt=delta / k):
                 pass
-            out.append((c.x, c.y))
+            out.append((tip.x, tip.y))
     except UnbuildableError:
         return None
     return out
 
 
+LEVELS = (1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-8)
+
+
 class Tracker:
-    """Counts fitness evaluations and when the best error reached the target."""
+    """Counts fitness evaluations and when the best error reached the target
+    and each of LEVELS (seconds, evaluations)."""
 
     def __init__(self, name, target):
         self.name, self.target = name, target
         self.evals, self.best, self.best_x = 0, math.inf, None
         self.t_reach = self.e_reach = None
+        self.levels = {}
         self.t0 = time.perf_counter()
+
+    def record(self, f, x):
+        if f < self.best:
+            self.best, self.best_x = f, list(x)
+            now = time.perf_counter() - self.t0
+            if self.t_reach is None and f <= self.target:
+                self.t_reach, self.e_reach = now, self.evals
+            for level in LEVELS:
+                if f <= level and level not in self.levels:
+                    self.levels[level] = (now, self.evals)
 
     def fitness(self, dims):
         self.evals += 1
@@ -178,10 +214,32 @@ class Tracker:
             return UNBUILDABLE + penalty
         f = sum((cx - tx) ** 2 + (cy - ty) ** 2 for (cx, cy), (tx, ty) in zip(pts, p["targets"]))
         f += penalty
-        if f < self.best:
-            self.best, self.best_x = f, list(x)
-            if self.t_reach is None and f <= self.target:
-                self.t_reach, self.e_reach = time.perf_counter() - self.t0, self.evals
+        self.record(f, x)
+        return f
+
+
+class FunctionTracker(Tracker):
+    """The function-generation problem (log10): design (r2, r3, r4, th2s, psis),
+    pylinkage's linkage stepped through the targets' crank angles; the error
+    is the sum of squared rocker-angle errors [rad^2]."""
+
+    def fitness(self, dims):
+        self.evals += 1
+        r2, r3, r4, th2s, psis = dims
+        tg = function_targets()
+        x = [1.0, r2, r3, r4, 0.0, 0.0, 0.0, 0.0, 0.0]
+        ths = [th2s + t for t, _ in tg]
+        best = None
+        # Both assembly branches are designs; a user would try both.
+        for sigma in (1, -1):
+            psi = rocker_angles(x, ths, sigma)
+            if psi is None:
+                continue
+            f = sum(((p - psis - d + PI) % (2 * PI) - PI) ** 2 for p, (_t, d) in zip(psi, tg))
+            if best is None or f < best:
+                best = f
+        f = UNBUILDABLE if best is None else best
+        self.record(f, list(dims))
         return f
 
 
@@ -208,9 +266,16 @@ def best_published_defect_free(name):
 
 
 def run(name, method, seed):
-    names, lo, hi = variables(name)
-    target = best_published_defect_free(name)
-    tr = Tracker(name, target)
+    if name == "log10":
+        b = FUNCTION["bounds"]
+        names = ["r2", "r3", "r4", "th2s", "psis"]
+        lo, hi = [b["r"][0]] * 3 + [b["ang"][0]] * 2, [b["r"][1]] * 3 + [b["ang"][1]] * 2
+        target = function_error(*freudenstein_reference(PI / 6, 5 * PI / 12), sigma=-1)
+        tr = FunctionTracker(name, target)
+    else:
+        names, lo, hi = variables(name)
+        target = best_published_defect_free(name)
+        tr = Tracker(name, target)
 
     def eval_func(_linkage, dims, _pos):
         return tr.fitness(dims)
@@ -224,11 +289,17 @@ def run(name, method, seed):
         differential_evolution_optimization(eval_func, StandIn(len(names)), bounds=(lo, hi),
                                             order_relation=min, seed=seed, verbose=False)
     wall = time.perf_counter() - t0
-    found, _, _ = defects(name, tr.best_x) if tr.best_x else (["none"], 0, 0)
+    if name == "log10":
+        found = [] if tr.best < UNBUILDABLE else ["unbuildable"]
+        formula = None
+    else:
+        found, _, _ = defects(name, tr.best_x) if tr.best_x else (["none"], 0, 0)
+        formula = error_literature(name, tr.best_x) if tr.best_x else None
     return dict(problem=name, method=method, variables=len(names), best_error=tr.best,
-                literature_formula_error=error_literature(name, tr.best_x) if tr.best_x else None,
-                defects=found, wall_s=wall, evaluations=tr.evals, target_error=target,
-                time_to_target_s=tr.t_reach, evals_to_target=tr.e_reach, design=tr.best_x)
+                literature_formula_error=formula, defects=found, wall_s=wall,
+                evaluations=tr.evals, target_error=target, time_to_target_s=tr.t_reach,
+                evals_to_target=tr.e_reach, design=tr.best_x,
+                levels={f"{k:g}": v for k, v in sorted(tr.levels.items(), reverse=True)})
 
 
 def check(name):
@@ -253,15 +324,23 @@ def check(name):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--method", default="both", choices=["pso", "de", "both"])
-    ap.add_argument("--problems", default=",".join(PROBLEMS))
+    ap.add_argument("--problems", default=",".join(list(PROBLEMS) + ["log10"]))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     print(f"pylinkage {pylinkage.__version__}, numpy {np.__version__}")
     results = []
     for name in args.problems.split(","):
-        print(f"{name}: pylinkage reproduces the published defect-free designs' error "
-              f"to {check(name):.1e} (relative)")
+        if name == "log10":
+            ref = freudenstein_reference(PI / 6, 5 * PI / 12)
+            tr = FunctionTracker(name, 0.0)
+            got = tr.fitness(list(ref))
+            want = function_error(*ref, sigma=-1)
+            print(f"{name}: pylinkage reproduces the textbook design's error to "
+                  f"{abs(got - want) / want:.1e} (relative)")
+        else:
+            print(f"{name}: pylinkage reproduces the published defect-free designs' error "
+                  f"to {check(name):.1e} (relative)")
         for method in (["pso", "de"] if args.method == "both" else [args.method]):
             r = run(name, method, args.seed)
             results.append(r)
@@ -271,6 +350,8 @@ def main():
             print(f"  {method.upper():3s} best error {r['best_error']:.6g} in {r['wall_s']:.1f} s, "
                   f"{r['evaluations']} evaluations; {reach}; defects: "
                   f"{'; '.join(r['defects']) or 'none'}", flush=True)
+            print("      first at or below: " + ", ".join(
+                f"{k}: {t:.2f} s/{e} ev" for k, (t, e) in r["levels"].items()), flush=True)
     if args.json:
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as f:

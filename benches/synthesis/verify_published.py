@@ -14,7 +14,15 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from make_models import design_params, timing_of, write_model  # noqa: E402
-from problems import PROBLEMS, PUBLISHED, defects, error_literature  # noqa: E402
+from problems import (  # noqa: E402
+    PROBLEMS,
+    PUBLISHED,
+    defects,
+    error_literature,
+    freudenstein_reference,
+    function_error,
+    function_targets,
+)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -62,6 +70,18 @@ def main():
         rel = abs(total - lit) / max(lit, 1e-300)
         print(f"  {name:12s} {label:36s} kinema {total:.10g}  literature formula {lit:.10g}"
               f"  (relative difference {rel:.1e})")
+    # Function generation: the textbook reference design, one run on the targets' grid.
+    tg = function_targets()
+    model = os.path.join(HERE, "log10.reference.kin")
+    out = subprocess.run([kinema, "run", model, "--t-end", repr(tg[-1][0]), "--steps",
+                          str(len(tg) - 1), "--positions-only", "--columns", "psi", "--out", "-"],
+                         capture_output=True, text=True, check=True)
+    rows = [line.split(",") for line in out.stdout.strip().splitlines()]
+    col = rows[0].index("psi")
+    total = sum((float(r[col]) - psi) ** 2 for r, (_t, psi) in zip(rows[1:], tg))
+    ref = function_error(*freudenstein_reference(math.pi / 6, 5 * math.pi / 12), sigma=-1)
+    print(f"  log10        Freudenstein 3-point (textbook)      kinema {total:.10g}  closed form "
+          f"{ref:.10g}  (relative difference {abs(total - ref) / ref:.1e})")
     print("Every published design, through kinema (error, warnings) and problems.py (defects):")
     for name in PROBLEMS:
         print(f"  {name}")
