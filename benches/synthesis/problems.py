@@ -322,6 +322,22 @@ def defects(name, x):
     return found, f, sigma0
 
 
+def out_of_bounds(name, x):
+    """The variables of x outside the problem's bounds (as stated in this file)."""
+    p = PROBLEMS[name]
+    b = p["bounds"]
+    names = ["r1", "r2", "r3", "r4", "rcx", "rcy", "x0", "y0", "theta0"]
+    kinds = ["r"] * 4 + ["rc"] * 2 + ["xy0"] * 2 + ["ang"]
+    out = []
+    for n, k, v in zip(names, kinds, x[:9]):
+        if n in p["fixed"] or k not in b:
+            continue
+        lo, hi = b[k]
+        if not lo - 1e-9 <= v <= hi + 1e-9:
+            out.append(f"{n} = {v:g} outside [{lo:g}, {hi:g}]")
+    return out
+
+
 def main():
     for name, designs in PUBLISHED.items():
         p = PROBLEMS[name]
@@ -332,6 +348,8 @@ def main():
             print(f"  {label:40s} error {f:.6g}; on branch {s0:+d} throughout {fb:.6g}")
             for d in found:
                 print(f"      DEFECT: {d}")
+            for d in out_of_bounds(name, x):
+                print(f"      BOUNDS: {d}")
 
 
 if __name__ == "__main__":

@@ -13,8 +13,10 @@ or design variables as in the literature when the timing is free). The
 crank is stepped from target to target in steps of at most 0.05 rad, so
 pylinkage's dyads stay on the branch they started on (it picks the
 intersection nearest the previous position) and a design that locks between
-two targets is rejected (UnbuildableError), as is one whose free crank
-angles are out of order (the literature's order constraint, a penalty).
+two targets is rejected (UnbuildableError); one whose free crank angles are
+out of order (the literature's order constraint) or, in FULL_TURN problems,
+whose crank cannot turn fully (Grashof, crank or ground shortest) pays a
+penalty, as in the literature.
 
 Optimizers: pylinkage.optimization.particle_swarm_optimization (its own
 local-best PSO, defaults: 100 particles x 200 iterations) and
@@ -46,6 +48,7 @@ from problems import (  # noqa: E402
     defects,
     error_literature,
     freudenstein_reference,
+    grashof,
     function_error,
     function_targets,
 )
@@ -62,6 +65,9 @@ from pylinkage.optimization import (  # noqa: E402
 from pylinkage.simulation import Linkage  # noqa: E402
 
 MAX_STEP = 0.05  # rad between two crank positions
+# Problems whose crank must turn fully (a Grashof crank: the literature's
+# constraint for these, and run.sh's --full-turn crank), a penalty as there.
+FULL_TURN = {"straight6", "closed18", "semicircle6", "ellipse10"}
 UNBUILDABLE = 1e6
 ORDER_PENALTY = 1e4
 
@@ -209,6 +215,8 @@ class Tracker:
                 for v in np.diff(ths):
                     un.append(un[-1] + (v % (2 * PI) if fwd else -((-v) % (2 * PI))))
                 ths = un
+        if self.name in FULL_TURN and grashof(*x[:4]) != "crank":
+            penalty += ORDER_PENALTY
         pts = coupler_points(x, ths)
         if pts is None:
             return UNBUILDABLE + penalty
