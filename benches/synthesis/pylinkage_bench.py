@@ -48,9 +48,10 @@ from problems import (  # noqa: E402
     defects,
     error_literature,
     freudenstein_reference,
-    grashof,
     function_error,
     function_targets,
+    grashof,
+    out_of_bounds,
 )
 
 import pylinkage  # noqa: E402
@@ -265,10 +266,11 @@ class StandIn:
 
 
 def best_published_defect_free(name):
+    """The best published error among designs without defects, within the bounds."""
     best = math.inf
     for _label, _via, x in PUBLISHED[name]:
         found, _, _ = defects(name, x)
-        if not found:
+        if not found and not out_of_bounds(name, x):
             best = min(best, error_literature(name, x))
     return best
 
