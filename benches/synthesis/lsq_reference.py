@@ -21,7 +21,6 @@ from scipy.stats import qmc
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from problems import (  # noqa: E402
-    PI,
     PROBLEMS,
     coupler_point,
     defects,

@@ -1,9 +1,10 @@
 """Writes the kinema models and target tables of the benchmark problems
 (problems.py): <name>.kin with the problem's starting design, <name>.csv
-with the targets, and <name>.published.kin with the best published design
-whose crank angles are prescribed or recovered.
+with the targets, <name>.published.kin with the published design of least error (by the
+literature's formula; defects or not, see README.md) and
+<name>.published.times with its targets' times, and the log10 files.
 
-    python3 make_models.py        (no dependency beyond the standard library)
+    .venv/bin/python make_models.py      (numpy, through problems.py)
 
 The model is the literature's four-bar: ground pivot O = (x0, y0), the
 ground link O->D of length r1 at theta0, crank r2, coupler r3 (A->B),
@@ -16,7 +17,6 @@ the way it turns. Function generation (log10) reads the output psi, the
 rocker's turn from psi0 (a design variable).
 """
 
-import math
 import sys
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0] if "/" in __file__ else ".")
@@ -193,8 +193,7 @@ def write_function_problem(here):
 
 
 def _err(name, x):
-    from problems import defects, error_literature
-    found, fb, _ = defects(name, x)
+    from problems import error_literature
     return error_literature(name, x)
 
 

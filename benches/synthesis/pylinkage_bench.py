@@ -322,7 +322,6 @@ def check(name):
         tr = Tracker(name, 0.0)
         names, _, _ = variables(name)
         # Map the literature vector back to the design variables.
-        p = PROBLEMS[name]
         full = dict(zip(["r1", "r2", "r3", "r4", "rcx", "rcy", "x0", "y0", "theta0"], x[:9]))
         extra = x[9:]
         dims = [full[k] for k in names if not k.startswith("th2_")] + list(extra)
