@@ -237,7 +237,9 @@ fn check(
             }
         }
         let (first, last) = (times[0], times[times.len() - 1]);
-        if last - first >= plan.t_end {
+        // A whole cycle is allowed: a closed path's list may end with its
+        // first point again, one turn later.
+        if last - first > plan.t_end * (1.0 + 1e-9) {
             return Err(reject(
                 Reason::Order,
                 format!(
