@@ -19,7 +19,7 @@ cd "$(dirname "$0")"
 starts="${1:-64}"
 root=../..
 (cd "$root" && cargo build --release -q -p kinema-cli --bin kinema)
-kinema="$root/target/release/kinema"
+kinema="${CARGO_TARGET_DIR:-$root/target}/release/kinema"
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
   .venv/bin/pip install -q -r requirements.txt
@@ -66,15 +66,16 @@ fit straight6 "1 -1" "1 -1" -- --t-end "$two_pi" --full-turn crank \
   --vary r1,r2,r3,r4,rcx,rcy,x0,y0,theta0,phase \
   --bounds "r1=5:60,r2=5:60,r3=5:60,r4=5:60,rcx=-60:60,rcy=-60:60,x0=-60:60,y0=-60:60,theta0=$ang,phase=$ang"
 # 5 points on an arc, prescribed timing, frame fixed (Kunjur & Krishnamurty 1997).
-fit arc5 "1" "1 -1" -- --t-end 1.0471975511965979 \
+fit arc5 "1" "1 -1" -- --t-end 1.0471975511965979 --steps 60 \
   --vary r1,r2,r3,r4,rcx,rcy \
   --bounds "r1=0.001:50,r2=0.001:50,r3=0.001:50,r4=0.001:50,rcx=-50:50,rcy=-50:50"
 # 18 points on a closed curve, 20-degree steps from a free start (Cabrera et al. 2002).
 fit closed18 "1" "1 -1" -- --t-end "$two_pi" --full-turn crank \
   --vary r1,r2,r3,r4,rcx,rcy,x0,y0,theta0,phase \
   --bounds "r1=0.001:50,r2=0.001:50,r3=0.001:50,r4=0.001:50,rcx=-50:50,rcy=-50:50,x0=-50:50,y0=-50:50,theta0=$ang,phase=$ang"
-# 6 points on a half circle, prescribed timing.
-fit semicircle6 "1" "1 -1" -- --t-end 2.6179938779914944 --full-turn crank \
+# 6 points on a half circle, prescribed timing; the crank turns fully
+# (checked over one turn, so the cycle is 2π, the targets within it).
+fit semicircle6 "1" "1 -1" -- --t-end "$two_pi" --full-turn crank \
   --vary r1,r2,r3,r4,rcx,rcy,x0,y0,theta0 \
   --bounds "r1=5:50,r2=5:50,r3=5:50,r4=5:50,rcx=-50:50,rcy=-50:50,x0=-50:50,y0=-50:50,theta0=$ang"
 # 10 points on an ellipse, no timing (first = last: see README.md).
@@ -82,7 +83,7 @@ fit ellipse10 "1 -1" "1 -1" -- --t-end "$two_pi" --full-turn crank \
   --vary r1,r2,r3,r4,rcx,rcy,x0,y0,theta0,phase \
   --bounds "r1=0.001:80,r2=0.001:80,r3=0.001:80,r4=0.001:80,rcx=-80:80,rcy=-80:80,x0=-80:80,y0=-80:80,theta0=$ang,phase=$ang"
 # Function generation y = log10(x) (kinema's statement; r1 = 1).
-fit log10 "1" "1 -1" -- --t-end 1.5707963267948966 \
+fit log10 "1" "1 -1" -- --t-end 1.5707963267948966 --steps 90 \
   --vary r2,r3,r4,phase,psi0 \
   --bounds "r2=0.05:5,r3=0.05:5,r4=0.05:5,phase=$ang,psi0=$ang"
 

@@ -317,8 +317,10 @@ pub struct RunArgs {
     pub project_velocity: bool,
     /// Parameter sensitivities of a kinematic run, for the params named:
     /// after the other columns, `d(COLUMN)/d(PARAM)` for every coordinate
-    /// and result column written (values, `_dot`, `_ddot`), param by param
-    /// — derived symbolically, solved with each step's factorization. Not
+    /// and result column written (values, `_dot`, `_ddot`) and, with
+    /// inertia, every inverse-dynamics column (λ, reactions, efforts),
+    /// param by param — derived symbolically, solved with each step's
+    /// factorization. Not
     /// with forward dynamics, `--equilibrium` or `--positions-only`.
     #[arg(long, value_name = "P1,P2,…", value_delimiter = ',')]
     pub sensitivity: Vec<String>,

@@ -309,10 +309,15 @@ impl Rows {
                 // The step's own factorization serves every row but those
                 // flagged near singular, factored again at their q: exactly
                 // singular there, ∂q/∂p does not exist.
+                let singular = if matches!(e, kinema::Error::Singular { .. }) {
+                    "at a singular configuration ∂q/∂p does not exist (it grows without \
+                     bound near one); "
+                } else {
+                    ""
+                };
                 Failure::Analysis(format!(
-                    "error: at t = {}: sensitivities: {}\n  = note: at a singular \
-                     configuration ∂q/∂p does not exist (it grows without bound near one); \
-                     the rows before t = {} are kept",
+                    "error: at t = {}: sensitivities: {}\n  = note: {singular}the rows before \
+                     t = {} are kept",
                     time(t),
                     run_error(loaded, &e),
                     time(t),
