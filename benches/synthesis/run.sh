@@ -48,19 +48,22 @@ fit() {
       tag="$name.s$s.b$b"
       t0=$EPOCHREALTIME
       if "$kinema" fit "$model" --target "$name.csv" --starts "$starts" "$@" \
-          --out "results/$tag.fitted.kin" --plot "results/$tag.svg" > "results/$tag.fit.txt" 2>&1; then
+          --out "results/$tag.fitted.kin" --plot "results/$tag.svg" \
+          --summary "results/$tag.summary.csv" > "results/$tag.fit.txt" 2>&1; then
         status=ok
       else
         status="exit $?"
       fi
       t1=$EPOCHREALTIME
       printf '%-28s %8.3f s  (%s)\n' "kinema fit $tag" "$(awk "BEGIN{print $t1 - $t0}")" "$status"
+      printf '%s %s\n' "$tag" "$(awk "BEGIN{print $t1 - $t0}")" >> results/kinema_times.txt
       sed 's/^/    /' "results/$tag.fit.txt" | tail -n 15
     done
   done
 }
 
 echo "== kinema fit ($starts starts per fit)"
+: > results/kinema_times.txt
 # 6 points on a line, no timing (Cabrera et al. 2002 / Kunjur & Krishnamurty 1997).
 fit straight6 "1 -1" "1 -1" -- --t-end "$two_pi" --full-turn crank \
   --vary r1,r2,r3,r4,rcx,rcy,x0,y0,theta0,phase \
@@ -92,3 +95,4 @@ t0=$EPOCHREALTIME
 .venv/bin/python pylinkage_bench.py --json results/pylinkage.json | tee results/pylinkage.txt
 t1=$EPOCHREALTIME
 printf 'pylinkage total %.1f s\n' "$(awk "BEGIN{print $t1 - $t0}")"
+python3 table.py
