@@ -77,6 +77,9 @@ impl fmt::Display for Bound {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Map {
     Free,
+    /// p = exp(u): a positive quantity (a gap between two targets' times)
+    /// whose slope never vanishes at a finite u.
+    Positive,
     Both(f64, f64),
     Lower(f64),
     Upper(f64),
@@ -96,6 +99,7 @@ impl Map {
     pub(crate) fn contains(self, p: f64) -> bool {
         match self {
             Map::Free => true,
+            Map::Positive => p > 0.0,
             Map::Both(lo, hi) => (lo..=hi).contains(&p),
             Map::Lower(lo) => p >= lo,
             Map::Upper(hi) => p <= hi,
@@ -106,6 +110,7 @@ impl Map {
     pub(crate) fn outer(self, u: f64) -> f64 {
         match self {
             Map::Free => u,
+            Map::Positive => u.exp(),
             Map::Both(lo, hi) => lo + (hi - lo) * 0.5 * (u.sin() + 1.0),
             Map::Lower(lo) => lo - 1.0 + u.hypot(1.0),
             Map::Upper(hi) => hi + 1.0 - u.hypot(1.0),
@@ -116,6 +121,7 @@ impl Map {
     pub(crate) fn slope(self, u: f64) -> f64 {
         match self {
             Map::Free => 1.0,
+            Map::Positive => u.exp(),
             Map::Both(lo, hi) => (hi - lo) * 0.5 * u.cos(),
             Map::Lower(_) => u / u.hypot(1.0),
             Map::Upper(_) => -u / u.hypot(1.0),
@@ -129,6 +135,7 @@ impl Map {
         const INSIDE: f64 = 1e-6;
         match self {
             Map::Free => p,
+            Map::Positive => p.max(f64::MIN_POSITIVE).ln(),
             Map::Both(lo, hi) => {
                 let s = (2.0 * (p - lo) / (hi - lo) - 1.0).clamp(-1.0 + INSIDE, 1.0 - INSIDE);
                 s.asin()
@@ -165,6 +172,7 @@ mod tests {
     fn the_maps_round_trip_and_their_slopes_are_exact() {
         for map in [
             Map::Free,
+            Map::Positive,
             Map::Both(-1.0, 3.0),
             Map::Lower(0.5),
             Map::Upper(-2.0),

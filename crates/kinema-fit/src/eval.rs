@@ -104,7 +104,9 @@ impl Worker {
     /// Runs the design `params` (the varied params' values) with the
     /// target times `times` (the prescribed ones, or the unknowns'
     /// values) over `span`, and fills the residuals and, with
-    /// `jacobian`, their Jacobian. Assembly starts from
+    /// `jacobian`, their Jacobian. A singular configuration met within
+    /// `singular_window` fails the design: a fit's designs stay clear of
+    /// branch defects, LM stepping back from them as from any failure. Assembly starts from
     /// [`start_q`](Self::start_q) when set (then from the model's guess if
     /// that fails), so a fit stays on its branch.
     pub(crate) fn evaluate(
@@ -114,6 +116,7 @@ impl Worker {
         times: &[f64],
         span: [f64; 2],
         jacobian: bool,
+        singular_window: Option<[f64; 2]>,
     ) -> Result<(), Failure> {
         self.set_params(plan, params);
         self.schedule(plan, times, span);
@@ -210,6 +213,16 @@ impl Worker {
             }
         }
         self.events.extend_from_slice(self.solver.close_events());
+        if let Some([a, b]) = singular_window {
+            let slack = 1e-9 * (b - a).abs().max(1.0);
+            if let Some(e) = self
+                .events
+                .iter()
+                .find(|e| e.t >= a - slack && e.t <= b + slack)
+            {
+                return Err(Failure::Singular { t: e.t });
+            }
+        }
         self.objectives(plan, jacobian);
         let finite = self.residuals.iter().all(|r| r.is_finite())
             && (!jacobian || self.jacobian.iter().all(|d| d.is_finite()));
@@ -555,7 +568,7 @@ mod tests {
                 let (p, t) = x.split_at(5);
                 let t = times.unwrap_or(t);
                 let span = plan.fit_span(t);
-                worker.evaluate(&plan, p, t, span, jacobian).unwrap();
+                worker.evaluate(&plan, p, t, span, jacobian, None).unwrap();
                 worker.residuals.clone()
             };
             eval(&mut worker, &x, true);

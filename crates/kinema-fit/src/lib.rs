@@ -257,7 +257,9 @@ pub enum Reason {
     /// It does not assemble at a target time, or the run from one target
     /// to the next has no solution (a circuit defect).
     Assembly,
-    /// A target at a singular configuration.
+    /// While fitted, a design met a singular configuration between (or
+    /// at) its targets — or, with `full_turn`, anywhere in the cycle —
+    /// from which LM could not step back.
     Singular,
     /// A singular configuration between the first and last targets (a
     /// branch defect).
@@ -286,7 +288,7 @@ impl Reason {
     pub fn phrase(self) -> &'static str {
         match self {
             Reason::Assembly => "do not assemble (circuit defect)",
-            Reason::Singular => "have a target at a singular configuration",
+            Reason::Singular => "meet a singular configuration while fitted (branch defect)",
             Reason::Branch => "pass a singular configuration between targets (branch defect)",
             Reason::Order => "reach the targets out of order (order defect)",
             Reason::FullTurn => "do not turn the crank fully",

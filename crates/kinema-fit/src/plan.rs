@@ -304,18 +304,30 @@ impl Plan {
     }
 
     /// The span a design is run over while it is fitted: from the cycle's
-    /// start (or the first prescribed time, if earlier) to the last target
-    /// or, with objectives, the cycle's end.
+    /// start (or the first target, if earlier) to the last target or, with
+    /// objectives or `--full-turn`, the cycle's end.
     pub(crate) fn fit_span(&self, times: &[f64]) -> [f64; 2] {
         let first = times.iter().copied().fold(f64::INFINITY, f64::min);
         let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let lo = first.min(0.0);
-        let hi = if self.objectives.is_empty() {
+        let hi = if self.objectives.is_empty() && self.full_turn.is_none() {
             last
         } else {
             last.max(self.t_end)
         };
         [lo, hi.max(lo)]
+    }
+
+    /// Where a fitted design may meet no singular configuration: between
+    /// its first and last targets, or with `--full-turn` anywhere in its
+    /// run (`span`).
+    pub(crate) fn singular_window(&self, times: &[f64], span: [f64; 2]) -> [f64; 2] {
+        if self.full_turn.is_some() {
+            return span;
+        }
+        let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+        let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        [first, last]
     }
 
     /// The span a design's defects are checked over: the fit's and the

@@ -52,6 +52,17 @@ impl Problem<'_> {
         } else {
             self.plan.targets.times().unwrap_or(&[])
         };
+        // Unknown times: within [−t_end, 3 t_end], and the targets visited
+        // within one cycle (as the check asks).
+        let cycle = self.plan.t_end;
+        let wild = self.plan.times_unknown()
+            && (times.iter().any(|&t| !(-cycle..=3.0 * cycle).contains(&t))
+                || times.last().copied().unwrap_or(0.0) - times.first().copied().unwrap_or(0.0)
+                    > cycle * (1.0 + 1e-9));
+        if wild {
+            self.failed = Some(Failure::NotFinite { t: times[0] });
+            return;
+        }
         let span = self.plan.fit_span(times);
         // Assembly from the accepted design's start keeps its branch.
         {
@@ -59,7 +70,11 @@ impl Problem<'_> {
             self.worker.start_at(p0, q0);
         }
         self.evaluations += 1;
-        match self.worker.evaluate(self.plan, params, times, span, true) {
+        let window = self.plan.singular_window(times, span);
+        match self
+            .worker
+            .evaluate(self.plan, params, times, span, true, Some(window))
+        {
             Ok(()) => {
                 self.failed = None;
                 let good = self.last_good.get_or_insert_with(Vec::new);
@@ -132,17 +147,21 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 /// Fits from the start `x0` (params, then times when unknown) and checks
 /// the optimum's defects.
 ///
-/// Unknown times are fitted as the first time, in [0, t_end], and the gaps
-/// between consecutive ones, each in [0, t_end]: the targets are visited in
+/// Unknown times are fitted as the first time and the gaps between
+/// consecutive ones, each positive (p = exp u): the targets are visited in
 /// their order by construction (an order defect is then only a visit
-/// spanning more than one cycle, which the check rejects).
+/// spanning more than one cycle, which the check rejects). A design whose
+/// times leave [−t_end, 3 t_end] or span more than a cycle is answered as
+/// a failed one (LM shrinks its step).
 pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
     let k = plan.vary.len();
     let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
     let mut start: Vec<f64> = x0[..k].to_vec();
     if plan.times_unknown() {
-        let time = Map::Both(0.0, plan.t_end);
-        maps.extend(std::iter::repeat_n(time, plan.targets.rows()));
+        // The first time free (a bound would hold it where its slope
+        // vanishes), the gaps positive.
+        maps.push(Map::Free);
+        maps.extend(std::iter::repeat_n(Map::Positive, plan.targets.rows() - 1));
         let times = &x0[k..];
         start.push(times[0]);
         start.extend(times.windows(2).map(|w| w[1] - w[0]));
@@ -254,7 +273,7 @@ fn check(
     let residuals = worker.residuals.clone();
     let span = plan.check_span(times);
     worker.start_at(params, q0);
-    if let Err(f) = worker.evaluate(plan, params, times, span, false) {
+    if let Err(f) = worker.evaluate(plan, params, times, span, false, None) {
         return Err(rejection(index, &f, plan));
     }
     let first = times.iter().copied().fold(f64::INFINITY, f64::min);
@@ -309,7 +328,7 @@ fn rejection(start: usize, f: &Failure, plan: &Plan) -> Rejection {
         Failure::Singular { t } => Rejection {
             start,
             reason: Reason::Singular,
-            detail: format!("a target at a singular configuration (t = {t})"),
+            detail: format!("a singular configuration at t = {t}, between or at the targets"),
         },
         Failure::NotFinite { t } => Rejection {
             start,
@@ -376,7 +395,8 @@ mod tests {
         let x0 = [0.31, 0.98, 0.83, 0.1, 0.3, 0.45, 0.6];
         let k = 3;
         let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
-        maps.extend(std::iter::repeat_n(Map::Both(0.0, 1.0), 4));
+        maps.push(Map::Free);
+        maps.extend(std::iter::repeat_n(Map::Positive, 3));
         let mut start: Vec<f64> = x0[..k].to_vec();
         start.push(x0[k]);
         start.extend(x0[k..].windows(2).map(|w| w[1] - w[0]));
