@@ -236,36 +236,11 @@ impl Worker {
         Ok(())
     }
 
-    /// A step from `last` to `t`; where the motion changes too much over
-    /// it to be followed (Newton's failure or a branch the solver cannot
-    /// tell from another), eight sub-steps before giving up — the grid is
-    /// a user's choice, not the mechanism's limit.
+    /// A step from `last` to `t` ([`step_refined`]).
     fn step(&mut self, last: f64, t: f64) -> Result<(), Failure> {
-        let first = match self.solver.step(t) {
-            Ok(_) => return Ok(()),
-            Err(e) => e,
-        };
-        let retry = matches!(
-            first,
-            kinema_runtime::Error::BranchJump { .. } | kinema_runtime::Error::NoConvergence { .. }
-        );
-        if retry {
-            let h = (t - last) / 8.0;
-            let mut ok = true;
-            for i in 1..=8 {
-                let ti = if i == 8 { t } else { last + h * f64::from(i) };
-                if self.solver.step(ti).is_err() {
-                    ok = false;
-                    break;
-                }
-            }
-            if ok {
-                return Ok(());
-            }
-        }
-        Err(Failure::Assembly {
+        step_refined(&mut self.solver, last, t).map_err(|e| Failure::Assembly {
             t,
-            why: first.to_string(),
+            why: e.to_string(),
         })
     }
 
@@ -469,6 +444,36 @@ impl Worker {
             }
         }
     }
+}
+
+/// A step of `solver` from `last` to `t`; where the motion changes too much
+/// over it to be followed (Newton's failure or a branch the solver cannot
+/// tell from another), eight sub-steps before giving up — the grid is a
+/// user's choice, not the mechanism's limit. The error is the first step's.
+pub(crate) fn step_refined(
+    solver: &mut ModelSolver,
+    last: f64,
+    t: f64,
+) -> Result<(), kinema_runtime::Error> {
+    let first = match solver.step(t) {
+        Ok(_) => return Ok(()),
+        Err(e) => e,
+    };
+    let retry = matches!(
+        first,
+        kinema_runtime::Error::BranchJump { .. } | kinema_runtime::Error::NoConvergence { .. }
+    );
+    if retry {
+        let h = (t - last) / 8.0;
+        let stepped = (1..=8).try_for_each(|i| {
+            let ti = if i == 8 { t } else { last + h * f64::from(i) };
+            solver.step(ti).map(|_| ())
+        });
+        if stepped.is_ok() {
+            return Ok(());
+        }
+    }
+    Err(first)
 }
 
 /// The power of the smooth peak: ‖y‖₁₆ is within 16√N ≈ 1.2 (N = 360) of

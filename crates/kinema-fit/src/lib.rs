@@ -712,7 +712,7 @@ impl Fitter {
             let stepped = if i == 0 {
                 solver.assemble(t).map(|_| ())
             } else {
-                solver.step(t).map(|_| ())
+                eval::step_refined(&mut solver, times[i - 1], t)
             };
             stepped.map_err(|e| FitError::Model(format!("the fitted design at t = {t}: {e}")))?;
             system_outputs(&solver, &mut trace)?;

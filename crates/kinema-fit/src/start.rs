@@ -37,6 +37,9 @@ struct Problem<'a> {
     /// assemble on its branch.
     accepted: std::cell::RefCell<(Vec<f64>, Vec<f64>)>,
     evaluations: usize,
+    /// Whether a singular configuration where the check looks fails a
+    /// design ([`fit`]).
+    walls: bool,
 }
 
 impl Problem<'_> {
@@ -55,10 +58,11 @@ impl Problem<'_> {
         // Unknown times: within [−t_end, 3 t_end], and the targets visited
         // within one cycle (as the check asks).
         let cycle = self.plan.t_end;
+        let span_of_visits =
+            times.last().copied().unwrap_or(0.0) - times.first().copied().unwrap_or(0.0);
         let wild = self.plan.times_unknown()
             && (times.iter().any(|&t| !(-cycle..=3.0 * cycle).contains(&t))
-                || times.last().copied().unwrap_or(0.0) - times.first().copied().unwrap_or(0.0)
-                    > cycle * (1.0 + 1e-9));
+                || (self.walls && span_of_visits > cycle * (1.0 + 1e-9)));
         if wild {
             self.failed = Some(Failure::NotFinite { t: times[0] });
             return;
@@ -70,10 +74,10 @@ impl Problem<'_> {
             self.worker.start_at(p0, q0);
         }
         self.evaluations += 1;
-        let window = self.plan.singular_window(times, span);
+        let window = self.walls.then(|| self.plan.singular_window(times, span));
         match self
             .worker
-            .evaluate(self.plan, params, times, span, true, Some(window))
+            .evaluate(self.plan, params, times, span, true, window)
         {
             Ok(()) => {
                 self.failed = None;
@@ -151,9 +155,37 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 /// consecutive ones, each positive (p = exp u): the targets are visited in
 /// their order by construction (an order defect is then only a visit
 /// spanning more than one cycle, which the check rejects). A design whose
-/// times leave [−t_end, 3 t_end] or span more than a cycle is answered as
-/// a failed one (LM shrinks its step).
+/// times leave [−t_end, 3 t_end] — or, with the walls up, span more than a
+/// cycle — is answered as a failed one (LM shrinks its step).
 pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
+    // First free of walls: LM's path may cross designs with a singular
+    // configuration or targets spread over more than a cycle (the optimum
+    // is checked; an optimum on the edge, as a closed path's last point
+    // one turn after its first, is reached). If the optimum has a branch
+    // or order defect, again from the same start with the walls up: every
+    // design tried must be clear of them, so the optimum is by
+    // construction.
+    match fit_once(worker, plan, index, x0, false) {
+        Err(r)
+            if matches!(
+                r.reason,
+                Reason::Branch | Reason::FullTurn | Reason::Singular | Reason::Order
+            ) =>
+        {
+            fit_once(worker, plan, index, x0, true).map_err(|_| r)
+        }
+        result => result,
+    }
+}
+
+/// [`fit`] once, with or without the walls.
+fn fit_once(
+    worker: &mut Worker,
+    plan: &Plan,
+    index: usize,
+    x0: &[f64],
+    walls: bool,
+) -> StartResult {
     let k = plan.vary.len();
     let mut maps: Vec<Map> = plan.vary.iter().map(|v| v.map).collect();
     let mut start: Vec<f64> = x0[..k].to_vec();
@@ -182,6 +214,7 @@ pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) ->
         last_good: None,
         accepted: std::cell::RefCell::new((Vec::new(), Vec::new())),
         evaluations: 0,
+        walls,
     };
     problem.evaluate();
     if let Some(f) = problem.failed.take() {
@@ -412,6 +445,7 @@ mod tests {
             last_good: None,
             accepted: std::cell::RefCell::new((Vec::new(), Vec::new())),
             evaluations: 0,
+            walls: true,
         };
         problem.set_params(&u);
         let jacobian = problem.jacobian().unwrap();
