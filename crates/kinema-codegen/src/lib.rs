@@ -194,7 +194,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
     let sensitivities = chosen
         .as_ref()
-        .map(|c| sensitivity::items(c, &name, &params, &options.runtime));
+        .map(|c| sensitivity::items(c, &name, &params, (&options.runtime, options.chunk_nodes)));
     quote! {
         #item
         #inherent

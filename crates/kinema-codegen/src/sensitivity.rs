@@ -12,6 +12,7 @@ use kinema_model::{Derivation, SensitivityError};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
 
+use crate::cache::Cache;
 use crate::emit;
 
 /// Which params' sensitivities generated code evaluates.
@@ -121,9 +122,9 @@ struct Sizes {
 }
 
 impl Sizes {
-    fn inputs(&self) -> TokenStream {
+    fn inputs(&self, rt: &syn::Path) -> TokenStream {
         let Sizes { nc, nc2, .. } = self;
-        quote!(q: &[f64; #nc2], qd: &[f64; #nc2], qdd: &[f64; #nc], t: f64)
+        quote!(q: &[f64; #nc2], qd: &[f64; #nc2], qdd: &[f64; #nc], t: f64, scratch: &mut <Self as #rt::SensitivitySystem>::SensitivityScratch)
     }
 }
 
@@ -133,10 +134,47 @@ pub(crate) fn items(
     chosen: &Chosen,
     name: &Ident,
     params: &[Ident],
-    rt: &syn::Path,
+    (rt, chunk_nodes): (&syn::Path, usize),
 ) -> TokenStream {
     let d = &chosen.d;
     let a = &d.arena;
+    // sin and cos of the angles and the functions of time, cached in the
+    // scratch keyed on the exact values as the system's own cache is: every
+    // stage of every param reads the same state, so each is computed once
+    // per state, not once per stage and param (they were most of the cost).
+    let everything: Vec<ExprId> = chosen
+        .params
+        .iter()
+        .flat_map(|p| p.position.iter().chain(&p.velocity).chain(&p.acceleration))
+        .copied()
+        .chain(
+            d.outputs
+                .iter()
+                .flat_map(|o| o.jacobian.iter().map(|&(_, e)| e)),
+        )
+        .collect();
+    let cache = Cache::find(a, &everything);
+    let cache_name = format_ident!("{}SensitivityCache", name);
+    let (scratch_type, cache_items, new_scratch) = if cache.is_empty() {
+        (quote!(()), quote!(), quote!())
+    } else {
+        (
+            quote!(#cache_name),
+            cache.items(a, (&cache_name, params), chunk_nodes),
+            quote!(::core::default::Default::default()),
+        )
+    };
+    let lookup = |e| cache.lookup(e);
+    // The cache's refresh for `outputs`, then their statements.
+    let emit_body = |outputs: &[ExprId], target: &dyn Fn(usize) -> TokenStream| {
+        let (refresh, _, _) = cache.refresh(a, outputs);
+        let inputs = emit::Inputs {
+            params,
+            cached: &lookup,
+        };
+        let (body, _) = emit::body(a, outputs, target, &inputs);
+        quote!(#refresh #body)
+    };
     let nc = d.nc();
     let (n, m) = (d.phi.len(), d.outputs.len());
     let sizes = Sizes {
@@ -144,12 +182,7 @@ pub(crate) fn items(
         nc2: Literal::usize_unsuffixed(2 * nc),
         m: Literal::usize_unsuffixed(m),
     };
-    let no_cache = |_| None;
-    let inputs = emit::Inputs {
-        params,
-        cached: &no_cache,
-    };
-    let input_args = sizes.inputs();
+    let input_args = sizes.inputs(rt);
     let Sizes {
         nc: nc_lit,
         nc2: nc2_lit,
@@ -169,14 +202,14 @@ pub(crate) fn items(
     for (k, p) in chosen.params.iter().enumerate() {
         let kl = Literal::usize_unsuffixed(k);
         // Position: rhs = −Φ_p.
-        let (body, _) = emit::body(a, &p.position, &|i| emit::index(&rhs, i), &inputs);
+        let body = emit_body(&p.position, &|i| emit::index(&rhs, i));
         let f = format_ident!("__kinema_sensitivity_position_{}", k);
         helpers.push(quote! {
             fn #f(&self, #input_args, rhs: &mut [f64; #nc_lit]) {
                 #body
             }
         });
-        arms[0].push(quote!(#kl => self.#f(q, qd, qdd, t, rhs),));
+        arms[0].push(quote!(#kl => self.#f(q, qd, qdd, t, scratch, rhs),));
         // Velocity: rhs, then y_p.
         let target = |i: usize| {
             if i < n {
@@ -185,14 +218,14 @@ pub(crate) fn items(
                 emit::index(&dy, i - n)
             }
         };
-        let (body, _) = emit::body(a, &p.velocity, &target, &inputs);
+        let body = emit_body(&p.velocity, &target);
         let f = format_ident!("__kinema_sensitivity_velocity_{}", k);
         helpers.push(quote! {
             fn #f(&self, #input_args, rhs: &mut [f64; #nc_lit], dy: &mut [f64; #m_lit]) {
                 #body
             }
         });
-        arms[1].push(quote!(#kl => self.#f(q, qd, qdd, t, rhs, dy),));
+        arms[1].push(quote!(#kl => self.#f(q, qd, qdd, t, scratch, rhs, dy),));
         // Acceleration: rhs without q̈, ẏ_p, ÿ_p's rest, W into `w`, the
         // (y_p)_q into `c`; then the q̈ terms, in the entries' order.
         let nw = p.w.len();
@@ -209,7 +242,7 @@ pub(crate) fn items(
                 emit::index(&c, i - n - 2 * m - nw)
             }
         };
-        let (body, _) = emit::body(a, &p.acceleration, &target, &inputs);
+        let body = emit_body(&p.acceleration, &target);
         let locals = [(&w, nw), (&c, p.qdd.len())].map(|(name, len)| {
             if len == 0 {
                 quote!()
@@ -249,7 +282,7 @@ pub(crate) fn items(
                 #(#c_terms)*
             }
         });
-        arms[2].push(quote!(#kl => self.#f(q, qd, qdd, t, rhs, dyd, dydd),));
+        arms[2].push(quote!(#kl => self.#f(q, qd, qdd, t, scratch, rhs, dyd, dydd),));
     }
     // The s̈ terms of ÿ_p: y_q s̈, the same for every param.
     let mut jac = Vec::new();
@@ -260,7 +293,7 @@ pub(crate) fn items(
             jac.push(e);
         }
     }
-    let (body, _) = emit::body(a, &jac, &|i| emit::index(&j, i), &inputs);
+    let body = emit_body(&jac, &|i| emit::index(&j, i));
     let j_decl = if jac.is_empty() {
         quote!()
     } else {
@@ -345,9 +378,11 @@ pub(crate) fn items(
 
         #[allow(clippy::approx_constant)]
         impl #rt::SensitivitySystem for #name {
-            type SensitivityScratch = ();
+            type SensitivityScratch = #scratch_type;
 
-            fn sensitivity_scratch(&self) -> Self::SensitivityScratch {}
+            fn sensitivity_scratch(&self) -> Self::SensitivityScratch {
+                #new_scratch
+            }
 
             fn param_count(&self) -> usize {
                 #count
@@ -367,7 +402,7 @@ pub(crate) fn items(
 
             fn position_rhs(
                 &self,
-                _scratch: &mut Self::SensitivityScratch,
+                scratch: &mut Self::SensitivityScratch,
                 k: usize,
                 at: #rt::Augmented<'_>,
                 rhs: &mut [f64],
@@ -381,7 +416,7 @@ pub(crate) fn items(
 
             fn velocity_rhs(
                 &self,
-                _scratch: &mut Self::SensitivityScratch,
+                scratch: &mut Self::SensitivityScratch,
                 k: usize,
                 at: #rt::Augmented<'_>,
                 rhs: &mut [f64],
@@ -396,7 +431,7 @@ pub(crate) fn items(
 
             fn acceleration_rhs(
                 &self,
-                _scratch: &mut Self::SensitivityScratch,
+                scratch: &mut Self::SensitivityScratch,
                 k: usize,
                 at: #rt::Augmented<'_>,
                 rhs: &mut [f64],
@@ -412,7 +447,7 @@ pub(crate) fn items(
 
             fn acceleration_outputs(
                 &self,
-                _scratch: &mut Self::SensitivityScratch,
+                scratch: &mut Self::SensitivityScratch,
                 k: usize,
                 at: #rt::Augmented<'_>,
                 sdd: &[f64],
@@ -424,8 +459,10 @@ pub(crate) fn items(
                 }
                 #outputs
                 let Ok(sdd) = <&[f64; #nc_lit]>::try_from(sdd) else { return; };
-                self.__kinema_sensitivity_outputs(q, qd, qdd, t, sdd, dydd);
+                self.__kinema_sensitivity_outputs(q, qd, qdd, t, scratch, sdd, dydd);
             }
         }
+
+        #cache_items
     }
 }
