@@ -129,11 +129,14 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
         );
         return quote!(::core::compile_error!(#message););
     }
-    let chosen = match sensitivity::choose(d, &options.sensitivity) {
-        Ok(chosen) => chosen,
+    // A bad name is an error beside the rest of the items (generated
+    // without sensitivities), so code naming the type gets no follow-on
+    // errors.
+    let (chosen, sensitivity_error) = match sensitivity::choose(d, &options.sensitivity) {
+        Ok(chosen) => (chosen, quote!()),
         Err(e) => {
             let message = format!("mechanism `{}`: sensitivity: {e}", d.name);
-            return quote!(::core::compile_error!(#message););
+            (None, quote!(::core::compile_error!(#message);))
         }
     };
     let name = rust_ident(&type_name(&d.name));
@@ -196,6 +199,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
         .as_ref()
         .map(|c| sensitivity::items(c, &name, &params, (&options.runtime, options.chunk_nodes)));
     quote! {
+        #sensitivity_error
         #item
         #inherent
         #system
