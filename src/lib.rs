@@ -43,6 +43,10 @@ pub use kinema_runtime::{
     Undefined, diagnose, integrate, locate_undefined, point_kinematics, undefined_between,
     uniform_times,
 };
+/// Parameter sensitivities of any back end: generated code implements
+/// [`SensitivitySystem`] for the params it was generated with, and
+/// [`Solver::sensitivities`] fills [`Sensitivities`].
+pub use kinema_runtime::{Augmented, Sensitivities, SensitivitySystem};
 pub use kinema_runtime::{Motion, OutputKink, Outputs, Table};
 
 /// Static equilibrium of a system with inertia: the runtime's descent over
@@ -81,6 +85,7 @@ pub use kinema_tape::{
 /// What generated code refers to. Not public API: paths may change.
 #[doc(hidden)]
 pub mod __private {
+    pub use kinema_runtime::{Augmented, Sensitivities, SensitivitySystem};
     pub use kinema_runtime::{
         Auto, Body, DenseLu, DenseScratch, Dynamics, Error, ForwardStructure, ForwardSystem, Kink,
         LinalgError, LinearSolver, LinearSolverFor, Motion, Options, OutputKink, Outputs,

@@ -5,6 +5,9 @@
 
 use std::path::Path;
 
+#[path = "src/param_chain.rs"]
+mod param_chain;
+
 fn main() {
     let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
     for (file, out) in [
@@ -85,6 +88,33 @@ fn main() {
         }
         println!("cargo::rerun-if-changed=../../tests/forward_backends/{name}.kin");
     }
+    // Parameter sensitivities (benches/sensitivity.rs): the slider-crank
+    // and the chain N = 50 with params, every param's sensitivities
+    // generated.
+    let sensitivity = kinema_codegen::Config {
+        sensitivity: kinema_codegen::SensitivityParams::All,
+        ..kinema_codegen::Config::default()
+    };
+    let generated = kinema_codegen::build::generate_with(
+        models.join("slider_crank.kin"),
+        "slider_crank_sensitivity.rs",
+        &sensitivity,
+    )
+    .map(|_| ())
+    .map_err(|e| e.to_string())
+    .and_then(|()| {
+        let text = param_chain::chain_kin_params(50);
+        let d = kinema_codegen::build::derive_source(&text, "chain50_params.kin")
+            .map_err(|e| e.to_string())?;
+        let source = kinema_codegen::generate_source(&d, &sensitivity);
+        let path = Path::new(&out_dir).join("chain50_sensitivity.rs");
+        std::fs::write(&path, source).map_err(|e| format!("{}: {e}", path.display()))
+    });
+    if let Err(e) = generated {
+        eprintln!("{e}");
+        std::process::exit(1);
+    }
+    println!("cargo::rerun-if-changed=src/param_chain.rs");
     println!("cargo::rerun-if-changed=../../tests/dynamics/slider_crank.kin");
     println!("cargo::rerun-if-changed=build.rs");
 }

@@ -43,6 +43,23 @@ pub mod generated {
     }
 }
 
+/// Generated with every param's sensitivities (`SensitivitySystem`), for
+/// benches/sensitivity.rs.
+#[allow(missing_docs, clippy::all)]
+pub mod generated_sensitivity {
+    /// The benchmark slider-crank (models/slider_crank.kin): l1, l2, omega.
+    pub mod slider_crank {
+        include!(concat!(env!("OUT_DIR"), "/slider_crank_sensitivity.rs"));
+    }
+    /// The serial chain N = 50 with params l and a ([`chain_kin_params`]).
+    pub mod chain50 {
+        include!(concat!(env!("OUT_DIR"), "/chain50_sensitivity.rs"));
+    }
+}
+
+mod param_chain;
+pub use param_chain::chain_kin_params;
+
 /// Solvers with inertia generated at build time, for the inverse-dynamics
 /// benchmark (benches/dynamics.rs).
 #[allow(missing_docs, clippy::all)]

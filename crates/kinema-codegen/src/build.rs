@@ -34,6 +34,15 @@ pub enum Error {
     Model(Report),
     /// `OUT_DIR` is not set: not running inside a build script.
     NoOutDir,
+    /// The params [`Config::sensitivity`] names are not the model's (or
+    /// their derivatives are too large): the message names the model's
+    /// params.
+    Sensitivity {
+        /// The model file.
+        path: PathBuf,
+        /// Why.
+        source: kinema_model::SensitivityError,
+    },
 }
 
 impl fmt::Display for Error {
@@ -42,6 +51,9 @@ impl fmt::Display for Error {
             Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
             Error::Model(report) => f.write_str(report.render().trim_end()),
             Error::NoOutDir => f.write_str("OUT_DIR is not set (call this from a build script)"),
+            Error::Sensitivity { path, source } => {
+                write!(f, "{}: sensitivity: {source}", path.display())
+            }
         }
     }
 }
@@ -50,8 +62,9 @@ impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Error::Io { source, .. } => Some(source),
-            // The report is the message itself (Display), not a cause.
-            Error::Model(_) | Error::NoOutDir => None,
+            // The report (the sensitivity error) is the message itself
+            // (Display), not a cause.
+            Error::Model(_) | Error::NoOutDir | Error::Sensitivity { .. } => None,
         }
     }
 }
@@ -76,10 +89,18 @@ fn derive(source: Source) -> Result<Derivation, Error> {
 ///
 /// # Errors
 /// [`Error::Model`] if the file cannot be read (its size, UTF-8) or the
-/// model has errors.
+/// model has errors; [`Error::Sensitivity`] for params it does not have.
 pub fn source_for_file(model: impl AsRef<Path>, options: &Config) -> Result<String, Error> {
     let source = Source::read(model.as_ref()).map_err(Error::Model)?;
     let derivation = derive(source)?;
+    // Unknown param names are the build script's error, not a
+    // `compile_error!` in the file it writes.
+    if let Err(source) = crate::sensitivity::choose(&derivation, &options.sensitivity) {
+        return Err(Error::Sensitivity {
+            path: model.as_ref().to_path_buf(),
+            source,
+        });
+    }
     Ok(generate_source(&derivation, options))
 }
 

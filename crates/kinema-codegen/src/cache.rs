@@ -326,12 +326,16 @@ impl Cache {
                 cache
             }
         };
+        let name_text = name.to_string();
+        let (owner, role) = match name_text.strip_suffix("SensitivityCache") {
+            Some(owner) => (owner, "`SensitivitySystem::SensitivityScratch`"),
+            None => (name_text.trim_end_matches("Cache"), "`System::Scratch`"),
+        };
         let doc = format!(
-            " The scratch of [`{}`] (its `System::Scratch`): sin and cos of {} body \
+            " The scratch of [`{owner}`] (its {role}): sin and cos of {} body \
              angles (keyed on the exact angle), {} functions of time (keyed on the exact \
              t). It holds nothing that depends on parameters, so it never changes a result: \
              a clone or a default is as good as the original.",
-            name.to_string().trim_end_matches("Cache"),
             self.angles.len(),
             self.time.len()
         );

@@ -1,6 +1,8 @@
 //! Straight-line Rust from a schedule: every shared subexpression is bound
 //! once with `let`, single-use ones are inlined up to a depth limit.
 
+use std::collections::{BTreeMap, BTreeSet};
+
 use kinema_expr::{Arena, ExprId, Factor, NodeRef, Schedule, SymKind, UnaryOp};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -84,9 +86,32 @@ pub(crate) struct Used {
 struct Binder {
     statements: Vec<TokenStream>,
     large: bool,
+    /// Fractional powers `base.powf(p)` that several products of the body
+    /// read ([`repeated_powers`]), and where each is bound once computed:
+    /// a product's factors are not nodes of their own, so without this
+    /// each product called `powf` again (a distance's derivatives divide
+    /// by its square's 1.5th power in many entries). The same operation
+    /// on the same value: the same bits.
+    repeated: BTreeSet<(ExprId, u64)>,
+    powers: BTreeMap<(ExprId, u64), Code>,
 }
 
 impl Binder {
+    /// `base^p` (p > 0): bound once and reused when it is a repeated
+    /// fractional power, else [`raise`] inline.
+    fn power(&mut self, base: ExprId, code: &Code, p: f64) -> Code {
+        let key = (base, p.to_bits());
+        if !self.repeated.contains(&key) {
+            return raise(code, p);
+        }
+        if let Some(c) = self.powers.get(&key) {
+            return c.clone();
+        }
+        let c = self.bind(&raise(code, p).tokens);
+        self.powers.insert(key, c.clone());
+        c
+    }
+
     /// Binds `value` and returns the place that now holds it.
     fn bind(&mut self, value: &TokenStream) -> Code {
         let k = self.statements.len();
@@ -167,9 +192,12 @@ pub(crate) fn body(
     let mut used = Used::default();
     // Past `MAX_LETS` bindings, values live in one local array (see
     // `lu::MAX_LETS`); decided up front from the binding count.
+    let repeated = repeated_powers(arena, &schedule, inputs);
     let mut binder = Binder {
         statements: Vec::new(),
-        large: count_bindings(arena, &schedule, inputs) > crate::lu::MAX_LETS,
+        large: count_bindings(arena, &schedule, inputs) + repeated.len() > crate::lu::MAX_LETS,
+        repeated,
+        powers: BTreeMap::new(),
     };
     for (i, &n) in nodes.iter().enumerate() {
         if let Some(tokens) = (inputs.cached)(n) {
@@ -256,6 +284,36 @@ pub(crate) fn chunks(
     }
     ranges.push(start..outputs.len());
     ranges
+}
+
+/// The fractional powers (base, exponent's bits; not integers, not ½,
+/// which are `powi` and `sqrt`) that more than one product emitted from
+/// `schedule` raises a base to.
+fn repeated_powers(
+    arena: &Arena,
+    schedule: &Schedule,
+    inputs: &Inputs<'_>,
+) -> BTreeSet<(ExprId, u64)> {
+    let mut seen = BTreeSet::new();
+    let mut repeated = BTreeSet::new();
+    for &n in schedule.nodes() {
+        if (inputs.cached)(n).is_some() {
+            continue;
+        }
+        if let NodeRef::Mul { factors, .. } = arena.node(n) {
+            for f in factors {
+                let p = f.exp.abs();
+                if p.fract() == 0.0 || p == 0.5 || !p.is_finite() {
+                    continue;
+                }
+                let key = (f.base, p.to_bits());
+                if !seen.insert(key) {
+                    repeated.insert(key);
+                }
+            }
+        }
+    }
+    repeated
 }
 
 /// How many values [`body`] binds for `schedule`: the shared ones (the
@@ -484,7 +542,7 @@ fn product<'c>(
     binder: &mut Binder,
 ) -> Code {
     let depth = depth_of(factors.iter().map(|f| child(f.base)));
-    let power = |f: &Factor, p: f64| -> Code { raise(child(f.base), p) };
+    let mut power = |f: &Factor, p: f64| -> Code { binder.power(f.base, child(f.base), p) };
     let num: Vec<Code> = factors
         .iter()
         .filter(|f| f.exp > 0.0)

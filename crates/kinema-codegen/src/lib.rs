@@ -40,10 +40,12 @@ mod forward;
 mod lu;
 mod macro_input;
 mod outputs;
+mod sensitivity;
 
 pub mod build;
 
 pub use macro_input::{expand_macro, expand_macro_with};
+pub use sensitivity::SensitivityParams;
 
 use kinema_model::Derivation;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
@@ -75,6 +77,16 @@ pub struct Config {
     /// operations in the same order, values crossing between chunks through
     /// arrays).
     pub chunk_nodes: usize,
+    /// The params whose sensitivities (∂q/∂p, ∂q̇/∂p, ∂q̈/∂p and the
+    /// result columns') the generated code evaluates: it then implements
+    /// the runtime's `SensitivitySystem` for them
+    /// (`solver.sensitivities(&mut out)`) and has an index constant per
+    /// param column (`PARAM_L1`, in the order chosen) and
+    /// `SENSITIVITY_PARAMS`. Default: none (nothing generated). In
+    /// `mechanism!`: `mechanism!(file = "…", sensitivity = ["l1", "l2"])`
+    /// or `sensitivity = all`. An unknown name fails the expansion with
+    /// the model's params listed.
+    pub sensitivity: SensitivityParams,
 }
 
 impl Default for Config {
@@ -84,6 +96,7 @@ impl Default for Config {
             static_dense_limit: 24,
             static_lu: true,
             chunk_nodes: emit::CHUNK_NODES,
+            sensitivity: SensitivityParams::None,
         }
     }
 }
@@ -106,6 +119,26 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
         );
         return quote!(::core::compile_error!(#message););
     }
+    // Sensitivities are of the kinematics: a model with free degrees of
+    // freedom has none to generate.
+    if forward_only && options.sensitivity != SensitivityParams::None {
+        let message = format!(
+            "mechanism `{}` has NDOF = {}: sensitivities need NDOF = 0",
+            d.name,
+            d.dof.ndof()
+        );
+        return quote!(::core::compile_error!(#message););
+    }
+    // A bad name is an error beside the rest of the items (generated
+    // without sensitivities), so code naming the type gets no follow-on
+    // errors.
+    let (chosen, sensitivity_error) = match sensitivity::choose(d, &options.sensitivity) {
+        Ok(chosen) => (chosen, quote!()),
+        Err(e) => {
+            let message = format!("mechanism `{}`: sensitivity: {e}", d.name);
+            (None, quote!(::core::compile_error!(#message);))
+        }
+    };
     let name = rust_ident(&type_name(&d.name));
     let params: Vec<Ident> = d.params.iter().map(|p| rust_ident(&p.name)).collect();
     let jac_exprs: Vec<_> = d.phi_q.entries.iter().map(|e| e.expr).collect();
@@ -159,13 +192,19 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let (solver, lu_items) = solver_items(d, &name, options);
     let inherent = inherent_items(d, &name, &solver);
     let system = system_impl(d, (&name, &scratch), &params, &cache, options);
-    let outputs = outputs::items(d, &name, &params, &options.runtime);
+    let sensitivity_names = chosen.as_ref().map_or(&[][..], |c| c.names());
+    let outputs = outputs::items(d, &name, &params, sensitivity_names, &options.runtime);
     let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
+    let sensitivities = chosen
+        .as_ref()
+        .map(|c| sensitivity::items(c, &name, &params, (&options.runtime, options.chunk_nodes)));
     quote! {
+        #sensitivity_error
         #item
         #inherent
         #system
         #outputs
+        #sensitivities
         #dynamics
         #forward
         #cache_items

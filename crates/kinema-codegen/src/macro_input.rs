@@ -6,7 +6,12 @@
 //! ```text
 //! mechanism! { mechanism SliderCrank { … } }      // the model inline
 //! mechanism!(file = "models/slider_crank.kin")     // a model file (see `resolve`)
+//! mechanism!(file = "models/slider_crank.kin", sensitivity = ["l1", "l2"])
+//! mechanism!(file = "models/slider_crank.kin", sensitivity = all)
 //! ```
+//!
+//! `sensitivity` (file form) chooses the params whose sensitivities the
+//! generated code evaluates ([`Config::sensitivity`]).
 //! Errors become `compile_error!`s — all of them, each at its span (inline
 //! form) or at the file literal with the rendered `file:line:col` snippet
 //! (file form) — followed by a stub of the mechanism's type so that the
@@ -18,7 +23,7 @@ use kinema_model::{Derived, Parsed, Severity, Source};
 use proc_macro2::{Span, TokenStream, TokenTree};
 use quote::quote;
 
-use crate::{Config, expand};
+use crate::{Config, SensitivityParams, expand};
 
 /// Expands the macro input. Never fails: errors are returned as
 /// `compile_error!` tokens.
@@ -31,14 +36,77 @@ pub fn expand_macro(input: TokenStream) -> TokenStream {
 #[must_use]
 pub fn expand_macro_with(input: TokenStream, options: &Config) -> TokenStream {
     match file_form(&input) {
-        Some(Ok((path, span))) => expand_file(&path, span, options),
+        Some(Ok(form)) => {
+            let mut options = options.clone();
+            if let Some(sensitivity) = form.sensitivity {
+                options.sensitivity = sensitivity;
+            }
+            expand_file(&form.path, form.span, &options)
+        }
         Some(Err(e)) => e.to_compile_error(),
         None => expand_inline(input, options),
     }
 }
 
-/// `file = "…"` if that is the input's form.
-fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
+/// The file form's arguments.
+struct FileForm {
+    path: String,
+    span: Span,
+    sensitivity: Option<SensitivityParams>,
+}
+
+impl syn::parse::Parse for FileForm {
+    fn parse(input: syn::parse::ParseStream<'_>) -> syn::Result<Self> {
+        let lit: syn::LitStr = input.parse().map_err(|e| {
+            syn::Error::new(
+                e.span(),
+                "expected a string literal: `mechanism!(file = \"models/my_model.kin\")`",
+            )
+        })?;
+        let mut sensitivity = None;
+        while !input.is_empty() {
+            input.parse::<syn::Token![,]>()?;
+            if input.is_empty() {
+                break;
+            }
+            let key: syn::Ident = input.parse()?;
+            input.parse::<syn::Token![=]>()?;
+            if key != "sensitivity" || sensitivity.is_some() {
+                return Err(syn::Error::new(
+                    key.span(),
+                    format!(
+                        "unexpected `{key}`: the file form takes `file = \"…\"` and \
+                         optionally `sensitivity = [\"p1\", \"p2\"]` or `sensitivity = all`, once"
+                    ),
+                ));
+            }
+            sensitivity = Some(if input.peek(syn::token::Bracket) {
+                let content;
+                syn::bracketed!(content in input);
+                let names = content
+                    .parse_terminated(<syn::LitStr as syn::parse::Parse>::parse, syn::Token![,])?;
+                SensitivityParams::Named(names.iter().map(syn::LitStr::value).collect())
+            } else {
+                let all: syn::Ident = input.parse()?;
+                if all != "all" {
+                    return Err(syn::Error::new(
+                        all.span(),
+                        "expected `all` or a list of param names: `sensitivity = [\"l1\", \"l2\"]`",
+                    ));
+                }
+                SensitivityParams::All
+            });
+        }
+        Ok(FileForm {
+            path: lit.value(),
+            span: lit.span(),
+            sensitivity,
+        })
+    }
+}
+
+/// `file = "…"` (and its options) if that is the input's form.
+fn file_form(input: &TokenStream) -> Option<syn::Result<FileForm>> {
     let mut it = input.clone().into_iter();
     match (it.next(), it.next()) {
         (Some(TokenTree::Ident(i)), Some(TokenTree::Punct(p)))
@@ -46,16 +114,7 @@ fn file_form(input: &TokenStream) -> Option<syn::Result<(String, Span)>> {
         _ => return None,
     }
     let rest: TokenStream = it.collect();
-    Some(
-        syn::parse2::<syn::LitStr>(rest.clone())
-            .map(|lit| (lit.value(), lit.span()))
-            .map_err(|_| {
-                syn::Error::new_spanned(
-                    rest,
-                    "expected a string literal: `mechanism!(file = \"models/my_model.kin\")`",
-                )
-            }),
-    )
+    Some(syn::parse2::<FileForm>(rest))
 }
 
 fn expand_inline(input: TokenStream, options: &Config) -> TokenStream {

@@ -59,7 +59,7 @@ fn index_constants<'a>(
 /// The index constants of the coordinates and of the result columns (a
 /// result's also carries its declaration's doc comment), none that would
 /// clash with the type's own constants or with each other.
-fn constants(d: &Derivation) -> Vec<TokenStream> {
+fn constants(d: &Derivation, sensitivity: &[String]) -> Vec<TokenStream> {
     let mut taken: HashMap<String, usize> = [
         "COORDINATES",
         "COORDINATE_NAMES",
@@ -69,6 +69,7 @@ fn constants(d: &Derivation) -> Vec<TokenStream> {
         "DERIVATION",
         "OUTPUTS",
         "OUTPUT_NAMES",
+        "SENSITIVITY_PARAMS",
     ]
     .into_iter()
     .map(|s| (s.to_string(), 1))
@@ -100,9 +101,18 @@ fn constants(d: &Derivation) -> Vec<TokenStream> {
             },
         )
         .collect();
+    // The columns of the sensitivities (`Sensitivities::coordinates(k)`),
+    // in the order the params were chosen.
+    let params = index_constants(
+        "PARAM_",
+        sensitivity.iter().map(String::as_str),
+        "the sensitivities' column of the param",
+        &mut taken,
+    );
     coordinates
         .iter()
         .chain(&results)
+        .chain(&params)
         .map(|(c, k, doc)| {
             let k = Literal::usize_unsuffixed(*k);
             quote! { #[doc = #doc] pub const #c: usize = #k; }
@@ -213,11 +223,17 @@ fn write_results(d: &Derivation, params: &[Ident]) -> TokenStream {
 }
 
 /// The constants, `results` and the `Outputs` impl of the mechanism `name`.
-pub(crate) fn items(d: &Derivation, name: &Ident, params: &[Ident], rt: &syn::Path) -> TokenStream {
+pub(crate) fn items(
+    d: &Derivation,
+    name: &Ident,
+    params: &[Ident],
+    sensitivity: &[String],
+    rt: &syn::Path,
+) -> TokenStream {
     let m = d.outputs.len();
     let m_lit = Literal::usize_unsuffixed(m);
     let nc_lit = Literal::usize_unsuffixed(d.nc());
-    let consts = constants(d);
+    let consts = constants(d, sensitivity);
     let output_names = d.outputs.iter().map(|o| o.name.as_str());
     let write_results = write_results(d, params);
     let output_kink = crate::checks::output_kink(d, params, rt);

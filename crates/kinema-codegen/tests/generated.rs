@@ -1,7 +1,7 @@
 //! The generated source of the benchmark slider-crank, pinned (formatted with
 //! prettyplease), and structural properties every generated file must have.
 
-use kinema_codegen::{Config, build::source_for_file, expand};
+use kinema_codegen::{Config, SensitivityParams, build::source_for_file, expand};
 
 fn model(name: &str) -> String {
     format!("{}/../../models/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -154,4 +154,97 @@ fn raw_names_and_overflowed_exponents_generate() {
         kinema_codegen::build::derive_source(overflowing, "inf.kin").expect("model derives");
     let source = kinema_codegen::generate_source(&derivation, &Config::default());
     assert!(source.contains("powf(f64::INFINITY)"), "{source}");
+}
+
+/// The slider-crank with `sensitivity = ["l1", "l2"]`: what is added to
+/// its generated source (everything else is as without it), pinned — the
+/// parameter columns' constants and the `SensitivitySystem`.
+#[test]
+fn slider_crank_sensitivity_source() {
+    let plain =
+        source_for_file(model("slider_crank.kin"), &Config::default()).expect("model derives");
+    let options = Config {
+        sensitivity: SensitivityParams::Named(vec!["l1".into(), "l2".into()]),
+        ..Config::default()
+    };
+    let source = source_for_file(model("slider_crank.kin"), &options).expect("model derives");
+    // The added lines, in order: the source without them is the plain one.
+    let plain_lines: Vec<&str> = plain.lines().collect();
+    let mut added = Vec::new();
+    let mut k = 0;
+    for line in source.lines() {
+        if plain_lines.get(k) == Some(&line) {
+            k += 1;
+        } else {
+            added.push(line);
+        }
+    }
+    assert_eq!(
+        k,
+        plain_lines.len(),
+        "every line of the plain source is kept"
+    );
+    let added = added.join("\n");
+    assert!(added.contains("pub const PARAM_L1: usize = 0;"), "{added}");
+    assert!(added.contains("pub const PARAM_L2: usize = 1;"), "{added}");
+    assert!(!added.contains("PARAM_OMEGA"), "{added}");
+    insta::assert_snapshot!(added);
+}
+
+/// With every param's sensitivities the generated code still neither
+/// allocates nor panics by construction.
+#[test]
+fn sensitivity_code_neither_allocates_nor_panics_by_construction() {
+    let options = Config {
+        sensitivity: SensitivityParams::All,
+        ..Config::default()
+    };
+    for file in ["slider_crank.kin", "four_bar.kin", "parabola_follower.kin"] {
+        let source = source_for_file(model(file), &options).expect("model derives");
+        assert!(source.contains("SensitivitySystem for"), "{file}");
+        for forbidden in [
+            "Vec", "vec!", "Box", "unwrap()", "expect(", "panic!", "String", "format!",
+        ] {
+            assert!(
+                !source.contains(forbidden),
+                "{file}: generated code contains `{forbidden}`"
+            );
+        }
+    }
+}
+
+/// A name that is not a param: the build script's error names the model's
+/// params; the macro's is a `compile_error!` saying the same.
+#[test]
+fn unknown_sensitivity_params_are_errors() {
+    let options = Config {
+        sensitivity: SensitivityParams::Named(vec!["l9".into()]),
+        ..Config::default()
+    };
+    let err = source_for_file(model("slider_crank.kin"), &options)
+        .expect_err("l9 is not a param")
+        .to_string();
+    assert!(err.contains("no param named `l9`"), "{err}");
+    assert!(err.contains("l1, l2, omega"), "{err}");
+    let tokens = kinema_codegen::expand_macro(
+        format!(
+            "file = {:?}, sensitivity = [\"crank\"]",
+            model("slider_crank.kin")
+        )
+        .parse()
+        .expect("tokens"),
+    )
+    .to_string();
+    assert!(tokens.contains("compile_error"), "{tokens}");
+    assert!(
+        tokens.contains("`crank` is a body, not a param"),
+        "{tokens}"
+    );
+    let tokens = kinema_codegen::expand_macro(
+        format!("file = {:?}, sensitivity = some", model("slider_crank.kin"))
+            .parse()
+            .expect("tokens"),
+    )
+    .to_string();
+    assert!(tokens.contains("expected `all`"), "{tokens}");
 }

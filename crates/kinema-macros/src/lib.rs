@@ -28,6 +28,15 @@ use proc_macro::TokenStream;
 /// ```ignore
 /// kinema::mechanism!(file = "models/pendulum.kin");
 /// ```
+///
+/// With `sensitivity = ["l1", "l2"]` (or `sensitivity = all`) after the
+/// file, the generated type also evaluates those params' sensitivities
+/// (`kinema::SensitivitySystem`, `Solver::sensitivities`) and has a
+/// `PARAM_…` constant per param column:
+///
+/// ```ignore
+/// kinema::mechanism!(file = "models/slider_crank.kin", sensitivity = ["l1", "l2"]);
+/// ```
 #[proc_macro]
 pub fn mechanism(input: TokenStream) -> TokenStream {
     kinema_codegen::expand_macro(input.into()).into()

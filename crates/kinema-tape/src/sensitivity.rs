@@ -26,29 +26,32 @@
 use kinema_expr::{ExprId, Tape, TapeInputs};
 use kinema_model::{Derivation, ParamSensitivity, SensitivityError};
 use kinema_runtime::linalg::LinearSolver;
+use kinema_runtime::sensitivity::{Augmented, Sensitivities, SensitivitySystem};
 use kinema_runtime::{Error, Solver};
 
 use crate::model::{Model, TapeSystem};
 
 /// The compiled sensitivity systems of some params of a model, and the
-/// buffers their values are computed in ([`Sensitivity::compute`]).
+/// buffers their values are computed in ([`Sensitivity::compute`]): the
+/// runtime's one algorithm ([`Solver::sensitivities_of`]) over the tapes
+/// ([`Tapes`], its [`SensitivitySystem`]).
 #[derive(Clone, Debug)]
 pub struct Sensitivity {
+    tapes: Tapes,
+    values: Sensitivities<Tapes>,
+}
+
+/// The tapes of every param, and the system's parameter values they read:
+/// the tape back end's [`SensitivitySystem`].
+#[derive(Clone, Debug)]
+struct Tapes {
     names: Vec<String>,
     params: Vec<Level>,
-    /// Coordinates and result columns.
+    /// Coordinates, rows of Φ, result columns.
     nc: usize,
+    n: usize,
     m: usize,
-    /// The augmented inputs [q; s] and [q̇; ṡ] (module docs of
-    /// [`kinema_model::sensitivity`]), and the system's parameter values.
-    q: Vec<f64>,
-    qd: Vec<f64>,
     param_values: Vec<f64>,
-    /// Per param, ∂q/∂p, ∂q̇/∂p, ∂q̈/∂p (nc each) then ∂y/∂p, ∂ẏ/∂p,
-    /// ∂ÿ/∂p (m each).
-    values: Vec<f64>,
-    /// Φ_q s̈'s right-hand side, then solution.
-    rhs: Vec<f64>,
 }
 
 /// One param's three tapes, one per level: each reads the solutions of the
@@ -71,9 +74,6 @@ struct Level {
     /// coefficients (y_p)_q, then of y_q (the s̈ coefficients).
     qdd: Vec<Vec<(usize, usize)>>,
     sdd: Vec<Vec<(usize, usize)>>,
-    /// Registers of each tape (kept apart: `velocity`'s outputs are read
-    /// after `acceleration` ran).
-    registers: [Vec<f64>; 3],
 }
 
 impl Level {
@@ -127,7 +127,6 @@ impl Level {
             Tape::compile(a, &velocity),
             Tape::compile(a, &acceleration),
         ];
-        let registers = [0, 1, 2].map(|i| vec![0.0; tapes[i].registers()]);
         let [position, velocity, acceleration] = tapes;
         Level {
             position,
@@ -137,7 +136,6 @@ impl Level {
             w_base,
             qdd,
             sdd,
-            registers,
         }
     }
 }
@@ -156,20 +154,16 @@ impl Model {
     pub fn sensitivity(&self, params: &[&str]) -> Result<Sensitivity, SensitivityError> {
         let mut d = self.derivation().clone();
         let s = d.sensitivities(params)?;
-        let nc = d.nc();
-        let m = d.outputs.len();
-        let n = d.phi.len();
-        Ok(Sensitivity {
+        let tapes = Tapes {
             names: s.params.iter().map(|p| p.name.clone()).collect(),
             params: s.params.iter().map(|p| Level::new(&d, p)).collect(),
-            nc,
-            m,
-            q: vec![0.0; 2 * nc],
-            qd: vec![0.0; 2 * nc],
+            nc: d.nc(),
+            n: d.phi.len(),
+            m: d.outputs.len(),
             param_values: d.param_values(),
-            values: vec![0.0; s.params.len() * 3 * (nc + m)],
-            rhs: vec![0.0; n],
-        })
+        };
+        let values = Sensitivities::new(&tapes);
+        Ok(Sensitivity { tapes, values })
     }
 }
 
@@ -177,7 +171,7 @@ impl Sensitivity {
     /// The params, in the order asked for.
     #[must_use]
     pub fn params(&self) -> &[String] {
-        &self.names
+        &self.tapes.names
     }
 
     /// Computes every param's sensitivities at the solver's current state
@@ -197,10 +191,7 @@ impl Sensitivity {
         &mut self,
         solver: &mut Solver<TapeSystem, L>,
     ) -> Result<(), Error> {
-        let (nc, m) = (self.nc, self.m);
-        let Some(state) = solver.state() else {
-            return Err(Error::Setup(kinema_runtime::LinalgError::NotFactored));
-        };
+        let tapes = &mut self.tapes;
         let dimension = |what, expected, found| {
             Error::Setup(kinema_runtime::LinalgError::Dimension {
                 what,
@@ -208,106 +199,23 @@ impl Sensitivity {
                 found,
             })
         };
-        if state.q().len() != nc {
-            return Err(dimension("coordinates of the system", nc, state.q().len()));
-        }
-        if self.rhs.len() != nc {
+        if tapes.n != tapes.nc {
             return Err(dimension(
                 "equations of the model (sensitivities need NDOF = 0)",
-                nc,
-                self.rhs.len(),
+                tapes.nc,
+                tapes.n,
             ));
         }
         let params = solver.system().params();
-        if params.len() != self.param_values.len() {
+        if params.len() != tapes.param_values.len() {
             return Err(dimension(
                 "params of the system",
-                self.param_values.len(),
+                tapes.param_values.len(),
                 params.len(),
             ));
         }
-        self.param_values.copy_from_slice(params);
-        let t = state.t();
-        self.q[..nc].copy_from_slice(state.q());
-        self.qd[..nc].copy_from_slice(state.qd());
-        let stride = 3 * (nc + m);
-        for (k, level) in self.params.iter_mut().enumerate() {
-            let out = &mut self.values[k * stride..(k + 1) * stride];
-            let (coords, results) = out.split_at_mut(3 * nc);
-            let (ds, rest) = coords.split_at_mut(nc);
-            let (dsd, dsdd) = rest.split_at_mut(nc);
-            // The current state: a solve below may not move it, but its
-            // q̈ is read after the solves borrowed the solver.
-            let qdd = solver.state().map_or(&[][..], |s| s.qdd());
-            if qdd.len() != nc {
-                return Err(dimension("accelerations of the state", nc, qdd.len()));
-            }
-            dsdd.copy_from_slice(qdd);
-            // Position: Φ_q s = −Φ_p.
-            let inputs = TapeInputs {
-                q: &self.q,
-                qd: &self.qd,
-                params: &self.param_values,
-                t,
-            };
-            eval_into(&level.position, &inputs, &mut level.registers[0], ds, -1.0);
-            solver.solve_at_state(ds)?;
-            self.q[nc..].copy_from_slice(ds);
-            // Velocity: Φ_q ṡ = rhs; with y_p, W, (y_p)_q and y_q.
-            let inputs = TapeInputs {
-                q: &self.q,
-                qd: &self.qd,
-                params: &self.param_values,
-                t,
-            };
-            let v = run(&level.velocity, &inputs, &mut level.registers[1]);
-            let n = self.rhs.len();
-            dsd.copy_from_slice(v.get(..n).unwrap_or(&[]));
-            if v.len() < n {
-                dsd.fill(f64::NAN);
-            }
-            solver.solve_at_state(dsd)?;
-            self.qd[nc..].copy_from_slice(dsd);
-            let (dy, rest) = results.split_at_mut(m);
-            let (dyd, dydd) = rest.split_at_mut(m);
-            for (i, y) in dy.iter_mut().enumerate() {
-                *y = v.get(n + i).copied().unwrap_or(f64::NAN);
-            }
-            // Acceleration: Φ_q s̈ = rhs − W q̈.
-            let inputs = TapeInputs {
-                q: &self.q,
-                qd: &self.qd,
-                params: &self.param_values,
-                t,
-            };
-            let [_, velocity_registers, acceleration_registers] = &mut level.registers;
-            let v: &[f64] = velocity_registers;
-            let v = v.get(..level.velocity.outputs()).unwrap_or(&[]);
-            let a = run(&level.acceleration, &inputs, acceleration_registers);
-            let rhs = &mut self.rhs;
-            for (i, r) in rhs.iter_mut().enumerate() {
-                *r = a.get(i).copied().unwrap_or(f64::NAN);
-            }
-            for (j, &(row, col)) in level.w.iter().enumerate() {
-                let w = v.get(level.w_base + j).copied().unwrap_or(f64::NAN);
-                rhs[row] -= w * dsdd[col];
-            }
-            solver.solve_at_state(rhs)?;
-            // ÿ_p = y_q s̈ + (y_p)_q q̈ + c, with dsdd still q̈ here.
-            for i in 0..m {
-                dyd[i] = a.get(n + i).copied().unwrap_or(f64::NAN);
-                let c = a.get(n + m + i).copied().unwrap_or(f64::NAN);
-                let q_terms = level.qdd[i].iter().fold(0.0, |acc, &(col, j)| {
-                    acc + v.get(j).copied().unwrap_or(f64::NAN) * dsdd[col]
-                });
-                let s_terms = level.sdd[i].iter().fold(0.0, |acc, &(col, j)| {
-                    acc + v.get(j).copied().unwrap_or(f64::NAN) * rhs[col]
-                });
-                dydd[i] = c + q_terms + s_terms;
-            }
-            dsdd.copy_from_slice(rhs);
-        }
-        Ok(())
+        tapes.param_values.copy_from_slice(params);
+        solver.sensitivities_of(&*tapes, &mut self.values)
     }
 
     /// ∂q/∂p, ∂q̇/∂p, ∂q̈/∂p for the `k`-th param asked for, at the state
@@ -317,10 +225,7 @@ impl Sensitivity {
     /// If `k` is not below the number of params asked for.
     #[must_use]
     pub fn coordinates(&self, k: usize) -> [&[f64]; 3] {
-        let nc = self.nc;
-        let base = k * 3 * (nc + self.m);
-        let c = &self.values[base..base + 3 * nc];
-        [&c[..nc], &c[nc..2 * nc], &c[2 * nc..]]
+        self.values.coordinates(k)
     }
 
     /// ∂y/∂p, ∂ẏ/∂p, ∂ÿ/∂p of every result column (named points'
@@ -333,10 +238,157 @@ impl Sensitivity {
     /// If `k` is not below the number of params asked for.
     #[must_use]
     pub fn outputs(&self, k: usize) -> [&[f64]; 3] {
-        let (nc, m) = (self.nc, self.m);
-        let base = k * 3 * (nc + m) + 3 * nc;
-        let c = &self.values[base..base + 3 * m];
-        [&c[..m], &c[m..2 * m], &c[2 * m..]]
+        self.values.outputs(k)
+    }
+}
+
+impl Tapes {
+    /// The tapes' inputs at `at`, with the system's parameter values.
+    fn inputs<'a>(&'a self, at: &Augmented<'a>) -> TapeInputs<'a> {
+        TapeInputs {
+            q: at.q,
+            qd: at.qd,
+            params: &self.param_values,
+            t: at.t,
+        }
+    }
+}
+
+/// Registers of each param's three tapes (kept apart: `velocity`'s outputs
+/// — W, the q̈ and s̈ coefficients — are read after `acceleration` ran).
+type Registers = Vec<[Vec<f64>; 3]>;
+
+impl SensitivitySystem for Tapes {
+    type SensitivityScratch = Registers;
+
+    fn sensitivity_scratch(&self) -> Registers {
+        self.params
+            .iter()
+            .map(|l| [&l.position, &l.velocity, &l.acceleration].map(|t| vec![0.0; t.registers()]))
+            .collect()
+    }
+
+    fn param_count(&self) -> usize {
+        self.params.len()
+    }
+
+    fn param_name(&self, k: usize) -> &str {
+        self.names.get(k).map_or("", String::as_str)
+    }
+
+    fn coordinate_count(&self) -> usize {
+        self.nc
+    }
+
+    fn result_count(&self) -> usize {
+        self.m
+    }
+
+    fn position_rhs(&self, scratch: &mut Registers, k: usize, at: Augmented<'_>, rhs: &mut [f64]) {
+        let (Some(level), Some(registers)) = (self.params.get(k), scratch.get_mut(k)) else {
+            rhs.fill(f64::NAN);
+            return;
+        };
+        let inputs = self.inputs(&at);
+        eval_into(&level.position, &inputs, &mut registers[0], rhs, -1.0);
+    }
+
+    fn velocity_rhs(
+        &self,
+        scratch: &mut Registers,
+        k: usize,
+        at: Augmented<'_>,
+        rhs: &mut [f64],
+        dy: &mut [f64],
+    ) {
+        let (Some(level), Some(registers)) = (self.params.get(k), scratch.get_mut(k)) else {
+            rhs.fill(f64::NAN);
+            dy.fill(f64::NAN);
+            return;
+        };
+        let inputs = self.inputs(&at);
+        let v = run(&level.velocity, &inputs, &mut registers[1]);
+        let n = self.n;
+        for (i, r) in rhs.iter_mut().enumerate() {
+            *r = if i < n { v.get(i) } else { None }
+                .copied()
+                .unwrap_or(f64::NAN);
+        }
+        for (i, y) in dy.iter_mut().enumerate() {
+            *y = v.get(n + i).copied().unwrap_or(f64::NAN);
+        }
+    }
+
+    fn acceleration_rhs(
+        &self,
+        scratch: &mut Registers,
+        k: usize,
+        at: Augmented<'_>,
+        rhs: &mut [f64],
+        dyd: &mut [f64],
+        dydd: &mut [f64],
+    ) {
+        let (Some(level), Some(registers)) = (self.params.get(k), scratch.get_mut(k)) else {
+            rhs.fill(f64::NAN);
+            dyd.fill(f64::NAN);
+            dydd.fill(f64::NAN);
+            return;
+        };
+        let (n, m) = (self.n, self.m);
+        let inputs = self.inputs(&at);
+        let [_, velocity_registers, acceleration_registers] = registers;
+        let v: &[f64] = velocity_registers;
+        let v = v.get(..level.velocity.outputs()).unwrap_or(&[]);
+        let a = run(&level.acceleration, &inputs, acceleration_registers);
+        let qdd = at.qdd;
+        let at_q = |col: usize| qdd.get(col).copied().unwrap_or(f64::NAN);
+        for (i, r) in rhs.iter_mut().enumerate() {
+            *r = if i < n { a.get(i) } else { None }
+                .copied()
+                .unwrap_or(f64::NAN);
+        }
+        for (j, &(row, col)) in level.w.iter().enumerate() {
+            let w = v.get(level.w_base + j).copied().unwrap_or(f64::NAN);
+            if let Some(r) = rhs.get_mut(row) {
+                *r -= w * at_q(col);
+            }
+        }
+        // ÿ_p = y_q s̈ + (y_p)_q q̈ + c: here c and the q̈ terms.
+        for (i, (yd, ydd)) in dyd.iter_mut().zip(dydd.iter_mut()).enumerate() {
+            *yd = a.get(n + i).copied().unwrap_or(f64::NAN);
+            let c = a.get(n + m + i).copied().unwrap_or(f64::NAN);
+            let q_terms = level.qdd.get(i).map_or(f64::NAN, |row| {
+                row.iter().fold(0.0, |acc, &(col, j)| {
+                    acc + v.get(j).copied().unwrap_or(f64::NAN) * at_q(col)
+                })
+            });
+            *ydd = c + q_terms;
+        }
+    }
+
+    fn acceleration_outputs(
+        &self,
+        scratch: &mut Registers,
+        k: usize,
+        _at: Augmented<'_>,
+        sdd: &[f64],
+        dydd: &mut [f64],
+    ) {
+        let (Some(level), Some(registers)) = (self.params.get(k), scratch.get(k)) else {
+            dydd.fill(f64::NAN);
+            return;
+        };
+        let v: &[f64] = &registers[1];
+        let v = v.get(..level.velocity.outputs()).unwrap_or(&[]);
+        for (i, ydd) in dydd.iter_mut().enumerate() {
+            let s_terms = level.sdd.get(i).map_or(f64::NAN, |row| {
+                row.iter().fold(0.0, |acc, &(col, j)| {
+                    acc + v.get(j).copied().unwrap_or(f64::NAN)
+                        * sdd.get(col).copied().unwrap_or(f64::NAN)
+                })
+            });
+            *ydd += s_terms;
+        }
     }
 }
 

@@ -23,6 +23,7 @@ mod closed;
 mod monitor;
 mod passage;
 mod rates;
+mod sensitivity;
 mod step;
 mod undefined;
 

@@ -199,7 +199,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
 
     /// Makes the LU that of Φ_q at the current state: the step's when it
     /// is current, else evaluated and factored again.
-    fn factor_at_state(&mut self) -> Result<(), Error> {
+    pub(super) fn factor_at_state(&mut self) -> Result<(), Error> {
         if !self.assembled {
             return Err(Error::Setup(LinalgError::NotFactored));
         }
