@@ -144,8 +144,8 @@ impl Model {
     /// The sensitivities of this model's solution and result columns with
     /// respect to the params `params` (in that order), derived
     /// symbolically and compiled to tapes; compute them after each solver
-    /// step with [`Sensitivity::compute`]. Kinematic only: λ, reactions
-    /// and efforts have none yet.
+    /// step with [`Sensitivity::compute`]. For λ, reactions and efforts
+    /// (a model with inertia), see [`Model::dynamics_sensitivity`].
     ///
     /// # Errors
     /// A name that is not a param of the model or is named twice (the
