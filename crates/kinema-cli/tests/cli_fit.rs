@@ -4,6 +4,8 @@
 //! that names the cause; a fit whose starts all fail says so with the
 //! counts (exit status 1).
 
+#![allow(clippy::unwrap_used)] // tests: a failure should stop the test
+
 mod common;
 use common::*;
 

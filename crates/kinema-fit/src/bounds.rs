@@ -153,6 +153,7 @@ impl Map {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests: a failure should stop the test
 mod tests {
     use super::*;
 

@@ -515,6 +515,7 @@ fn sensitivity(sens: &Sensitivity, j: usize, column: &Column) -> f64 {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests: a failure should stop the test
 mod tests {
     use super::*;
     use crate::{Objective, Spec, Targets};

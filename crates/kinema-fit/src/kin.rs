@@ -7,6 +7,9 @@ use std::fmt;
 use kinema_model::ParsedModel;
 use kinema_model::syntax::Item;
 
+/// A configuration by coordinate name (`crank.x`, a `coord`'s own name).
+pub(crate) type Guesses<'a> = &'a dyn Fn(&str) -> Option<f64>;
+
 /// Why a fitted model's text cannot be written.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FittedKinError(String);
@@ -37,7 +40,7 @@ pub fn fitted_kin(source: &str, values: &[(String, f64)]) -> Result<String, Fitt
 pub(crate) fn write(
     source: &str,
     values: &[(String, f64)],
-    guesses: Option<&dyn Fn(&str) -> Option<f64>>,
+    guesses: Option<Guesses<'_>>,
 ) -> Result<String, FittedKinError> {
     let parsed = ParsedModel::parse_str(source).map_err(|d| {
         FittedKinError(format!(
@@ -227,6 +230,7 @@ fn next_code(s: &str, from: usize, c: char) -> Option<usize> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests: a failure should stop the test
 mod tests {
     use super::*;
 

@@ -372,18 +372,34 @@ pub struct Design {
     start_t: f64,
 }
 
+/// What a start's fit ended at, for [`Design::new`].
+pub(crate) struct Fitted<'a> {
+    /// The start's index.
+    pub(crate) start: usize,
+    pub(crate) params: &'a [f64],
+    pub(crate) times: &'a [f64],
+    /// The fit's residuals (targets, then objectives).
+    pub(crate) residuals: &'a [f64],
+    /// Each objective's value over the cycle.
+    pub(crate) objective_values: &'a [f64],
+    /// q at the first time of its runs.
+    pub(crate) start_q: &'a [f64],
+    pub(crate) evaluations: usize,
+    pub(crate) termination: &'a str,
+}
+
 impl Design {
-    fn new(
-        plan: &Plan,
-        start: usize,
-        params: &[f64],
-        times: &[f64],
-        residuals: &[f64],
-        objective_values: &[f64],
-        start_q: &[f64],
-        evaluations: usize,
-        termination: &str,
-    ) -> Design {
+    fn new(plan: &Plan, fitted: &Fitted<'_>) -> Design {
+        let Fitted {
+            start,
+            params,
+            times,
+            residuals,
+            objective_values,
+            start_q,
+            evaluations,
+            termination,
+        } = *fitted;
         let n = plan.target_residuals();
         let targets = &residuals[..n];
         let rms = (targets.iter().map(|r| r * r).sum::<f64>() / n.max(1) as f64).sqrt();

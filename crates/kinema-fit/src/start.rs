@@ -9,7 +9,7 @@ use lm_nalgebra::{DMatrix, DVector, Dyn, Owned};
 use crate::bounds::Map;
 use crate::eval::{Failure, Worker};
 use crate::plan::Plan;
-use crate::{Design, Reason, Rejection};
+use crate::{Design, Fitted, Reason, Rejection};
 
 /// A start's outcome: a design that passed the checks, or why not.
 pub(crate) type StartResult = Result<Design, Rejection>;
@@ -218,7 +218,7 @@ fn fit_once(
     };
     problem.evaluate();
     if let Some(f) = problem.failed.take() {
-        return Err(rejection(index, &f, plan));
+        return Err(rejection(index, &f));
     }
     let lm = LevenbergMarquardt::new()
         .with_ftol(1e-14)
@@ -231,7 +231,7 @@ fn fit_once(
     let u = problem.u.clone();
     problem.set_params(&u);
     if let Some(f) = problem.failed.take() {
-        return Err(rejection(index, &f, plan));
+        return Err(rejection(index, &f));
     }
     let evaluations = problem.evaluations;
     let p0 = problem.x[..k].to_vec();
@@ -307,7 +307,7 @@ fn check(
     let span = plan.check_span(times);
     worker.start_at(params, q0);
     if let Err(f) = worker.evaluate(plan, params, times, span, false, None) {
-        return Err(rejection(index, &f, plan));
+        return Err(rejection(index, &f));
     }
     let first = times.iter().copied().fold(f64::INFINITY, f64::min);
     let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -339,19 +339,20 @@ fn check(
     let objectives = worker.objective_values(plan);
     Ok(Design::new(
         plan,
-        index,
-        params,
-        times,
-        &residuals,
-        &objectives,
-        q0,
-        evaluations,
-        termination,
+        &Fitted {
+            start: index,
+            params,
+            times,
+            residuals: &residuals,
+            objective_values: &objectives,
+            start_q: q0,
+            evaluations,
+            termination,
+        },
     ))
 }
 
-fn rejection(start: usize, f: &Failure, plan: &Plan) -> Rejection {
-    let _ = plan;
+fn rejection(start: usize, f: &Failure) -> Rejection {
     match f {
         Failure::Assembly { t, why } => Rejection {
             start,
@@ -382,6 +383,7 @@ fn running_sums(parts: &[f64], out: &mut Vec<f64>) {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests: a failure should stop the test
 mod tests {
     use super::*;
     use crate::{Spec, Targets};

@@ -301,6 +301,7 @@ fn parse_number(field: &str) -> Result<f64, String> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)] // tests: a failure should stop the test
 mod tests {
     use super::*;
 

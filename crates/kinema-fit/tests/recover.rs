@@ -4,6 +4,8 @@
 //! coupler path with and without its timing, a six-bar's, a function
 //! generator's — and a target no design can meet ends in a report.
 
+#![allow(clippy::unwrap_used)] // tests: a failure should stop the test
+
 use kinema::Model;
 use kinema_fit::{Bound, FitError, Fitter, Spec, Targets};
 

@@ -34,7 +34,8 @@ pub fn fit(args: &FitArgs) -> Result<(), Failure> {
     let format = format_of(&args.model)?;
     let loaded = load(&args.model, None)?;
     loaded.print_warnings();
-    let targets = Targets::read(&args.target).map_err(|e| Failure::usage(e))?;
+    let targets = Targets::read(&args.target).map_err(Failure::usage)?;
+    let plot_targets = args.plot.as_ref().map(|_| targets.clone());
     let bounds = args
         .bounds
         .iter()
@@ -148,11 +149,11 @@ pub fn fit(args: &FitArgs) -> Result<(), Failure> {
         })?;
         file.commit()?;
     }
-    if let Some(file) = plot_file {
+    if let (Some(file), Some(targets)) = (plot_file, plot_targets) {
         let trace = fitter
             .trace(best, 4)
             .map_err(|e| Failure::analysis(format_args!("--plot: {e}")))?;
-        let svg = plot::draw(&trace, fitter_targets(&fitter, args)?, best)
+        let svg = plot::draw(&trace, targets, best)
             .map_err(|e| Failure::analysis(format_args!("--plot: {e}")))?;
         let mut file = file;
         file.write_all(svg.as_bytes()).map_err(|e| {
@@ -176,11 +177,6 @@ pub fn fit(args: &FitArgs) -> Result<(), Failure> {
         }
     ));
     Ok(())
-}
-
-/// The target table again, for the plot (it was checked already).
-fn fitter_targets(_fitter: &Fitter, args: &FitArgs) -> Result<Targets, Failure> {
-    Targets::read(&args.target).map_err(|e| Failure::usage(e))
 }
 
 /// Numbers for people: six significant digits.
