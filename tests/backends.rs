@@ -29,6 +29,12 @@ mod generated {
     pub mod jansen {
         kinema::mechanism!(file = "models/jansen.kin");
     }
+    pub mod path_generation {
+        kinema::mechanism!(file = "models/path_generation.kin");
+    }
+    pub mod function_generation {
+        kinema::mechanism!(file = "models/function_generation.kin");
+    }
     pub mod change_point {
         kinema::mechanism!(file = "tests/singular/change_point.kin");
     }
@@ -233,6 +239,24 @@ fn jansen_generated_and_tape_agree() {
 }
 
 #[test]
+fn synthesis_examples_generated_and_tape_agree() {
+    let generated = run(generated::path_generation::PathGeneration::default());
+    assert_agree(
+        "path generation: generated vs tape",
+        &generated,
+        &tape("models/path_generation.kin"),
+        1e-12,
+    );
+    let generated = run(generated::function_generation::FunctionGeneration::default());
+    assert_agree(
+        "function generation: generated vs tape",
+        &generated,
+        &tape("models/function_generation.kin"),
+        1e-12,
+    );
+}
+
+#[test]
 fn translational_slider_crank_generated_and_tape_agree() {
     let generated = run(generated::slider_crank_translational::SliderCrankTranslational::default());
     assert_agree(
@@ -395,8 +419,10 @@ fn every_model_file_has_a_generated_counterpart_here() {
             // eccentric_cam, roller_cam, scotch_yoke: tests/followers.rs
             "eccentric_cam.kin",
             "four_bar.kin",
+            "function_generation.kin",
             "jansen.kin",
             "parabola_follower.kin",
+            "path_generation.kin",
             "pendulum.kin",
             "roller_cam.kin",
             "scotch_yoke.kin",
