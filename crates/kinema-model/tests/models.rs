@@ -66,6 +66,14 @@ fn dof_reports() {
             "roller_cam.kin",
             "nc = 8, kinematic equations = 7, drivers = 1, KDOF = 1, NDOF = 0",
         ),
+        (
+            "path_generation.kin",
+            "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
+        (
+            "function_generation.kin",
+            "nc = 9, kinematic equations = 8, drivers = 1, KDOF = 1, NDOF = 0",
+        ),
     ];
     for (name, want) in expect {
         assert_eq!(dof(name), want, "{name}");
