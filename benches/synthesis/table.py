@@ -1,11 +1,16 @@
-"""The synthesis benchmark's table (BENCHMARKS.md): per problem, kinema fit's
-best defect-free error (the literature's measure, the sum of squared
-differences, from each variant's --summary: rms² × target values) and the
-wall time of all its variants, the best published defect-free error, and
-pylinkage's best error and its time to reach it; then how long kinema took
-against pylinkage's time to the error pylinkage reached.
+"""The synthesis benchmark's table (BENCHMARKS.md), from run.sh's results/.
 
-Run by run.sh after both sides; reads results/."""
+Per problem: kinema fit's best defect-free error with run.sh's starts (the
+literature's measure, the sum of squared differences: each variant's
+--summary rms² × the target values; the best over the variants) and the
+wall time of all its variants; the best published defect-free error;
+pylinkage's best error (its better method) and its time to reach it,
+from below — when it first reached the smallest decade at or above its
+best (its recorded levels), else its wall time, marked ≤; kinema's time to
+reach the same or better error — the smallest rung of the ladder (1, 2,
+4, … starts per variant) whose best design is at or below pylinkage's
+best, the variants' times summed; and the ratio of the two times.
+"""
 import csv
 import json
 import os
@@ -22,63 +27,74 @@ PUBLISHED = {"straight6": 4.067e-12, "arc5": 1.284e-6, "closed18": 0.0160777,
              "log10": 8.58e-4}  # log10: Freudenstein baseline, not published
 
 
-def kinema():
-    times = {}
-    with open(os.path.join(RES, "kinema_times.txt")) as f:
-        for line in f:
-            tag, t = line.split()
-            times[tag] = float(t)
-    best = {}
-    for tag, t in times.items():
+def runs(directory):
+    """{(problem, starts): (best error over variants, total time)}."""
+    out = {}
+    path = os.path.join(directory, "kinema_times.txt")
+    if not os.path.exists(path):
+        return out
+    for line in open(path):
+        tag, starts, t = line.split()
         name = tag.split(".")[0]
-        path = os.path.join(RES, f"{tag}.summary.csv")
         err = float("inf")
-        if os.path.exists(path):
-            with open(path) as f:
-                rows = list(csv.DictReader(f))
+        summary = os.path.join(directory, f"{tag}.summary.csv")
+        if os.path.exists(summary):
+            rows = list(csv.DictReader(open(summary)))
             if rows:
                 err = float(rows[0]["rms"]) ** 2 * VALUES[name]
-        e, total = best.get(name, (float("inf"), 0.0))
-        best[name] = (min(e, err), total + t)
-    return best
+        key = (name, int(starts))
+        e, total = out.get(key, (float("inf"), 0.0))
+        out[key] = (min(e, err), total + float(t))
+    return out
+
+
+def peers():
+    out = {}
+    path = os.path.join(RES, "pylinkage.json")
+    if not os.path.exists(path):
+        return out
+    for r in json.load(open(path))["results"]:
+        e = r["best_error"]
+        if e is None:
+            continue
+        old = out.get(r["problem"])
+        if old is None or e < old[0]:
+            reached = [(float(level), t) for level, (t, _) in r["levels"].items()
+                       if float(level) >= e]
+            if reached:
+                level, t = min(reached)
+                out[r["problem"]] = (e, t, r["method"], f"{t:.1f} s (≤ {level:g})")
+            else:
+                out[r["problem"]] = (e, r["wall_s"], r["method"], f"≤ {r['wall_s']:.1f} s")
+    return out
 
 
 def main():
-    k = kinema()
-    peer = {}
-    path = os.path.join(RES, "pylinkage.json")
-    if os.path.exists(path):
-        for r in json.load(open(path))["results"]:
-            e = r["best_error"]
-            if e is None:
-                continue
-            old = peer.get(r["problem"])
-            if old is None or e < old[0]:
-                # Its time to its best, from below: when it first reached
-                # the smallest decade at or above its best (levels), else
-                # (no decade between) its wall time, marked ≤.
-                reached = [(float(level), t) for level, (t, _) in r["levels"].items()
-                           if float(level) >= e]
-                if reached:
-                    level, t = min(reached)
-                    peer[r["problem"]] = (e, t, r["method"], f"≤ {level:g} after")
-                else:
-                    peer[r["problem"]] = (e, r["wall_s"], r["method"], "best after ≤")
-    print("| problem | kinema fit: best error | kinema: time (all variants) | best published defect-free | pylinkage: best error (method) | pylinkage: time | pylinkage time / kinema time |")
-    print("|---|---|---|---|---|---|---|")
+    main_runs = runs(RES)
+    ladder = runs(os.path.join(RES, "ladder"))
+    peer = peers()
+    print("| problem | best published defect-free | kinema fit: best error | kinema: time, all variants | pylinkage: best error (method) | pylinkage: time to it | kinema: time to the same or better | ratio |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in VALUES:
-        if name not in k:
+        full = [(s, v) for (n, s), v in main_runs.items() if n == name]
+        if not full:
             continue
-        e, t = k[name]
+        starts, (e, t) = max(full)
         p = peer.get(name)
         if p:
-            pe, pt, pm, how = p
-            ratio = f"{pt / t:.0f}×" if e <= pe else "(worse error)"
+            pe, pt, pm, shown = p
+            rungs = sorted((s, v) for (n, s), v in ladder.items() if n == name)
+            reach = next(((s, v[1]) for s, v in rungs if v[0] <= pe), None)
+            if reach:
+                s, kt = reach
+                kshown = f"{kt:.2f} s ({s} start{'s' if s > 1 else ''})"
+                ratio = f"{pt / kt:.0f}×"
+            else:
+                kshown, ratio = "not on the ladder", "—"
             ps = f"{pe:.4g} ({pm})"
-            pts = f"{how} {pt:.1f} s"
         else:
-            ps, pts, ratio = "—", "—", "—"
-        print(f"| {name} | {e:.4g} | {t:.2f} s | {PUBLISHED[name]:.4g} | {ps} | {pts} | {ratio} |")
+            ps, shown, kshown, ratio = "—", "—", "—", "—"
+        print(f"| {name} | {PUBLISHED[name]:.4g} | {e:.4g} ({starts} starts) | {t:.2f} s | {ps} | {shown} | {kshown} | {ratio} |")
 
 
 if __name__ == "__main__":

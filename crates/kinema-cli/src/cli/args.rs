@@ -196,7 +196,8 @@ pub struct FitArgs {
     #[arg(long, value_name = "FITTED.kin")]
     pub out: Option<PathBuf>,
     /// Write the summary of the best designs as CSV (rank, errors,
-    /// objectives, params).
+    /// objectives, params, how many starts ended there, the target rows'
+    /// times t1, t2, …).
     #[arg(long, value_name = "FILE.csv")]
     pub summary: Option<PathBuf>,
     /// Draw the best design's path (or columns against time) over the

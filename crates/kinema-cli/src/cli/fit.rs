@@ -247,7 +247,8 @@ fn summary_text(outcome: &Outcome, k: usize) -> String {
     text
 }
 
-/// The summary as CSV: rank, rms, max, objectives, params, starts.
+/// The summary as CSV: rank, rms, max, objectives, params, starts, then
+/// the target rows' times (fitted, or the prescribed ones).
 fn summary_csv(outcome: &Outcome, k: usize) -> String {
     let designs = &outcome.designs()[..k.min(outcome.designs().len())];
     let mut text = String::from("rank,rms,max");
@@ -257,7 +258,11 @@ fn summary_csv(outcome: &Outcome, k: usize) -> String {
     for (n, _) in designs[0].params() {
         let _ = write!(text, ",{n}");
     }
-    text.push_str(",starts\n");
+    text.push_str(",starts");
+    for i in 1..=designs[0].times().len() {
+        let _ = write!(text, ",t{i}");
+    }
+    text.push('\n');
     for (i, d) in designs.iter().enumerate() {
         let _ = write!(text, "{},{:e},{:e}", i + 1, d.rms(), d.max_error());
         for (_, v) in d.objectives() {
@@ -266,7 +271,11 @@ fn summary_csv(outcome: &Outcome, k: usize) -> String {
         for (_, v) in d.params() {
             let _ = write!(text, ",{v:?}");
         }
-        let _ = writeln!(text, ",{}", d.merged());
+        let _ = write!(text, ",{}", d.merged());
+        for t in d.times() {
+            let _ = write!(text, ",{t:?}");
+        }
+        text.push('\n');
     }
     text
 }
