@@ -12,7 +12,8 @@ import glob
 import os
 import re
 
-from problems import PROBLEMS, defects, function_error, out_of_bounds
+from problems import (PROBLEMS, coupler_point, crank_angles, defects, function_error,
+                      out_of_bounds, th3_branch)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RES = os.path.join(HERE, "results")
@@ -47,10 +48,20 @@ def main():
             x += th2
         elif timing == "uniform20":
             x += [th2[0]]
-        found, f, _ = defects(name, x)
+        found, _, _ = defects(name, x)
+        # The error by the closed form on the model's branch (σ = +1: B left
+        # of A→D, as the model's `branch`).
+        f = 0.0
+        for (tx, ty), a in zip(PROBLEMS[name]["targets"], crank_angles(name, x)):
+            th3 = th3_branch(*x[:4], a, p["branch"])
+            if th3 is None:
+                f = float("nan")
+                break
+            cx, cy = coupler_point(x, a, th3)
+            f += (cx - tx) ** 2 + (cy - ty) ** 2
         kinema_f = rms ** 2 * VALUES[name]
-        print(f"{name} ({tag}): kinema {kinema_f:.6g}, literature's formula on one branch "
-              f"{f:.6g}; defects: {', '.join(found) if found else 'none'}"
+        print(f"{name} ({tag}): kinema {kinema_f:.6g}, the literature's closed form on its "
+              f"branch {f:.6g}; defects: {', '.join(found) if found else 'none'}"
               f"{'; out of bounds: ' + ', '.join(out_of_bounds(name, x)) if out_of_bounds(name, x) else ''}")
     # The function generator: Σ(ψ − ψd)² by the closed form.
     for path in sorted(glob.glob(os.path.join(RES, "log10.*.fitted.kin"))):

@@ -186,6 +186,8 @@ class Tracker:
         self.name, self.target = name, target
         self.evals, self.best, self.best_x = 0, math.inf, None
         self.t_reach = self.e_reach = None
+        # When the best error last improved: the time to the final best.
+        self.t_best = self.e_best = None
         self.levels = {}
         self.t0 = time.perf_counter()
 
@@ -193,6 +195,7 @@ class Tracker:
         if f < self.best:
             self.best, self.best_x = f, list(x)
             now = time.perf_counter() - self.t0
+            self.t_best, self.e_best = now, self.evals
             if self.t_reach is None and f <= self.target:
                 self.t_reach, self.e_reach = now, self.evals
             for level in LEVELS:
@@ -308,6 +311,7 @@ def run(name, method, seed):
     return dict(problem=name, method=method, variables=len(names), best_error=tr.best,
                 literature_formula_error=formula, defects=found, wall_s=wall,
                 evaluations=tr.evals, target_error=target, time_to_target_s=tr.t_reach,
+                time_to_best_s=tr.t_best, evals_to_best=tr.e_best,
                 evals_to_target=tr.e_reach, design=tr.best_x,
                 levels={f"{k:g}": v for k, v in sorted(tr.levels.items(), reverse=True)})
 

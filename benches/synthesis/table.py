@@ -4,9 +4,8 @@ Per problem: kinema fit's best defect-free error with run.sh's starts (the
 literature's measure, the sum of squared differences: each variant's
 --summary rms² × the target values; the best over the variants) and the
 wall time of all its variants; the best published defect-free error;
-pylinkage's best error (its better method) and its time to reach it,
-from below — when it first reached the smallest decade at or above its
-best (its recorded levels), else its wall time, marked ≤; kinema's time to
+pylinkage's best error (its better method) and its time to reach it (when
+its best error last improved, pylinkage_bench.py's time_to_best_s); kinema's time to
 reach the same or better error — the smallest rung of the ladder (1, 2,
 4, … starts per variant) whose best design is at or below pylinkage's
 best, the variants' times summed; and the ratio of the two times.
@@ -59,11 +58,9 @@ def peers():
             continue
         old = out.get(r["problem"])
         if old is None or e < old[0]:
-            reached = [(float(level), t) for level, (t, _) in r["levels"].items()
-                       if float(level) >= e]
-            if reached:
-                level, t = min(reached)
-                out[r["problem"]] = (e, t, r["method"], f"{t:.1f} s (≤ {level:g})")
+            t = r.get("time_to_best_s")
+            if t is not None:
+                out[r["problem"]] = (e, t, r["method"], f"{t:.1f} s")
             else:
                 out[r["problem"]] = (e, r["wall_s"], r["method"], f"≤ {r['wall_s']:.1f} s")
     return out
