@@ -613,14 +613,20 @@ fn raise(base: &Code, p: f64) -> Code {
     } else if p.fract() == 0.5 && p < 64.0 {
         // x^(k + ½) as x^k √x: a square root and multiplications, several
         // times cheaper than `powf` (a distance's derivatives divide by
-        // |d|³ and |d|⁵), within an ulp or two of it.
+        // |d|³ and |d|⁵), within an ulp or two of it. A product: the
+        // caller parenthesizes it where its precedence asks.
         let k = (p - 0.5) as i32;
-        if k == 1 {
-            quote!((#x * #x.sqrt()))
+        let tokens = if k == 1 {
+            quote!(#x * #x.sqrt())
         } else {
             let n = Literal::i32_unsuffixed(k);
-            quote!((#x.powi(#n) * #x.sqrt()))
-        }
+            quote!(#x.powi(#n) * #x.sqrt())
+        };
+        return Code {
+            tokens,
+            prec: Prec::Mul,
+            depth: base.depth + 1,
+        };
     } else if p.fract() == 0.0 && p <= f64::from(i32::MAX) {
         let n = Literal::i32_unsuffixed(p as i32);
         quote!(#x.powi(#n))
