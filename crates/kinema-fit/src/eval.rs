@@ -72,9 +72,7 @@ impl Worker {
     pub(crate) fn new(model: &Model, plan: &Plan) -> Result<Worker, String> {
         let options = Options::default();
         let solver = model.solver(options).map_err(|e| e.to_string())?;
-        let names: Vec<&str> = plan.vary.iter().map(|v| v.name.as_str()).collect();
-        // Checked by the plan already: the names are params.
-        let sens = model.sensitivity(&names).map_err(|e| e.to_string())?;
+        let sens = plan.sensitivity.clone();
         let system = solver.system();
         let m = system.output_len();
         let scratch = system.scratch();

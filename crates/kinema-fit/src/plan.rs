@@ -58,6 +58,9 @@ pub(crate) struct Plan {
     pub(crate) objectives: Vec<PlannedObjective>,
     /// The index of the `--full-turn` body's angle in q.
     pub(crate) full_turn: Option<(String, usize)>,
+    /// The varied params' sensitivities, compiled once (each worker
+    /// clones them).
+    pub(crate) sensitivity: kinema_tape::sensitivity::Sensitivity,
 }
 
 impl Plan {
@@ -75,9 +78,10 @@ impl Plan {
             )));
         }
         // The names, through the sensitivities' own check (what a name is
-        // when it is not a param, the model's params).
+        // when it is not a param, the model's params); the compiled
+        // sensitivities are kept for the workers to clone.
         let names: Vec<&str> = spec.vary.iter().map(String::as_str).collect();
-        model
+        let sensitivity = model
             .sensitivity(&names)
             .map_err(|e| FitError::Usage(format!("--vary: {e}")))?;
         for b in &spec.bounds {
@@ -243,6 +247,7 @@ impl Plan {
             steps: spec.steps,
             objectives,
             full_turn,
+            sensitivity,
         };
         Ok(plan)
     }
