@@ -9,11 +9,13 @@ kinema's own checks. Run by run.sh after the fits.
 """
 import csv
 import glob
+import math
 import os
 import re
 
-from problems import (PROBLEMS, coupler_point, crank_angles, defects, function_error,
-                      out_of_bounds, th3_branch)
+from problems import (PROBLEMS, coupler_point, crank_angles, crankrocker_defects,
+                      crankrocker_error, crankrocker_gammas, crankrocker_l3, crankrocker_reference,
+                      defects, function_error, out_of_bounds, th3_branch)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RES = os.path.join(HERE, "results")
@@ -68,6 +70,18 @@ def main():
         p = params_of(path)
         f = function_error(p["r2"], p["r3"], p["r4"], p["phase"], p["psi0"], sigma=p["branch"])
         print(f"log10 ({os.path.basename(path)}): literature's formula {f:.6g}")
+    # The published function-generation problem: the book's objective and
+    # constraints (problems.crankrocker_*), against its optimum.
+    for path in sorted(glob.glob(os.path.join(RES, "crankrocker30.*.fitted.kin"))):
+        p = params_of(path)
+        l3 = crankrocker_l3(p["l2"], p["gmax"])
+        f = crankrocker_error(p["l2"], l3)
+        gmin, gmax = (math.degrees(g) for g in crankrocker_gammas(p["l2"], l3))
+        found = crankrocker_defects(p["l2"], l3)
+        print(f"crankrocker30 ({os.path.basename(path)}): l2 = {p['l2']:.9g}, l3 = {l3:.9g}; the "
+              f"book's formula {f:.10g} (its optimum {crankrocker_reference()[2]:.10g}); "
+              f"transmission angle {gmin:.4f} to {gmax:.4f} deg; "
+              f"defects: {', '.join(found) if found else 'none'}")
 
 
 if __name__ == "__main__":

@@ -2,7 +2,9 @@
 (problems.py): <name>.kin with the problem's starting design, <name>.csv
 with the targets, <name>.published.kin with the published design of least error (by the
 literature's formula; defects or not, see README.md) and
-<name>.published.times with its targets' times, and the log10 files.
+<name>.published.times with its targets' times, the log10 files and the
+crankrocker30 files (a published function-generation problem, its own
+model: CRANKROCKER_TEMPLATE).
 
     .venv/bin/python make_models.py      (numpy, through problems.py)
 
@@ -170,6 +172,7 @@ def main():
             f.write("# times t_i of the targets for the published design (th2 = phase + sense t)\n")
             f.write("\n".join(repr(v) for v in t) + "\n")
     write_function_problem(here)
+    write_crankrocker(here)
 
 
 def write_function_problem(here):
@@ -190,6 +193,84 @@ def write_function_problem(here):
                 "The values are Freudenstein's three-point design at Chebyshev spacing "
                 "with th2s = 30 deg, psis = 75 deg (a textbook baseline, not a published optimum).",
                 FUNCTION["title"])
+
+
+CRANKROCKER_TEMPLATE = """\
+//! {title}
+//! Benchmark problem `crankrocker30` of benches/synthesis/README.md: the
+//! textbook's crank-rocker, crank A->B, coupler B->C, rocker D->C, frame
+//! A->D along x. The rocker |DC| is written through the largest
+//! transmission angle `gmax` (the book's constraint gamma <= 135 deg
+//! becomes the bound gmax <= 3 pi / 4). The crank starts at phi0, the
+//! rocker's right extreme position (crank and coupler in line), where the
+//! rocker is at psi0: both are functions of the design, written out. {design}
+mechanism BenchCrankrocker30 {{
+    /// crank |AB| [length] (fixed by the problem)
+    param l1 = {l1!r};
+    /// frame |AD| [length] (fixed by the problem)
+    param l4 = {l4!r};
+    /// coupler |BC| [length]
+    param l2 = {l2!r};
+    /// the largest transmission angle over a turn, crank pointing away from D [rad]
+    param gmax = {gmax!r};
+
+    // At t = 0 the crank and coupler are in line (the extreme position):
+    // the guesses are that configuration exactly, on the book's branch.
+    body crank {{ guess: (0, 0, {phi0}) }}
+    body coupler {{ guess: (l1 * cos({phi0}), l1 * sin({phi0}), {phi0}) }}
+    body rocker {{ guess: (l4, 0, {psi0}) }}
+
+    /// A: crank to ground
+    joint a: revolute(crank(0, 0), ground(0, 0));
+    /// B: crank to coupler
+    joint b: revolute(crank(l1, 0), coupler(0, 0));
+    /// C: coupler to rocker (the rocker |DC| from l2 and gmax)
+    joint c: revolute(coupler(l2, 0), rocker({l3}, 0));
+    /// D: rocker to ground
+    joint d: revolute(rocker(0, 0), ground(l4, 0));
+    /// phi = phi0 + t, from the frame line A->D
+    driver crank_angle: crank.phi == {phi0} + t;
+
+    /// the rocker's turn from psi0 (the book's psi - psi0) [rad]
+    output psi: rocker.phi - {psi0};
+}}
+"""
+
+
+def crankrocker_exprs():
+    """The rocker length, phi0 and psi0 as .kin expressions of l1, l4, l2, gmax."""
+    l3 = "(l2 * cos(gmax) + sqrt((l4 + l1) * (l4 + l1) - l2 * l2 * sin(gmax) * sin(gmax)))"
+    phi0 = (f"acos(((l1 + l2) * (l1 + l2) - {l3} * {l3} + l4 * l4) / "
+            f"(2 * (l1 + l2) * l4))")
+    psi0 = f"acos(((l1 + l2) * (l1 + l2) - {l3} * {l3} - l4 * l4) / (2 * {l3} * l4))"
+    return dict(l3=l3, phi0=phi0, psi0=psi0)
+
+
+def write_crankrocker(here):
+    """crankrocker30.csv (t, psi), crankrocker30.kin (the book's start, l2 =
+    4.5, l3 = 4) and crankrocker30.published.kin (the book's optimum, as
+    recomputed by problems.crankrocker_reference)."""
+    from problems import (CRANKROCKER, crankrocker_gammas, crankrocker_reference,
+                          crankrocker_targets)
+    name = CRANKROCKER["name"]
+    with open(f"{here}/{name}.csv", "w") as f:
+        f.write("t,psi\n")
+        for t, psi in crankrocker_targets():
+            f.write(f"{t!r},{psi!r}\n")
+    base = dict(title=CRANKROCKER["title"], l1=CRANKROCKER["crank"], l4=CRANKROCKER["frame"],
+                **crankrocker_exprs())
+    with open(f"{here}/{name}.kin", "w") as f:
+        f.write(CRANKROCKER_TEMPLATE.format(
+            l2=4.5, gmax=crankrocker_gammas(4.5, 4.0)[1],
+            design="The values are the book's start x0 = (4.5, 4), a start for `kinema fit`.",
+            **base))
+    l2, l3, err = crankrocker_reference()
+    with open(f"{here}/{name}.published.kin", "w") as f:
+        f.write(CRANKROCKER_TEMPLATE.format(
+            l2=l2, gmax=crankrocker_gammas(l2, l3)[1],
+            design=f"The values are the book's optimum (l2 = {l2:.6f}, l3 = {l3:.6f}, error "
+                   f"{err:.6g}), recomputed by its method (see README.md).",
+            **base))
 
 
 def _err(name, x):

@@ -417,3 +417,115 @@ def freudenstein_reference(th2s=PI / 4, psis=2 * PI / 3):
     r2, r4 = 1 / k1, 1 / k2
     r3 = math.sqrt(r2 * r2 + r4 * r4 + 1 - 2 * k3 * r2 * r4)
     return r2, r3, r4, th2s, psis
+
+
+# ------------------------------------------- function generation: crankrocker30
+# A published function-generation optimization problem (see README.md,
+# `crankrocker30`): the crank-rocker of the Chinese textbook tradition
+# ("reproduce a given motion law", Sun Jingmin's Mechanical Optimization
+# Design, as coded in the companion code of Yu Shengwei's "MATLAB
+# optimization algorithms: case analysis and application", chapter 14,
+# github codes-books/matlab-optimization). Crank l1 = 1, frame l4 = 5; the
+# crank turns 90 deg from phi0, the crank angle at the rocker's right
+# extreme position (crank and coupler in line), while the rocker should
+# follow psiE = psi0 + 2 (phi - phi0)^2 / (3 pi), psi0 the rocker's angle
+# there; 30 points phi_i = phi0 + (pi/2) i/30, i = 1..30. Design variables:
+# the coupler l2 and the rocker l3 in [1, 10]; constraints: the
+# transmission angle between 45 and 135 deg over the turn. Error: the sum
+# of squared rocker-angle errors [rad^2], the book's jfg_f.m verbatim.
+CRANKROCKER = dict(
+    name="crankrocker30",
+    title="function generation: crank-rocker, psi = psi0 + 2 (phi - phi0)^2 / (3 pi), "
+          "30 points over 90 deg (textbook problem)",
+    crank=1.0,
+    frame=5.0,
+    points=30,
+    bounds=dict(l=(1.0, 10.0)),
+    gamma=(PI / 4, 3 * PI / 4),
+)
+
+
+def crankrocker_targets():
+    """(t_i, psi_i - psi0): t = phi - phi0 = (pi/2) i/30, i = 1..30 (the book's sum)."""
+    n = CRANKROCKER["points"]
+    return [(0.5 * PI * i / n, 2 * (0.5 * PI * i / n) ** 2 / (3 * PI)) for i in range(1, n + 1)]
+
+
+def crankrocker_start_angles(l2, l3):
+    """(phi0, psi0): crank and rocker angles at the rocker's right extreme
+    position (crank and coupler in line), from the frame line A->D."""
+    a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+    phi0 = math.acos(((a + l2) ** 2 - l3 ** 2 + d ** 2) / (2 * (a + l2) * d))
+    psi0 = math.acos(((a + l2) ** 2 - l3 ** 2 - d ** 2) / (2 * l3 * d))
+    return phi0, psi0
+
+
+def crankrocker_error(l2, l3):
+    """The book's objective (jfg_f.m): sum of squared rocker-angle errors [rad^2]."""
+    a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+    phi0, psi0 = crankrocker_start_angles(l2, l3)
+    f = 0.0
+    for t, dpsi in crankrocker_targets():
+        phi = phi0 + t
+        r = math.sqrt(a * a + d * d - 2 * a * d * math.cos(phi))
+        alf = math.acos((r * r + l3 * l3 - l2 * l2) / (2 * r * l3))
+        bet = math.acos((r * r + d * d - a * a) / (2 * r * d))
+        psi = PI - alf - bet if phi <= PI else PI - alf + bet
+        f += (psi0 + dpsi - psi) ** 2
+    return f
+
+
+def crankrocker_gammas(l2, l3):
+    """(gamma_min, gamma_max): the transmission angle's extremes over a turn
+    (crank towards the frame pivot D, and away from it)."""
+    a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+    gmin = math.acos((l2 * l2 + l3 * l3 - (d - a) ** 2) / (2 * l2 * l3))
+    gmax = math.acos((l2 * l2 + l3 * l3 - (d + a) ** 2) / (2 * l2 * l3))
+    return gmin, gmax
+
+
+def crankrocker_l3(l2, gmax):
+    """The rocker length that makes the largest transmission angle gmax: the
+    change of variables (l2, l3) -> (l2, gmax) that turns the constraint
+    gamma_max <= 135 deg into a bound (kinema fit takes bounds, not
+    inequality constraints)."""
+    a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+    return l2 * math.cos(gmax) + math.sqrt((d + a) ** 2 - (l2 * math.sin(gmax)) ** 2)
+
+
+def crankrocker_defects(l2, l3):
+    """Constraint violations and defects of a design (list of strings)."""
+    a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+    found = []
+    links = sorted([a, l2, l3, d])
+    if links[0] + links[3] > links[1] + links[2] or links[0] != a:
+        found.append("not a crank-rocker (Grashof with the crank shortest)")
+        return found
+    gmin, gmax = crankrocker_gammas(l2, l3)
+    lo, hi = CRANKROCKER["gamma"]
+    if gmin < lo - 1e-9:
+        found.append(f"transmission angle {math.degrees(gmin):.4f} deg < 45 deg")
+    if gmax > hi + 1e-9:
+        found.append(f"transmission angle {math.degrees(gmax):.4f} deg > 135 deg")
+    return found
+
+
+def crankrocker_reference():
+    """The problem's constrained optimum by the book's method (a gradient
+    method on its objective and constraints: MATLAB's fmincon there, SciPy's
+    SLSQP here) from the book's start x0 = (4.5, 4). Needs scipy."""
+    from scipy.optimize import minimize
+
+    cg = math.cos(PI / 4)
+
+    def cons(x):
+        l2, l3 = x
+        # The book's cdj_g.m, as g >= 0: gamma_min >= 45 deg, gamma_max <= 135 deg.
+        return [-(l2 * l2 + l3 * l3 - 16 - 2 * l2 * l3 * cg),
+                -(-l2 * l2 - l3 * l3 + 36 - 2 * l2 * l3 * cg)]
+
+    r = minimize(lambda x: crankrocker_error(*x), [4.5, 4.0], method="SLSQP",
+                 bounds=[CRANKROCKER["bounds"]["l"]] * 2,
+                 constraints={"type": "ineq", "fun": cons},
+                 options=dict(ftol=1e-15, maxiter=1000))
+    return float(r.x[0]), float(r.x[1]), float(r.fun)

@@ -41,6 +41,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from problems import (  # noqa: E402
+    CRANKROCKER,
     FUNCTION,
     PI,
     PROBLEMS,
@@ -50,6 +51,12 @@ from problems import (  # noqa: E402
     freudenstein_reference,
     function_error,
     function_targets,
+    crankrocker_defects,
+    crankrocker_error,
+    crankrocker_gammas,
+    crankrocker_reference,
+    crankrocker_start_angles,
+    crankrocker_targets,
     grashof,
     out_of_bounds,
 )
@@ -255,6 +262,38 @@ class FunctionTracker(Tracker):
         return f
 
 
+class CrankRockerTracker(Tracker):
+    """The published function-generation problem (crankrocker30): design
+    (l2, l3) in [1, 10] as in the book; pylinkage's linkage (crank 1, frame
+    5) stepped from the extreme position phi0 through the 30 targets on the
+    book's branch (sigma = +1); the error is the book's, the sum of squared
+    rocker-angle errors [rad^2]; the book's transmission-angle constraints
+    (45 to 135 deg) are a penalty, as a pylinkage user would write them."""
+
+    def fitness(self, dims):
+        self.evals += 1
+        l2, l3 = dims
+        a, d = CRANKROCKER["crank"], CRANKROCKER["frame"]
+        try:
+            phi0, psi0 = crankrocker_start_angles(l2, l3)
+            gmin, gmax = crankrocker_gammas(l2, l3)
+        except ValueError:  # not a crank-rocker: no extreme position
+            self.record(UNBUILDABLE, list(dims))
+            return UNBUILDABLE
+        lo, hi = CRANKROCKER["gamma"]
+        violation = max(0.0, lo - gmin) + max(0.0, gmax - hi)
+        tg = crankrocker_targets()
+        x = [d, a, l2, l3, 0.0, 0.0, 0.0, 0.0, 0.0]
+        psi = rocker_angles(x, [phi0] + [phi0 + t for t, _ in tg], 1)
+        if psi is None:
+            f = UNBUILDABLE
+        else:
+            f = sum((p - psi0 - dp) ** 2 for p, (_t, dp) in zip(psi[1:], tg))
+            f += ORDER_PENALTY * violation
+        self.record(f, list(dims))
+        return f
+
+
 class StandIn:
     """What pylinkage's DE wrapper reads from a linkage: the number of constraints."""
 
@@ -279,7 +318,12 @@ def best_published_defect_free(name):
 
 
 def run(name, method, seed):
-    if name == "log10":
+    if name == "crankrocker30":
+        names = ["l2", "l3"]
+        lo, hi = [CRANKROCKER["bounds"]["l"][0]] * 2, [CRANKROCKER["bounds"]["l"][1]] * 2
+        target = crankrocker_reference()[2]
+        tr = CrankRockerTracker(name, target)
+    elif name == "log10":
         b = FUNCTION["bounds"]
         names = ["r2", "r3", "r4", "th2s", "psis"]
         lo, hi = [b["r"][0]] * 3 + [b["ang"][0]] * 2, [b["r"][1]] * 3 + [b["ang"][1]] * 2
@@ -302,7 +346,10 @@ def run(name, method, seed):
         differential_evolution_optimization(eval_func, StandIn(len(names)), bounds=(lo, hi),
                                             order_relation=min, seed=seed, verbose=False)
     wall = time.perf_counter() - t0
-    if name == "log10":
+    if name == "crankrocker30":
+        found = crankrocker_defects(*tr.best_x) if tr.best < UNBUILDABLE else ["unbuildable"]
+        formula = crankrocker_error(*tr.best_x) if tr.best < UNBUILDABLE else None
+    elif name == "log10":
         found = [] if tr.best < UNBUILDABLE else ["unbuildable"]
         formula = None
     else:
@@ -337,14 +384,20 @@ def check(name):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--method", default="both", choices=["pso", "de", "both"])
-    ap.add_argument("--problems", default=",".join(list(PROBLEMS) + ["log10"]))
+    ap.add_argument("--problems",
+                    default=",".join(list(PROBLEMS) + ["log10", "crankrocker30"]))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     print(f"pylinkage {pylinkage.__version__}, numpy {np.__version__}")
     results = []
     for name in args.problems.split(","):
-        if name == "log10":
+        if name == "crankrocker30":
+            l2, l3, want = crankrocker_reference()
+            got = CrankRockerTracker(name, 0.0).fitness([l2, l3])
+            print(f"{name}: pylinkage reproduces the book's optimum's error to "
+                  f"{abs(got - want) / want:.1e} (relative)")
+        elif name == "log10":
             ref = freudenstein_reference(PI / 6, 5 * PI / 12)
             tr = FunctionTracker(name, 0.0)
             got = tr.fitness(list(ref))

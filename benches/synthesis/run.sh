@@ -95,6 +95,11 @@ problems() {
   fit log10 "1" "1 -1" -- --t-end 1.5707963267948966 --steps 90 \
     --vary r2,r3,r4,phase,psi0 \
     --bounds "r2=0.05:5,r3=0.05:5,r4=0.05:5,phase=$ang,psi0=$ang"
+  # Function generation, published: the textbook crank-rocker (README.md);
+  # gmax <= 3π/4 is the book's transmission-angle constraint, π/4 no
+  # restriction (gmax >= gmin >= 45°); the crank turns fully.
+  fit crankrocker30 "1" "1" -- --t-end "$two_pi" --full-turn crank \
+    --vary l2,gmax --bounds "l2=1:10,gmax=0.7853981633974483:2.356194490192345"
 }
 
 echo "== kinema fit ($starts starts per fit)"

@@ -16,6 +16,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from make_models import design_params, timing_of, write_model  # noqa: E402
 from problems import (  # noqa: E402
     PROBLEMS,
+    crankrocker_reference,
+    crankrocker_targets,
     PUBLISHED,
     defects,
     error_literature,
@@ -81,6 +83,19 @@ def main():
     total = sum((float(r[col]) - psi) ** 2 for r, (_t, psi) in zip(rows[1:], tg))
     ref = function_error(*freudenstein_reference(math.pi / 6, 5 * math.pi / 12), sigma=-1)
     print(f"  log10        Freudenstein 3-point (textbook)      kinema {total:.10g}  closed form "
+          f"{ref:.10g}  (relative difference {abs(total - ref) / ref:.1e})")
+    # The published function generator: the book's optimum, one run on the targets' grid
+    # (t = 0 is the extreme position; the targets are the 30 steps after it).
+    tg = crankrocker_targets()
+    model = os.path.join(HERE, "crankrocker30.published.kin")
+    out = subprocess.run([kinema, "run", model, "--t-end", repr(tg[-1][0]), "--steps",
+                          str(len(tg)), "--positions-only", "--columns", "psi", "--out", "-"],
+                         capture_output=True, text=True, check=True)
+    rows = [line.split(",") for line in out.stdout.strip().splitlines()]
+    col = rows[0].index("psi")
+    total = sum((float(r[col]) - psi) ** 2 for r, (_t, psi) in zip(rows[2:], tg))
+    ref = crankrocker_reference()[2]
+    print(f"  crankrocker30 the book's optimum (recomputed)      kinema {total:.10g}  book's formula "
           f"{ref:.10g}  (relative difference {abs(total - ref) / ref:.1e})")
     print("Every published design, through kinema (error, warnings) and problems.py (defects):")
     for name in PROBLEMS:
