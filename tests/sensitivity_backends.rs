@@ -46,17 +46,23 @@ fn levels(coordinates: [&[f64]; 3], outputs: [&[f64]; 3]) -> [Vec<f64>; 6] {
     [a, b, c, d, e, f].map(<[f64]>::to_vec)
 }
 
-/// A whole run of the generated system `system`.
+/// A whole run of the generated system `system`. Each state's
+/// sensitivities are also computed by a copy of the system beside the
+/// solver (`sensitivities_of`: its `prepare` computes every sin and cos,
+/// where `sensitivities` takes them from the step's cache), to the same
+/// bits.
 fn generated_run<S>(system: S) -> (Run, Vec<String>)
 where
-    S: System + SensitivitySystem + Outputs,
+    S: System + SensitivitySystem + Outputs + Clone,
 {
     let names = (0..system.param_count())
         .map(|k| system.param_name(k).to_owned())
         .collect();
+    let beside = system.clone();
     let mut solver =
         Solver::<S>::with_options(system, Options::default()).unwrap_or_else(|e| panic!("{e}"));
     let mut out = Sensitivities::new(solver.system());
+    let mut out_beside = Sensitivities::new(&beside);
     let run = grid()
         .into_iter()
         .map(|t| {
@@ -64,9 +70,20 @@ where
             solver
                 .sensitivities(&mut out)
                 .unwrap_or_else(|e| panic!("t = {t}: {e}"));
-            (0..out.len())
+            solver
+                .sensitivities_of(&beside, &mut out_beside)
+                .unwrap_or_else(|e| panic!("t = {t}: {e}"));
+            let row: Vec<[Vec<f64>; 6]> = (0..out.len())
                 .map(|k| levels(out.coordinates(k), out.outputs(k)))
-                .collect()
+                .collect();
+            for (k, levels_k) in row.iter().enumerate() {
+                let other = levels(out_beside.coordinates(k), out_beside.outputs(k));
+                for (a, b) in levels_k.iter().zip(&other) {
+                    let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+                    assert!(same, "t = {t}, param {k}: {a:?} vs {b:?}");
+                }
+            }
+            row
         })
         .collect();
     (run, names)
@@ -145,7 +162,7 @@ fn worst(a: &Run, b: &Run) -> (f64, String) {
 /// Generated vs tape vs JIT, and the runs not all zero.
 fn agree<S>(path: &str, system: S)
 where
-    S: System + SensitivitySystem + Outputs,
+    S: System + SensitivitySystem + Outputs + Clone,
 {
     let (generated, names) = generated_run(system);
     let any = generated

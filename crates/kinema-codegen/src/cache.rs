@@ -126,6 +126,60 @@ impl Cache {
         }
     }
 
+    /// The slot of the angle of coordinate `i`, if cached.
+    pub(crate) fn angle_slot(&self, i: u32) -> Option<usize> {
+        self.angles.iter().position(|&a| a == i)
+    }
+
+    /// The refresh of the angles of coordinates below `nc` that `outputs`
+    /// read, for a cache filled right after a step of the system whose
+    /// cache is `step` (`step`, that scratch, in scope; `c`, this one): an
+    /// angle the step's cache holds (bit for bit) is copied from it, not
+    /// computed again.
+    pub(crate) fn refresh_after_step(
+        &self,
+        arena: &Arena,
+        outputs: &[ExprId],
+        nc: usize,
+        step: &Cache,
+    ) -> TokenStream {
+        let reached = emit::reachable(arena, outputs, &|e| self.lookup(e).is_some());
+        let mut slots: Vec<usize> = reached
+            .iter()
+            .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
+            .filter(|&slot| (self.angles[slot] as usize) < nc)
+            .collect();
+        slots.sort_unstable();
+        slots.dedup();
+        let checks = slots.iter().map(|&slot| {
+            let angle = self.angles[slot];
+            let i = Literal::usize_unsuffixed(angle as usize);
+            let k = Literal::usize_unsuffixed(slot);
+            let compute = quote!(q[#i].sin_cos());
+            let value = match step.angle_slot(angle) {
+                Some(j) => {
+                    let j = Literal::usize_unsuffixed(j);
+                    quote! {
+                        if step.angle[#j].to_bits() == q[#i].to_bits() {
+                            (step.sin[#j], step.cos[#j])
+                        } else {
+                            #compute
+                        }
+                    }
+                }
+                None => compute,
+            };
+            quote! {
+                if q[#i].to_bits() != c.angle[#k].to_bits() {
+                    c.angle[#k] = q[#i];
+                    (c.sin[#k], c.cos[#k]) = #value;
+                }
+            }
+        });
+        let checks: Vec<TokenStream> = checks.collect();
+        inline_checks(&checks)
+    }
+
     /// Nothing to cache.
     pub(crate) fn is_empty(&self) -> bool {
         self.angles.is_empty() && self.time.is_empty()
@@ -150,7 +204,18 @@ impl Cache {
     /// Statements bringing the cache up to date for `outputs` (at the
     /// current `q` and `t`), and whether they read q and t.
     pub(crate) fn refresh(&self, arena: &Arena, outputs: &[ExprId]) -> (TokenStream, bool, bool) {
-        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs);
+        self.refresh_where(arena, outputs, (&|_| true, true))
+    }
+
+    /// [`Cache::refresh`] of only the angles of the coordinates `angles`
+    /// accepts, and of the functions of time only with `time`.
+    pub(crate) fn refresh_where(
+        &self,
+        arena: &Arena,
+        outputs: &[ExprId],
+        (angles, time): (&dyn Fn(u32) -> bool, bool),
+    ) -> (TokenStream, bool, bool) {
+        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs, (angles, time));
         out.extend(inline_checks(&checks));
         (out, !checks.is_empty(), uses_time)
     }
@@ -168,7 +233,7 @@ impl Cache {
         split: &Split<'_>,
         helpers: &mut Vec<TokenStream>,
     ) -> (TokenStream, bool, bool) {
-        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs);
+        let (mut out, checks, uses_time) = self.refresh_parts(arena, outputs, (&|_| true, true));
         if checks.len() <= split.checks {
             out.extend(inline_checks(&checks));
             return (out, !checks.is_empty(), uses_time);
@@ -188,13 +253,15 @@ impl Cache {
         (out, true, uses_time)
     }
 
-    /// The refresh of the functions of time (when `outputs` read one), the
-    /// check of each angle `outputs` read (on `c`, the scratch), and
-    /// whether they read t.
+    /// The refresh of the functions of time (when `outputs` read one and
+    /// `time` holds), the check of each angle `outputs` read whose
+    /// coordinate `angles` accepts (on `c`, the scratch), and whether they
+    /// read t.
     fn refresh_parts(
         &self,
         arena: &Arena,
         outputs: &[ExprId],
+        (angles, time): (&dyn Fn(u32) -> bool, bool),
     ) -> (TokenStream, Vec<TokenStream>, bool) {
         if self.is_empty() {
             return (quote!(), Vec::new(), false);
@@ -203,12 +270,13 @@ impl Cache {
         let mut slots: Vec<usize> = reached
             .iter()
             .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
+            .filter(|&slot| angles(self.angles[slot]))
             .collect();
         slots.sort_unstable();
         slots.dedup();
         let uses_time = reached.iter().any(|e| self.time_slot.contains_key(e));
         let mut out = TokenStream::new();
-        if uses_time {
+        if uses_time && time {
             out.extend(quote! {
                 if t.to_bits() != scratch.t.to_bits() {
                     scratch.refresh_time(t);
@@ -233,12 +301,15 @@ impl Cache {
 
     /// The cache type `name` and the field declaration for the system;
     /// its refresh of the functions of time split past `chunk_nodes`
-    /// scheduled nodes ([`emit::chunks`]).
+    /// scheduled nodes ([`emit::chunks`]). With `shared` > 0, a field
+    /// `shared` of that many values besides (the sensitivity stages'
+    /// per-state values: `crate::sensitivity`).
     pub(crate) fn items(
         &self,
         arena: &Arena,
         (name, params): (&Ident, &[Ident]),
         chunk_nodes: usize,
+        shared: usize,
     ) -> TokenStream {
         let k = Literal::usize_unsuffixed(self.angles.len());
         let m = Literal::usize_unsuffixed(self.time.len());
@@ -265,6 +336,7 @@ impl Cache {
             let inputs = emit::Inputs {
                 params,
                 cached: &none,
+                split: None,
             };
             let to = |k: usize| {
                 let k = Literal::usize_unsuffixed(k);
@@ -317,11 +389,17 @@ impl Cache {
                 },
             )
         };
+        let (shared_fields, shared_init) = if shared == 0 {
+            (quote!(), quote!())
+        } else {
+            let n = Literal::usize_unsuffixed(shared);
+            (quote!(shared: [f64; #n],), quote!(shared: [0.0; #n],))
+        };
         let init = if self.time.is_empty() {
-            quote!(Self { #angle_init })
+            quote!(Self { #angle_init #shared_init })
         } else {
             quote! {
-                let mut cache = Self { #angle_init #time_init };
+                let mut cache = Self { #angle_init #time_init #shared_init };
                 cache.refresh_time(0.0);
                 cache
             }
@@ -331,14 +409,26 @@ impl Cache {
             Some(owner) => (owner, "`SensitivitySystem::SensitivityScratch`"),
             None => (name_text.trim_end_matches("Cache"), "`System::Scratch`"),
         };
-        let doc = format!(
-            " The scratch of [`{owner}`] (its {role}): sin and cos of {} body \
-             angles (keyed on the exact angle), {} functions of time (keyed on the exact \
-             t). It holds nothing that depends on parameters, so it never changes a result: \
-             a clone or a default is as good as the original.",
-            self.angles.len(),
-            self.time.len()
-        );
+        let doc = if shared == 0 {
+            format!(
+                " The scratch of [`{owner}`] (its {role}): sin and cos of {} body \
+                 angles (keyed on the exact angle), {} functions of time (keyed on the exact \
+                 t). It holds nothing that depends on parameters, so it never changes a result: \
+                 a clone or a default is as good as the original.",
+                self.angles.len(),
+                self.time.len()
+            )
+        } else {
+            format!(
+                " The scratch of [`{owner}`] (its {role}): sin and cos of {} body \
+                 angles (keyed on the exact angle), {} functions of time (keyed on the exact \
+                 t), and {shared} values every param's stages share, written by \
+                 `SensitivitySystem::prepare` at each state before the stages read them. \
+                 A clone or a default is as good as the original.",
+                self.angles.len(),
+                self.time.len()
+            )
+        };
         quote! {
             #[doc = #doc]
             #[doc(hidden)]
@@ -346,6 +436,7 @@ impl Cache {
             pub struct #name {
                 #angle_fields
                 #time_fields
+                #shared_fields
             }
 
             impl ::core::default::Default for #name {

@@ -33,6 +33,7 @@ pub(crate) fn dynamics_impl(
     let inputs = emit::Inputs {
         params,
         cached: &lookup,
+        split: None,
     };
     let (refresh, reads_q, reads_t) = cache.refresh(&d.arena, &outputs);
     let (body, mut used) = emit::body(&d.arena, &outputs, &|k| emit::index(&out, k), &inputs);

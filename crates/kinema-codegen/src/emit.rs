@@ -70,7 +70,16 @@ pub(crate) struct Inputs<'a> {
     /// Nodes whose value is read from somewhere else (a per-step cache):
     /// emitted as the given tokens, their operands not visited.
     pub cached: &'a dyn Fn(ExprId) -> Option<TokenStream>,
+    /// Products computed in part somewhere else: for a product node, the
+    /// tokens reading the value of its coefficient times some of its
+    /// factors, and the factors left — emitted as that value times them.
+    /// (Its other factors are still scheduled, and left unread.)
+    pub split: Option<&'a SplitProduct<'a>>,
 }
+
+/// [`Inputs::split`]: a product node → the tokens of its part computed
+/// elsewhere and its factors left.
+pub(crate) type SplitProduct<'a> = dyn Fn(ExprId) -> Option<(TokenStream, Vec<Factor>)> + 'a;
 
 /// Which inputs a generated body reads: decides whether a function argument
 /// is named `q` or `_q`.
@@ -445,7 +454,10 @@ fn node<'c>(
             }
         }),
         NodeRef::Add { constant, terms } => sum(constant, terms, child, binder),
-        NodeRef::Mul { coeff, factors } => product(coeff, factors, child, binder),
+        NodeRef::Mul { coeff, factors } => match inputs.split.and_then(|split| split(n)) {
+            Some((lead, rest)) => product(Some(Code::atom(lead)), 1.0, &rest, child, binder),
+            None => product(None, coeff, factors, child, binder),
+        },
         NodeRef::Unary(op, a) => {
             let c = child(a);
             let depth = c.depth + 1;
@@ -535,7 +547,9 @@ fn sum<'c>(
 
 /// `±k · n₁ · n₂ … / (d₁ · d₂ …)`, left to right, in chains of at most
 /// [`MAX_CHAIN`] operands.
+/// With `lead`, a value the numerator starts with.
 fn product<'c>(
+    lead: Option<Code>,
     coeff: f64,
     factors: &[Factor],
     child: &dyn Fn(ExprId) -> &'c Code,
@@ -543,10 +557,14 @@ fn product<'c>(
 ) -> Code {
     let depth = depth_of(factors.iter().map(|f| child(f.base)));
     let mut power = |f: &Factor, p: f64| -> Code { binder.power(f.base, child(f.base), p) };
-    let num: Vec<Code> = factors
-        .iter()
-        .filter(|f| f.exp > 0.0)
-        .map(|f| power(f, f.exp))
+    let num: Vec<Code> = lead
+        .into_iter()
+        .chain(
+            factors
+                .iter()
+                .filter(|f| f.exp > 0.0)
+                .map(|f| power(f, f.exp)),
+        )
         .collect();
     let den: Vec<Code> = factors
         .iter()

@@ -209,6 +209,7 @@ fn method(
     let inputs = emit::Inputs {
         params: names.params,
         cached: &lookup,
+        split: None,
     };
     let target = |k: usize| emit::index(&out, k);
     let (refresh, reads_q, reads_t) = cache.refresh(arena, &e.exprs);

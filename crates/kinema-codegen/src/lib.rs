@@ -156,7 +156,7 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let cache_items = if cache.is_empty() {
         quote!()
     } else {
-        cache.items(&d.arena, (&cache_name, &params), options.chunk_nodes)
+        cache.items(&d.arena, (&cache_name, &params), options.chunk_nodes, 0)
     };
     let scratch = if cache.is_empty() {
         quote!(())
@@ -195,9 +195,14 @@ pub fn expand(derivation: &Derivation, options: &Config) -> TokenStream {
     let sensitivity_names = chosen.as_ref().map_or(&[][..], |c| c.names());
     let outputs = outputs::items(d, &name, &params, sensitivity_names, &options.runtime);
     let dynamics = dynamics::dynamics_impl(d, &name, &params, &cache, &options.runtime);
-    let sensitivities = chosen
-        .as_ref()
-        .map(|c| sensitivity::items(c, &name, &params, (&options.runtime, options.chunk_nodes)));
+    let sensitivities = chosen.as_ref().map(|c| {
+        sensitivity::items(
+            c,
+            (&name, &params),
+            &cache,
+            (&options.runtime, options.chunk_nodes),
+        )
+    });
     quote! {
         #sensitivity_error
         #item
@@ -391,6 +396,7 @@ fn guess_body(
     let inputs = emit::Inputs {
         params,
         cached: &no_cache,
+        split: None,
     };
     let guesses: Vec<_> = d.coordinates.iter().map(|c| c.guess).collect();
     let target = |k| emit::index(&q, k);
@@ -435,6 +441,7 @@ fn evaluation_methods(
     let inputs = emit::Inputs {
         params,
         cached: &lookup,
+        split: None,
     };
     let method = |label: &str,
                   outputs: &[kinema_expr::ExprId],

@@ -153,6 +153,7 @@ fn results_body(d: &Derivation, params: &[Ident]) -> (TokenStream, Used, usize) 
     let inputs = emit::Inputs {
         params,
         cached: &no_cache,
+        split: None,
     };
     let (body, used) = emit::body(&d.arena, &exprs, &target, &inputs);
     let accumulate = sums.iter().map(|&(i, k, jk)| {

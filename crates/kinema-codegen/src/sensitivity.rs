@@ -7,7 +7,9 @@
 //! factorization; and the index constants of the parameter columns
 //! (`SliderCrank::PARAM_L1`), in the order chosen.
 
-use kinema_expr::ExprId;
+use std::collections::BTreeMap;
+
+use kinema_expr::{Arena, ExprId, Factor, NodeRef, SymKind};
 use kinema_model::{Derivation, SensitivityError};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -114,6 +116,146 @@ pub(crate) fn choose(
     }))
 }
 
+/// What the stages share at a state, evaluated once per state by
+/// `prepare` into the scratch's `shared` instead of once per param and
+/// stage: the largest subexpressions of the stages that read no s or ṡ
+/// (nor only a value cached per state, which they read as it is), and the
+/// part of a product that reads neither (its coefficient and such factors,
+/// when there are two or more or one is a power: a product's factors are
+/// not nodes of their own) — each if stage evaluations read it more than
+/// once per state. For the slider-crank's `reach` = |d|, the powers of |d|
+/// were computed again by every param's velocity and acceleration stages
+/// (`l1 cos φ1 q̇3 / |d|³ · s…`), and the y_q entries once per param; a
+/// subexpression only one stage of one param reads (a row of −Φ_p) stays
+/// where it is, as moving it would only add a store and a load.
+struct Shared {
+    /// The arena with the products' parts added.
+    arena: Arena,
+    /// The values, in slot order.
+    nodes: Vec<ExprId>,
+    /// Value → its slot in `shared`.
+    slot: BTreeMap<ExprId, usize>,
+    /// Product → the slot of its shared part and its other factors.
+    split: BTreeMap<ExprId, (usize, Vec<Factor>)>,
+}
+
+impl Shared {
+    /// `bodies`: each stage's outputs and how many times per state it is
+    /// evaluated; a symbol of coordinate or velocity index ≥ `nc` is s or
+    /// ṡ. Walks the DAG with stacks (no recursion: a large model's
+    /// expressions are deep).
+    fn find(
+        arena: &Arena,
+        bodies: &[(&[ExprId], usize)],
+        nc: usize,
+        cached: &dyn Fn(ExprId) -> bool,
+    ) -> Shared {
+        let mut arena = arena.clone();
+        let roots: Vec<ExprId> = bodies.iter().flat_map(|(r, _)| r.iter().copied()).collect();
+        let schedule = arena.schedule_until(&roots, cached);
+        let nodes = schedule.nodes();
+        let augmented = |a: &Arena, e: ExprId| match a.node(e) {
+            NodeRef::Sym(s) => match a.symbol(s).kind {
+                SymKind::Coordinate(i) | SymKind::Velocity(i) => i as usize >= nc,
+                SymKind::Parameter(_) | SymKind::Time => false,
+            },
+            _ => false,
+        };
+        let position = |e: ExprId| {
+            schedule
+                .position(e)
+                .expect("every node below the roots is scheduled")
+        };
+        // Whether each scheduled node reads s or ṡ (children first).
+        let mut reads = vec![false; nodes.len()];
+        let mut kids = Vec::new();
+        for (i, &n) in nodes.iter().enumerate() {
+            kids.clear();
+            arena.children(n, &mut kids);
+            reads[i] = if cached(n) {
+                // A cached sin or cos of an augmented symbol (never
+                // derived, but then it is the param's own).
+                kids.iter().any(|&k| augmented(&arena, k))
+            } else if let NodeRef::Sym(_) = arena.node(n) {
+                augmented(&arena, n)
+            } else {
+                kids.iter().any(|&k| reads[position(k)])
+            };
+        }
+        let trivial = |a: &Arena, e: ExprId| {
+            matches!(a.node(e), NodeRef::Num(_) | NodeRef::Sym(_)) || cached(e)
+        };
+        // Evaluations per state of each candidate, over the bodies: the
+        // maximal subexpressions (by schedule position) and the products'
+        // parts (by node).
+        let mut evaluations = vec![0usize; nodes.len()];
+        let mut parts: BTreeMap<ExprId, usize> = BTreeMap::new();
+        let mut part_of: BTreeMap<ExprId, (ExprId, Vec<Factor>)> = BTreeMap::new();
+        let mut seen = vec![usize::MAX; nodes.len()];
+        let mut stack: Vec<ExprId> = Vec::new();
+        for (b, &(body, times)) in bodies.iter().enumerate() {
+            stack.extend_from_slice(body);
+            while let Some(e) = stack.pop() {
+                let p = position(e);
+                if std::mem::replace(&mut seen[p], b) == b || trivial(&arena, e) {
+                    continue;
+                }
+                if !reads[p] {
+                    evaluations[p] += times;
+                    continue;
+                }
+                if let NodeRef::Mul { coeff, factors } = arena.node(e) {
+                    let (free, rest): (Vec<Factor>, Vec<Factor>) =
+                        factors.iter().partition(|f| !reads[position(f.base)]);
+                    if free.len() >= 2 || free.iter().any(|f| f.exp != 1.0) {
+                        let part = match part_of.get(&e) {
+                            Some(&(part, _)) => part,
+                            None => {
+                                let part = arena.product_of(coeff, &free);
+                                stack.extend(rest.iter().map(|f| f.base));
+                                part_of.insert(e, (part, rest));
+                                *parts.entry(part).or_default() += times;
+                                continue;
+                            }
+                        };
+                        *parts.entry(part).or_default() += times;
+                        stack.extend(part_of[&e].1.iter().map(|f| f.base));
+                        continue;
+                    }
+                }
+                kids.clear();
+                arena.children(e, &mut kids);
+                stack.extend_from_slice(&kids);
+            }
+        }
+        let mut values: Vec<ExprId> = nodes
+            .iter()
+            .zip(&evaluations)
+            .filter(|&(_, &n)| n > 1)
+            .map(|(&e, _)| e)
+            .collect();
+        let mut slot: BTreeMap<ExprId, usize> =
+            values.iter().enumerate().map(|(i, &e)| (e, i)).collect();
+        let mut split = BTreeMap::new();
+        for (product, (part, rest)) in part_of {
+            if parts[&part] < 2 {
+                continue;
+            }
+            let k = *slot.entry(part).or_insert_with(|| {
+                values.push(part);
+                values.len() - 1
+            });
+            split.insert(product, (k, rest));
+        }
+        Shared {
+            arena,
+            nodes: values,
+            slot,
+            split,
+        }
+    }
+}
+
 /// The stages' shared signature: every input, as fixed-size arrays.
 struct Sizes {
     nc: Literal,
@@ -130,10 +272,13 @@ impl Sizes {
 
 /// `SENSITIVITY_PARAMS`, the helper methods and `impl SensitivitySystem`
 /// for the mechanism `name` (`params`: its param fields).
+///
+/// `step`: the system's own cache (its `System::Scratch`), which `prepare`
+/// takes the angles' sin and cos from right after a step.
 pub(crate) fn items(
     chosen: &Chosen,
-    name: &Ident,
-    params: &[Ident],
+    (name, params): (&Ident, &[Ident]),
+    step: &Cache,
     (rt, chunk_nodes): (&syn::Path, usize),
 ) -> TokenStream {
     let d = &chosen.d;
@@ -154,28 +299,60 @@ pub(crate) fn items(
         )
         .collect();
     let cache = Cache::find(a, &everything);
+    let nc = d.nc();
+    let jac: Vec<ExprId> = d
+        .outputs
+        .iter()
+        .flat_map(|o| o.jacobian.iter().map(|&(_, e)| e))
+        .collect();
+    // Each param's three stages once per state; the outputs' stage (y_q)
+    // once per param.
+    let bodies: Vec<(&[ExprId], usize)> = chosen
+        .params
+        .iter()
+        .flat_map(|p| [&p.position[..], &p.velocity, &p.acceleration].map(|b| (b, 1)))
+        .chain([(&jac[..], chosen.params.len())])
+        .collect();
+    let shared = Shared::find(a, &bodies, nc, &|e| cache.lookup(e).is_some());
+    // From here on, the arena with the products' shared parts.
+    let a = &shared.arena;
     let cache_name = format_ident!("{}SensitivityCache", name);
-    let (scratch_type, cache_items, new_scratch) = if cache.is_empty() {
-        (quote!(()), quote!(), quote!())
-    } else {
+    let prepared = !(cache.is_empty() && shared.nodes.is_empty());
+    let (scratch_type, cache_items, new_scratch) = if prepared {
         (
             quote!(#cache_name),
-            cache.items(a, (&cache_name, params), chunk_nodes),
+            cache.items(a, (&cache_name, params), chunk_nodes, shared.nodes.len()),
             quote!(::core::default::Default::default()),
         )
+    } else {
+        (quote!(()), quote!(), quote!())
     };
-    let lookup = |e| cache.lookup(e);
-    // The cache's refresh for `outputs`, then their statements.
+    let lookup = |e: ExprId| {
+        cache.lookup(e).or_else(|| {
+            shared.slot.get(&e).map(|&i| {
+                let i = Literal::usize_unsuffixed(i);
+                quote!(scratch.shared[#i])
+            })
+        })
+    };
+    let split = |e: ExprId| {
+        shared.split.get(&e).map(|(k, rest)| {
+            let k = Literal::usize_unsuffixed(*k);
+            (quote!(scratch.shared[#k]), rest.clone())
+        })
+    };
+    // `prepare` refreshed the cache at this state (but for angles of s,
+    // never derived); then the statements of `outputs`.
     let emit_body = |outputs: &[ExprId], target: &dyn Fn(usize) -> TokenStream| {
-        let (refresh, _, _) = cache.refresh(a, outputs);
+        let (refresh, _, _) = cache.refresh_where(a, outputs, (&|i: u32| i as usize >= nc, false));
         let inputs = emit::Inputs {
             params,
             cached: &lookup,
+            split: Some(&split),
         };
         let (body, _) = emit::body(a, outputs, target, &inputs);
         quote!(#refresh #body)
     };
-    let nc = d.nc();
     let (n, m) = (d.phi.len(), d.outputs.len());
     let sizes = Sizes {
         nc: Literal::usize_unsuffixed(nc),
@@ -321,6 +498,99 @@ pub(crate) fn items(
         }
     });
 
+    // `prepare`: the cache brought to this state (the angles of q, the
+    // functions of time), then the shared values — past `chunk_nodes`
+    // scheduled nodes in private functions of about that many, as the
+    // system's own large bodies are.
+    let prepare = if prepared {
+        let (refresh, _, _) =
+            cache.refresh_where(a, &everything, (&|i: u32| (i as usize) < nc, true));
+        let cache_only = |e: ExprId| cache.lookup(e);
+        let inputs = emit::Inputs {
+            params,
+            cached: &cache_only,
+            split: None,
+        };
+        let ranges = if shared.nodes.is_empty() {
+            Vec::new()
+        } else {
+            emit::chunks(
+                a,
+                &shared.nodes,
+                &|e| cache.lookup(e).is_some(),
+                chunk_nodes,
+            )
+        };
+        let split = ranges.len() > 1;
+        let mut calls = TokenStream::new();
+        for (i, r) in ranges.into_iter().enumerate() {
+            let start = r.start;
+            let to = |k: usize| {
+                let k = Literal::usize_unsuffixed(start + k);
+                quote!(scratch.shared[#k])
+            };
+            let (body, _) = emit::body(a, &shared.nodes[r], &to, &inputs);
+            let f = format_ident!("__kinema_sensitivity_prepare_{}", i);
+            let inline = if split {
+                quote!(#[inline(never)])
+            } else {
+                quote!()
+            };
+            helpers.push(quote! {
+                #inline
+                fn #f(&self, #input_args) {
+                    #body
+                }
+            });
+            calls.extend(quote!(self.#f(q, qd, qdd, t, scratch);));
+        }
+        let inputs = quote! {
+            let #rt::Augmented { t, q, qd, qdd } = at;
+            let (Ok(q), Ok(qd), Ok(qdd)) = (
+                <&[f64; #nc2_lit]>::try_from(q),
+                <&[f64; #nc2_lit]>::try_from(qd),
+                <&[f64; #nc_lit]>::try_from(qdd),
+            ) else {
+                return;
+            };
+        };
+        // Right after the system's own step, the angles from its cache.
+        let after_step = if step.is_empty() || cache.is_empty() {
+            quote!()
+        } else {
+            let (time, _, _) = cache.refresh_where(a, &everything, (&|_| false, true));
+            let angles = cache.refresh_after_step(a, &everything, nc, step);
+            quote! {
+                #[allow(unused_variables)]
+                fn prepare_after_step(
+                    &self,
+                    scratch: &mut Self::SensitivityScratch,
+                    at: #rt::Augmented<'_>,
+                    step: &<Self as #rt::System>::Scratch,
+                ) where
+                    Self: #rt::System,
+                {
+                    #inputs
+                    #time
+                    #angles
+                    #calls
+                }
+            }
+        };
+        quote! {
+            #[allow(unused_variables)]
+            fn prepare(&self, scratch: &mut Self::SensitivityScratch, at: #rt::Augmented<'_>) {
+                #inputs
+                #refresh
+                #calls
+            }
+
+            #after_step
+        }
+    } else {
+        quote!()
+    };
+
     let count = Literal::usize_unsuffixed(chosen.names.len());
     let names = chosen.names.iter().map(String::as_str);
     let [position_arms, velocity_arms, acceleration_arms] = &arms;
@@ -399,6 +669,8 @@ pub(crate) fn items(
             fn result_count(&self) -> usize {
                 #m_lit
             }
+
+            #prepare
 
             fn position_rhs(
                 &self,

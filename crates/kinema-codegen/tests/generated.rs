@@ -248,3 +248,37 @@ fn unknown_sensitivity_params_are_errors() {
     .to_string();
     assert!(tokens.contains("expected `all`"), "{tokens}");
 }
+
+/// The values every param's stages share are written by `prepare` once
+/// each — in several functions when the bodies are split past
+/// `chunk_nodes` — and every one written is read by some stage.
+#[test]
+fn shared_sensitivity_values_are_written_once_and_read() {
+    for chunk_nodes in [usize::MAX, 8] {
+        let options = Config {
+            sensitivity: SensitivityParams::All,
+            chunk_nodes,
+            ..Config::default()
+        };
+        let source = source_for_file(model("slider_crank.kin"), &options).expect("model derives");
+        let len: usize = source
+            .split("shared: [f64; ")
+            .nth(1)
+            .and_then(|rest| rest.split(']').next())
+            .and_then(|n| n.parse().ok())
+            .expect("a `shared` field");
+        assert!(len > 10, "{len} shared values");
+        let prepares = source.matches("fn __kinema_sensitivity_prepare_").count();
+        assert_eq!(
+            prepares > 1,
+            chunk_nodes == 8,
+            "{prepares} prepare functions"
+        );
+        for k in 0..len {
+            let write = format!("scratch.shared[{k}] =");
+            assert_eq!(source.matches(&write).count(), 1, "{write}");
+            let read = format!("scratch.shared[{k}]");
+            assert!(source.matches(&read).count() > 1, "{read} is never read");
+        }
+    }
+}

@@ -18,6 +18,9 @@
 //!    s̈ terms ([`SensitivitySystem::acceleration_rhs`]);
 //! 4. ÿ_p += y_q s̈ ([`SensitivitySystem::acceleration_outputs`]).
 //!
+//! Before the params, [`SensitivitySystem::prepare`] evaluates once what
+//! every param's stages share.
+//!
 //! Three solves per param, no factorization (unless the state's was not
 //! kept: an interpolated near-singular row), no allocation.
 //!
@@ -29,10 +32,11 @@
 //! Before stage 2, s holds param k's ∂q/∂p; before stage 3, ṡ its ∂q̇/∂p;
 //! what a stage reads before the level that writes it is unspecified.
 
+#[cfg(doc)]
+use crate::Solver;
 use crate::error::Error;
 use crate::state::State;
-#[cfg(doc)]
-use crate::{Solver, System};
+use crate::system::System;
 
 /// Where a sensitivity stage is evaluated: time, the augmented positions
 /// [q; s] and velocities [q̇; ṡ] (length 2 nc each; module docs) and the
@@ -53,13 +57,18 @@ pub struct Augmented<'a> {
 /// kinematic system (NDOF = 0), evaluated per param and stage into the
 /// caller's buffers.
 ///
-/// For each param k the algorithm ([`Solver::sensitivities`]) calls the
-/// four stages in order — [`position_rhs`](Self::position_rhs),
+/// At each state the algorithm ([`Solver::sensitivities`]) first calls
+/// [`prepare`](Self::prepare) once, then for each param k the four stages
+/// in order — [`position_rhs`](Self::position_rhs),
 /// [`velocity_rhs`](Self::velocity_rhs),
 /// [`acceleration_rhs`](Self::acceleration_rhs),
-/// [`acceleration_outputs`](Self::acceleration_outputs) — at the same
-/// state, so an implementation may carry values from one stage to the next
-/// of the same param in its scratch (the tape back end keeps W there).
+/// [`acceleration_outputs`](Self::acceleration_outputs) — at that same
+/// state, so an implementation may carry values from `prepare` to every
+/// stage (generated code keeps there what does not depend on the param:
+/// the sin and cos of the angles, and every subexpression that reads no
+/// s or ṡ), and from one stage to the next of the same param (the tape
+/// back end keeps W there). A stage called without `prepare` at its
+/// state may read stale values.
 ///
 /// As for [`System`]: the evaluation methods do not allocate, and given a
 /// buffer of another length, or a `k` not below
@@ -86,6 +95,32 @@ pub trait SensitivitySystem {
     /// The number of result columns m (named points' components, then
     /// measures, in the order of [`Outputs`](crate::Outputs)).
     fn result_count(&self) -> usize;
+
+    /// Once per state, before any param's stages: whatever the stages of
+    /// every param share, into `scratch`. Reads q, q̇, q̈ and t (`at`'s s
+    /// and ṡ are unspecified). The default does nothing.
+    fn prepare(&self, scratch: &mut Self::SensitivityScratch, at: Augmented<'_>) {
+        let _ = (scratch, at);
+    }
+
+    /// [`prepare`](Self::prepare) when this is the solver's own system,
+    /// right after its step ([`Solver::sensitivities`]): `step` is the
+    /// scratch the step's evaluations left, which an implementation may
+    /// take values of the state from instead of computing them again
+    /// (generated code: the sin and cos of an angle, when the step's
+    /// cache holds them for the same angle, bit for bit). The default
+    /// calls `prepare`.
+    fn prepare_after_step(
+        &self,
+        scratch: &mut Self::SensitivityScratch,
+        at: Augmented<'_>,
+        step: &<Self as System>::Scratch,
+    ) where
+        Self: System,
+    {
+        let _ = step;
+        self.prepare(scratch, at);
+    }
 
     /// Stage 1: −Φ_p of param `k` into `rhs` (length nc). Reads q, t.
     fn position_rhs(
@@ -237,12 +272,14 @@ impl<Z: SensitivitySystem + ?Sized> Sensitivities<Z> {
     }
 }
 
-/// The one algorithm: per param, three solves (`solve`: Φ_q x = b in
-/// place) and the four stages of [`SensitivitySystem`].
+/// The one algorithm: `prepare` once ([`SensitivitySystem::prepare`] or
+/// [`SensitivitySystem::prepare_after_step`]), then per param three solves
+/// (`solve`: Φ_q x = b in place) and the four stages.
 pub(crate) fn sensitivity_loop<Z: SensitivitySystem + ?Sized>(
     z: &Z,
     state: &State,
     out: &mut Sensitivities<Z>,
+    prepare: impl FnOnce(&mut Z::SensitivityScratch, Augmented<'_>),
     mut solve: impl FnMut(&mut [f64]) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let Sensitivities {
@@ -260,6 +297,7 @@ pub(crate) fn sensitivity_loop<Z: SensitivitySystem + ?Sized>(
     qd[..nc].copy_from_slice(&state.qd);
     let qdd: &[f64] = &state.qdd;
     let stride = 3 * (nc + m);
+    prepare(scratch, Augmented { t, q, qd, qdd });
     for k in 0..*params {
         let out = &mut values[k * stride..(k + 1) * stride];
         let (coords, results) = out.split_at_mut(3 * nc);

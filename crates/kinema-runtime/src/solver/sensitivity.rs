@@ -3,7 +3,7 @@
 
 use crate::error::Error;
 use crate::linalg::{LinalgError, LinearSolver};
-use crate::sensitivity::{Sensitivities, SensitivitySystem, sensitivity_loop};
+use crate::sensitivity::{Augmented, Sensitivities, SensitivitySystem, sensitivity_loop};
 use crate::solver::Solver;
 use crate::system::System;
 
@@ -50,9 +50,14 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             state,
             lu,
             ws,
+            scratch,
             ..
         } = self;
-        sensitivity_loop(&*system, state, out, |rhs| {
+        let system = &*system;
+        let prepare = |own: &mut S::SensitivityScratch, at: Augmented<'_>| {
+            system.prepare_after_step(own, at, scratch);
+        };
+        sensitivity_loop(system, state, out, prepare, |rhs| {
             ws.scaling.solve(lu, rhs).map_err(Error::Setup)
         })
     }
@@ -77,7 +82,8 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         check_buffers(z, out)?;
         self.factor_for_sensitivities(out.nc)?;
         let Solver { state, lu, ws, .. } = self;
-        sensitivity_loop(z, state, out, |rhs| {
+        let prepare = |own: &mut Z::SensitivityScratch, at: Augmented<'_>| z.prepare(own, at);
+        sensitivity_loop(z, state, out, prepare, |rhs| {
             ws.scaling.solve(lu, rhs).map_err(Error::Setup)
         })
     }
