@@ -10,7 +10,9 @@
 //! factorization ([`kinema_tape::sensitivity`]) and, for unknown times, the
 //! results' own rates. It starts from the model's own design and from a
 //! space-filling (Owen-scrambled Sobol) set of designs within the bounds,
-//! on every core, and keeps only defect-free optima:
+//! on every core — a start that does not run through the targets moved
+//! towards the model's design until it does ([`Outcome::moved`]) — and
+//! keeps only defect-free optima:
 //!
 //! * **no circuit defect** — the design assembles at every target time,
 //!   run by continuation on the branch it assembles on;
@@ -515,6 +517,7 @@ pub struct Outcome {
     designs: Vec<Design>,
     rejections: Rejections,
     starts: usize,
+    moved: usize,
 }
 
 impl Outcome {
@@ -535,6 +538,14 @@ impl Outcome {
     #[must_use]
     pub fn starts(&self) -> usize {
         self.starts
+    }
+
+    /// How many starts did not run through the targets and were moved
+    /// towards the model's design until they did (then fitted from there,
+    /// and kept or rejected as any other).
+    #[must_use]
+    pub fn moved(&self) -> usize {
+        self.moved
     }
 }
 
@@ -631,7 +642,7 @@ impl Fitter {
             .map_err(|e| FitError::Model(format!("cannot start the worker threads: {e}")))?;
         let model = &self.model;
         let plan = &self.plan;
-        let results: Vec<Result<start::StartResult, String>> = pool.install(|| {
+        let results: Vec<Result<(start::StartResult, bool), String>> = pool.install(|| {
             starts
                 .par_iter()
                 .enumerate()
@@ -646,8 +657,11 @@ impl Fitter {
         });
         let mut designs: Vec<Design> = Vec::new();
         let mut rejections = Rejections::default();
+        let mut moved = 0;
         for r in results {
-            match r.map_err(FitError::Model)? {
+            let (result, was_moved) = r.map_err(FitError::Model)?;
+            moved += usize::from(was_moved);
+            match result {
                 Ok(d) => designs.push(d),
                 Err(rejection) => rejections.all.push(rejection),
             }
@@ -674,6 +688,7 @@ impl Fitter {
             designs: kept,
             rejections,
             starts: starts.len(),
+            moved,
         })
     }
 

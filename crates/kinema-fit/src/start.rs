@@ -148,8 +148,22 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 }
 
+/// The fractions of the way from a start that does not run to the model's
+/// design at which it is tried again ([`fit`]), nearest the start first.
+const TOWARDS_MODEL: [f64; 4] = [0.125, 0.25, 0.5, 0.75];
+
 /// Fits from the start `x0` (params, then times when unknown) and checks
-/// the optimum's defects.
+/// the optimum's defects; with it, whether the start was moved.
+///
+/// A start whose design does not run through the targets (it does not
+/// assemble, locks up before the last target, meets a singular
+/// configuration at one) has no residuals for LM to start from. Rather
+/// than rejected, it is moved along the straight line to the model's
+/// design — which must run, being the first start — to the first of
+/// [`TOWARDS_MODEL`]'s fractions of the way where it runs: the feasible
+/// part of the space-filling design, kept as near its point as that
+/// allows. (The bounds are convex: the point stays within them.) Only
+/// when none runs is it rejected, for its own failure.
 ///
 /// Unknown times are fitted as the first time and the gaps between
 /// consecutive ones, each positive (p = exp u): the targets are visited in
@@ -157,7 +171,57 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 /// spanning more than one cycle, which the check rejects). A design whose
 /// times leave [−t_end, 3 t_end] — or, with the walls up, span more than a
 /// cycle — is answered as a failed one (LM shrinks its step).
-pub(crate) fn fit(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
+pub(crate) fn fit(
+    worker: &mut Worker,
+    plan: &Plan,
+    index: usize,
+    x0: &[f64],
+) -> (StartResult, bool) {
+    let (moved, x0) = match runnable(worker, plan, x0) {
+        Ok(None) => (false, x0.to_vec()),
+        Ok(Some(x)) => (true, x),
+        Err(f) => return (Err(rejection(index, &f)), false),
+    };
+    (fit_walls(worker, plan, index, &x0), moved)
+}
+
+/// `None` if the start `x0` runs through the targets; else the first point
+/// towards the model's design that does ([`fit`]), or the start's failure.
+fn runnable(worker: &mut Worker, plan: &Plan, x0: &[f64]) -> Result<Option<Vec<f64>>, Failure> {
+    let k = plan.vary.len();
+    let times = if plan.times_unknown() {
+        &x0[k..]
+    } else {
+        plan.targets.times().unwrap_or(&[])
+    };
+    let span = plan.fit_span(times);
+    let runs = |worker: &mut Worker, params: &[f64]| {
+        worker.start_at(&[], &[]);
+        worker.evaluate(plan, params, times, span, false, None)
+    };
+    let failure = match runs(worker, &x0[..k]) {
+        Ok(()) => return Ok(None),
+        Err(f) => f,
+    };
+    let model: Vec<f64> = plan.vary.iter().map(|v| v.value).collect();
+    if x0[..k] == model[..] {
+        return Err(failure);
+    }
+    let mut x = x0.to_vec();
+    for s in TOWARDS_MODEL {
+        for ((xj, &aj), &bj) in x.iter_mut().zip(&x0[..k]).zip(&model) {
+            *xj = aj + s * (bj - aj);
+        }
+        if runs(worker, &x[..k]).is_ok() {
+            return Ok(Some(x));
+        }
+    }
+    Err(failure)
+}
+
+/// [`fit`] from a start that runs: first free of walls, then, if the
+/// optimum has a defect, with them.
+fn fit_walls(worker: &mut Worker, plan: &Plan, index: usize, x0: &[f64]) -> StartResult {
     // First free of walls: LM's path may cross designs with a singular
     // configuration or targets spread over more than a cycle (the optimum
     // is checked; an optimum on the edge, as a closed path's last point
@@ -388,6 +452,112 @@ mod tests {
     use super::*;
     use crate::{Spec, Targets};
     use kinema_tape::Model;
+
+    /// A four-bar (ground pivots 1 apart) whose crank turns a quarter
+    /// turn from 45°, and the coupler point's path of its own design at
+    /// four times.
+    fn crank_rocker() -> (Model, Plan) {
+        let model = Model::from_source(
+            "mechanism FourBar {
+                param l1 = 0.3;
+                param l2 = 1.0;
+                param l3 = 0.8;
+                body crank   { guess: (0.1, 0.1, 0.8) }
+                body coupler { guess: (0.6, 0.5, 0.6) }
+                body rocker  { guess: (1.0, 0.4, 1.5) }
+                point coupler.p = (0.2, 0.3);
+                joint o: revolute(crank(-l1 / 2, 0), ground(0, 0));
+                joint a: revolute(crank(l1 / 2, 0), coupler(-l2 / 2, 0));
+                joint b: revolute(coupler(l2 / 2, 0), rocker(l3 / 2, 0));
+                joint d: revolute(rocker(-l3 / 2, 0), ground(1, 0));
+                driver crank_angle: abs_angle(crank, pi / 4 + pi / 2 * t);
+            }",
+            "four_bar.kin",
+        )
+        .unwrap();
+        let times = [0.0, 0.3, 0.6, 1.0];
+        let mut solver = model.solver(kinema_runtime::Options::default()).unwrap();
+        let p = model.output_index("coupler.p.x").unwrap();
+        let rows: Vec<Vec<f64>> = times
+            .iter()
+            .map(|&t| {
+                if t == 0.0 {
+                    solver.assemble(t).unwrap();
+                } else {
+                    solver.step(t).unwrap();
+                }
+                let state = solver.state().unwrap();
+                let [y, _, _] = kinema_runtime::Outputs::outputs_at(solver.system(), state);
+                vec![y[p], y[p + 1]]
+            })
+            .collect();
+        let targets = Targets::new(&["coupler.p.x", "coupler.p.y"], &rows, Some(&times)).unwrap();
+        let spec = Spec::new(&["l1", "l2", "l3"], targets).with_bounds(vec![
+            "l1=0.05:2".parse().unwrap(),
+            "l2=0.05:2".parse().unwrap(),
+            "l3=0.05:2".parse().unwrap(),
+        ]);
+        let plan = Plan::new(&model, &spec).unwrap();
+        (model, plan)
+    }
+
+    /// A start whose links cannot close (l2 + l3 shorter than the pivots'
+    /// distance from the crank pin) is not rejected but moved towards the
+    /// model's design until it runs, and fitted from there; one that runs
+    /// is fitted where it is.
+    #[test]
+    fn a_start_that_does_not_run_is_moved_towards_the_models_design() {
+        let (model, plan) = crank_rocker();
+        let mut worker = Worker::new(&model, &plan).unwrap();
+        let stuck = [0.9, 0.2, 0.2];
+        let k = plan.vary.len();
+        let span = plan.fit_span(plan.targets.times().unwrap());
+        worker.start_at(&[], &[]);
+        let failure = worker.evaluate(
+            &plan,
+            &stuck,
+            plan.targets.times().unwrap(),
+            span,
+            false,
+            None,
+        );
+        assert!(
+            matches!(failure, Err(Failure::Assembly { .. })),
+            "{failure:?}"
+        );
+        let moved = runnable(&mut worker, &plan, &stuck).unwrap().unwrap();
+        // The first fraction that runs, on the line to the model's design.
+        let s = (moved[0] - stuck[0]) / (0.3 - stuck[0]);
+        assert!(TOWARDS_MODEL.contains(&((s * 1e6).round() / 1e6)), "{s}");
+        for (j, v) in plan.vary.iter().enumerate().take(k) {
+            assert!((moved[j] - (stuck[j] + s * (v.value - stuck[j]))).abs() < 1e-12);
+        }
+        let (result, was_moved) = fit(&mut worker, &plan, 7, &stuck);
+        assert!(was_moved);
+        let design = result.unwrap();
+        assert_eq!(design.start(), 7);
+        assert!(design.rms() < 1e-8, "{}", design.rms());
+        // A start that runs is not moved.
+        let (result, was_moved) = fit(&mut worker, &plan, 8, &[0.32, 0.95, 0.85]);
+        assert!(!was_moved);
+        assert!(result.unwrap().rms() < 1e-8);
+    }
+
+    /// A start none of whose points towards the model's design runs is
+    /// rejected for its own failure, unmoved.
+    #[test]
+    fn a_start_with_no_running_point_towards_the_model_is_rejected() {
+        let (model, plan) = crank_rocker();
+        let mut worker = Worker::new(&model, &plan).unwrap();
+        // Far out: three quarters of the way back is still too short.
+        let stuck = [2.0, 0.05, 0.05];
+        assert!(runnable(&mut worker, &plan, &stuck).is_err());
+        let (result, was_moved) = fit(&mut worker, &plan, 3, &stuck);
+        assert!(!was_moved);
+        let rejection = result.unwrap_err();
+        assert_eq!((rejection.start, rejection.reason), (3, Reason::Assembly));
+        assert!(rejection.detail.contains("t = 0"), "{}", rejection.detail);
+    }
 
     /// LM's Jacobian — through the bounds' maps and, for unknown times,
     /// the first time and the gaps — against central differences of the

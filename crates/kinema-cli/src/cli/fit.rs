@@ -238,6 +238,14 @@ fn summary_text(outcome: &Outcome, k: usize) -> String {
         let _ = writeln!(text, "  {}", cells.join("  "));
     }
     let _ = writeln!(text, "rejected: {}", outcome.rejections());
+    if outcome.moved() > 0 {
+        let _ = writeln!(
+            text,
+            "moved: {} start{} that did not run through the targets, fitted from the first point towards the model's design that does",
+            outcome.moved(),
+            if outcome.moved() == 1 { "" } else { "s" }
+        );
+    }
     if let Some(times) = designs.first().map(|d| d.times())
         && !times.is_empty()
     {

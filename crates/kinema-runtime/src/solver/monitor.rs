@@ -18,7 +18,7 @@ use crate::system::System;
 const CONSISTENCY: f64 = 0.3;
 
 /// More Newton updates than this make a step be refined.
-const MAX_UPDATES_UNREFINED: usize = 8;
+pub(super) const MAX_UPDATES_UNREFINED: usize = 8;
 
 /// A step is quiet (see [`Solver::quiet`]) when Newton's later updates sum
 /// to at most this fraction of its first: Newton contracted from its first

@@ -4,6 +4,7 @@
 //! of a passage (change of sign of det Φ_q) and of a lock-up (limit point),
 //! and a start at a singular configuration. Off the per-step hot path.
 
+use super::monitor::MAX_UPDATES_UNREFINED;
 use super::{ROUNDOFF_RATIO, Solver, predict_into};
 use crate::diagnose::MAX_DENSE_DIAGNOSIS;
 use crate::error::Error;
@@ -27,6 +28,11 @@ const MIN_FRACTION: f64 = 1e-13;
 /// At most this many successive jumps (each twice as far) over a
 /// near-singular neighbourhood.
 const MAX_JUMPS: usize = 20;
+
+/// [`Solver::bridge`] gives up after this many probes in a row, each twice
+/// as far beyond the output time as the last, where Newton finds no
+/// solution.
+const MAX_FAILED_PROBES: usize = 6;
 
 /// At most this many internal sub-step attempts per step.
 const MAX_SUBSTEPS: usize = 1000;
@@ -285,14 +291,40 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
     /// regular), q̈ the derivative of the latter. Flags it.
     /// `false` if no regular state beyond was found.
     fn bridge(&mut self, t: f64) -> bool {
+        // Every solve here must pass the branch test, which refuses one of
+        // more than MAX_UPDATES_UNREFINED Newton updates: Newton stops
+        // there, the same states found, and a probe with no solution (past
+        // a lock-up every one fails) costs that many updates, not
+        // `max_iterations`.
+        let max_iterations = self.options.max_iterations;
+        self.options.max_iterations = max_iterations.min(MAX_UPDATES_UNREFINED);
+        let found = self.bridge_probes(t);
+        self.options.max_iterations = max_iterations;
+        found
+    }
+
+    /// [`bridge`](Self::bridge) with its solves' updates capped.
+    fn bridge_probes(&mut self, t: f64) -> bool {
         std::mem::swap(&mut self.next, &mut self.aside);
         let ta = self.state.t;
         // A regular state beyond t on the branch: b.
         let mut tb = t + (t - ta);
         let mut found = false;
+        let mut failed = 0;
         for _ in 0..30 {
-            if self.attempt(tb).is_ok() && !self.next.stats.near_singular && self.acceptable() {
-                found = true;
+            match self.attempt(tb) {
+                Ok(()) if !self.next.stats.near_singular && self.acceptable() => {
+                    found = true;
+                    break;
+                }
+                Ok(()) => failed = 0,
+                Err(_) => failed += 1,
+            }
+            // No solution from the prediction at this many distances in a
+            // row, each twice the last: nothing on the branch beyond (past a
+            // lock-up every probe fails), or not within reach of the
+            // prediction.
+            if failed == MAX_FAILED_PROBES {
                 break;
             }
             tb = t + 2.0 * (tb - t);
