@@ -170,7 +170,10 @@ impl Worker {
                         .extend(plan.objectives.iter().map(|o| value(&o.column))),
                 }
             }
-            if jacobian && let Err(e) = self.sens.compute(&mut self.solver) {
+            // Targets and objectives are positions: their sensitivities
+            // at the position level (an unknown time's column is the
+            // result's own rate, from the state).
+            if jacobian && let Err(e) = self.sens.compute_positions(&mut self.solver) {
                 return Err(Failure::Assembly {
                     t,
                     why: format!("the sensitivities: {e}"),

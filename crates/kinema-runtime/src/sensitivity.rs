@@ -274,12 +274,14 @@ impl<Z: SensitivitySystem + ?Sized> Sensitivities<Z> {
 
 /// The one algorithm: `prepare` once ([`SensitivitySystem::prepare`] or
 /// [`SensitivitySystem::prepare_after_step`]), then per param three solves
-/// (`solve`: Φ_q x = b in place) and the four stages.
+/// (`solve`: Φ_q x = b in place) and the four stages — with
+/// `positions_only`, one solve and the first two stages (∂q/∂p, ∂y/∂p).
 pub(crate) fn sensitivity_loop<Z: SensitivitySystem + ?Sized>(
     z: &Z,
     state: &State,
     out: &mut Sensitivities<Z>,
     prepare: impl FnOnce(&mut Z::SensitivityScratch, Augmented<'_>),
+    positions_only: bool,
     mut solve: impl FnMut(&mut [f64]) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let Sensitivities {
@@ -313,6 +315,13 @@ pub(crate) fn sensitivity_loop<Z: SensitivitySystem + ?Sized>(
         // Velocity: Φ_q ṡ = rhs(q, s, q̇); y_p.
         let at = Augmented { t, q, qd, qdd };
         z.velocity_rhs(scratch, k, at, dsd, dy);
+        if positions_only {
+            // y_p is stage 2's; the rates' levels are not computed.
+            for x in dsd.iter_mut().chain(dsdd).chain(dyd).chain(dydd) {
+                *x = f64::NAN;
+            }
+            continue;
+        }
         solve(dsd)?;
         qd[nc..].copy_from_slice(dsd);
         // Acceleration: Φ_q s̈ = rhs(q, s, q̇, ṡ) − W q̈; ẏ_p and ÿ_p's

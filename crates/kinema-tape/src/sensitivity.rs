@@ -191,6 +191,29 @@ impl Sensitivity {
         &mut self,
         solver: &mut Solver<TapeSystem, L>,
     ) -> Result<(), Error> {
+        self.compute_levels(solver, false)
+    }
+
+    /// [`compute`](Self::compute) at the position level only: ∂q/∂p and
+    /// ∂y/∂p (the first of [`coordinates`](Self::coordinates)' and
+    /// [`outputs`](Self::outputs)' three), one solve per param; the rates'
+    /// levels are set to NaN
+    /// ([`Solver::position_sensitivities_of`]).
+    ///
+    /// # Errors
+    /// As [`compute`](Self::compute).
+    pub fn compute_positions<L: LinearSolver>(
+        &mut self,
+        solver: &mut Solver<TapeSystem, L>,
+    ) -> Result<(), Error> {
+        self.compute_levels(solver, true)
+    }
+
+    fn compute_levels<L: LinearSolver>(
+        &mut self,
+        solver: &mut Solver<TapeSystem, L>,
+        positions_only: bool,
+    ) -> Result<(), Error> {
         let tapes = &mut self.tapes;
         let dimension = |what, expected, found| {
             Error::Setup(kinema_runtime::LinalgError::Dimension {
@@ -215,7 +238,11 @@ impl Sensitivity {
             ));
         }
         tapes.param_values.copy_from_slice(params);
-        solver.sensitivities_of(&*tapes, &mut self.values)
+        if positions_only {
+            solver.position_sensitivities_of(&*tapes, &mut self.values)
+        } else {
+            solver.sensitivities_of(&*tapes, &mut self.values)
+        }
     }
 
     /// ∂q/∂p, ∂q̇/∂p, ∂q̈/∂p for the `k`-th param asked for, at the state

@@ -224,3 +224,37 @@ fn compute_before_a_step_is_an_error() {
     let mut solver = m.solver(Options::default()).expect("solver");
     assert!(sens.compute(&mut solver).is_err());
 }
+
+/// The position level alone (`compute_positions`: one solve per param)
+/// is the full computation's position level to the bit, the rates' levels
+/// NaN, on a model with named points and outputs.
+#[test]
+fn the_position_level_alone_is_the_full_ones() {
+    let m = model("four_bar.kin");
+    let names: Vec<String> = m
+        .derivation()
+        .params
+        .iter()
+        .map(|p| p.name.clone())
+        .collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut full = m.sensitivity(&names).expect("params");
+    let mut positions = m.sensitivity(&names).expect("params");
+    let mut solver = m.solver(Options::default()).expect("solver");
+    solver.assemble(0.0).expect("assembles");
+    for t in [0.1, 0.37, 0.8] {
+        solver.step(t).expect("steps");
+        full.compute(&mut solver).expect("full");
+        positions.compute_positions(&mut solver).expect("positions");
+        for k in 0..names.len() {
+            assert_eq!(full.coordinates(k)[0], positions.coordinates(k)[0]);
+            assert_eq!(full.outputs(k)[0], positions.outputs(k)[0]);
+            assert!(full.coordinates(k)[1].iter().all(|x| x.is_finite()));
+            for level in 1..3 {
+                assert!(positions.coordinates(k)[level].iter().all(|x| x.is_nan()));
+                assert!(positions.outputs(k)[level].iter().all(|x| x.is_nan()));
+            }
+        }
+    }
+    assert!(!m.derivation().outputs.is_empty());
+}

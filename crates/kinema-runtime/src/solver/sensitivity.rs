@@ -57,7 +57,7 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         let prepare = |own: &mut S::SensitivityScratch, at: Augmented<'_>| {
             system.prepare_after_step(own, at, scratch);
         };
-        sensitivity_loop(system, state, out, prepare, |rhs| {
+        sensitivity_loop(system, state, out, prepare, false, |rhs| {
             ws.scaling.solve(lu, rhs).map_err(Error::Setup)
         })
     }
@@ -79,11 +79,36 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
         z: &Z,
         out: &mut Sensitivities<Z>,
     ) -> Result<(), Error> {
+        self.sensitivities_at_levels(z, out, false)
+    }
+
+    /// [`sensitivities_of`](Self::sensitivities_of) at the position level
+    /// only: ∂q/∂p and the result columns' ∂y/∂p — one solve per param
+    /// instead of three, for a caller that reads no rate's sensitivity (a
+    /// least-squares fit of positions). The velocity and acceleration
+    /// levels of `out` are set to NaN.
+    ///
+    /// # Errors
+    /// As [`sensitivities_of`](Self::sensitivities_of).
+    pub fn position_sensitivities_of<Z: SensitivitySystem + ?Sized>(
+        &mut self,
+        z: &Z,
+        out: &mut Sensitivities<Z>,
+    ) -> Result<(), Error> {
+        self.sensitivities_at_levels(z, out, true)
+    }
+
+    fn sensitivities_at_levels<Z: SensitivitySystem + ?Sized>(
+        &mut self,
+        z: &Z,
+        out: &mut Sensitivities<Z>,
+        positions_only: bool,
+    ) -> Result<(), Error> {
         check_buffers(z, out)?;
         self.factor_for_sensitivities(out.nc)?;
         let Solver { state, lu, ws, .. } = self;
         let prepare = |own: &mut Z::SensitivityScratch, at: Augmented<'_>| z.prepare(own, at);
-        sensitivity_loop(z, state, out, prepare, |rhs| {
+        sensitivity_loop(z, state, out, prepare, positions_only, |rhs| {
             ws.scaling.solve(lu, rhs).map_err(Error::Setup)
         })
     }
