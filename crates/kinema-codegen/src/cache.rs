@@ -144,13 +144,7 @@ impl Cache {
         step: &Cache,
     ) -> TokenStream {
         let reached = emit::reachable(arena, outputs, &|e| self.lookup(e).is_some());
-        let mut slots: Vec<usize> = reached
-            .iter()
-            .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
-            .filter(|&slot| (self.angles[slot] as usize) < nc)
-            .collect();
-        slots.sort_unstable();
-        slots.dedup();
+        let slots = self.angle_slots(&reached, &|i| (i as usize) < nc);
         let checks = slots.iter().map(|&slot| {
             let angle = self.angles[slot];
             let i = Literal::usize_unsuffixed(angle as usize);
@@ -178,6 +172,19 @@ impl Cache {
         });
         let checks: Vec<TokenStream> = checks.collect();
         inline_checks(&checks)
+    }
+
+    /// The slots, in order, of the angles `reached` reads the sin or cos
+    /// of, of the coordinates `angles` accepts.
+    fn angle_slots(&self, reached: &[ExprId], angles: &dyn Fn(u32) -> bool) -> Vec<usize> {
+        let mut slots: Vec<usize> = reached
+            .iter()
+            .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
+            .filter(|&slot| angles(self.angles[slot]))
+            .collect();
+        slots.sort_unstable();
+        slots.dedup();
+        slots
     }
 
     /// Nothing to cache.
@@ -267,13 +274,7 @@ impl Cache {
             return (quote!(), Vec::new(), false);
         }
         let reached = emit::reachable(arena, outputs, &|e| self.lookup(e).is_some());
-        let mut slots: Vec<usize> = reached
-            .iter()
-            .filter_map(|e| self.trig.get(e).map(|&(slot, _)| slot))
-            .filter(|&slot| angles(self.angles[slot]))
-            .collect();
-        slots.sort_unstable();
-        slots.dedup();
+        let slots = self.angle_slots(&reached, angles);
         let uses_time = reached.iter().any(|e| self.time_slot.contains_key(e));
         let mut out = TokenStream::new();
         if uses_time && time {

@@ -365,6 +365,16 @@ pub(crate) fn items(
         nc2: nc2_lit,
         m: m_lit,
     } = &sizes;
+    // `at`'s slices as fixed-size arrays (a wrong length: return).
+    let sized_inputs = quote! {
+        let (Ok(q), Ok(qd), Ok(qdd)) = (
+            <&[f64; #nc2_lit]>::try_from(q),
+            <&[f64; #nc2_lit]>::try_from(qd),
+            <&[f64; #nc_lit]>::try_from(qdd),
+        ) else {
+            return;
+        };
+    };
     let (rhs, dy, dyd, dydd, w, c, j) = (
         format_ident!("rhs"),
         format_ident!("dy"),
@@ -546,13 +556,7 @@ pub(crate) fn items(
         }
         let inputs = quote! {
             let #rt::Augmented { t, q, qd, qdd } = at;
-            let (Ok(q), Ok(qd), Ok(qdd)) = (
-                <&[f64; #nc2_lit]>::try_from(q),
-                <&[f64; #nc2_lit]>::try_from(qd),
-                <&[f64; #nc_lit]>::try_from(qdd),
-            ) else {
-                return;
-            };
+            #sized_inputs
         };
         // Right after the system's own step, the angles from its cache.
         let after_step = if step.is_empty() || cache.is_empty() {
@@ -614,13 +618,7 @@ pub(crate) fn items(
                 #(#fills)*
                 return;
             }
-            let (Ok(q), Ok(qd), Ok(qdd)) = (
-                <&[f64; #nc2_lit]>::try_from(q),
-                <&[f64; #nc2_lit]>::try_from(qd),
-                <&[f64; #nc_lit]>::try_from(qdd),
-            ) else {
-                return;
-            };
+            #sized_inputs
             #(#sized)*
         }
     };
