@@ -453,28 +453,33 @@ mod tests {
     use crate::{Spec, Targets};
     use kinema_tape::Model;
 
-    /// A four-bar (ground pivots 1 apart) whose crank turns a quarter
-    /// turn from 45°, and the coupler point's path of its own design at
-    /// four times.
-    fn crank_rocker() -> (Model, Plan) {
-        let model = Model::from_source(
-            "mechanism FourBar {
+    /// The test four-bar (ground pivots 1 apart, a coupler point), its
+    /// crank turning from 45° at `rate` rad per unit time.
+    fn four_bar(rate: &str) -> Model {
+        let text = format!(
+            "mechanism FourBar {{
                 param l1 = 0.3;
                 param l2 = 1.0;
                 param l3 = 0.8;
-                body crank   { guess: (0.1, 0.1, 0.8) }
-                body coupler { guess: (0.6, 0.5, 0.6) }
-                body rocker  { guess: (1.0, 0.4, 1.5) }
+                body crank   {{ guess: (0.1, 0.1, 0.8) }}
+                body coupler {{ guess: (0.6, 0.5, 0.6) }}
+                body rocker  {{ guess: (1.0, 0.4, 1.5) }}
                 point coupler.p = (0.2, 0.3);
                 joint o: revolute(crank(-l1 / 2, 0), ground(0, 0));
                 joint a: revolute(crank(l1 / 2, 0), coupler(-l2 / 2, 0));
                 joint b: revolute(coupler(l2 / 2, 0), rocker(l3 / 2, 0));
                 joint d: revolute(rocker(-l3 / 2, 0), ground(1, 0));
-                driver crank_angle: abs_angle(crank, pi / 4 + pi / 2 * t);
-            }",
-            "four_bar.kin",
-        )
-        .unwrap();
+                driver crank_angle: abs_angle(crank, pi / 4 + {rate} * t);
+            }}"
+        );
+        Model::from_source(&text, "four_bar.kin").unwrap()
+    }
+
+    /// A four-bar (ground pivots 1 apart) whose crank turns a quarter
+    /// turn from 45°, and the coupler point's path of its own design at
+    /// four times.
+    fn crank_rocker() -> (Model, Plan) {
+        let model = four_bar("pi / 2");
         let times = [0.0, 0.3, 0.6, 1.0];
         let mut solver = model.solver(kinema_runtime::Options::default()).unwrap();
         let p = model.output_index("coupler.p.x").unwrap();
@@ -564,24 +569,7 @@ mod tests {
     /// residuals in LM's own unknowns.
     #[test]
     fn the_internal_jacobian_is_exact() {
-        let model = Model::from_source(
-            "mechanism FourBar {
-                param l1 = 0.3;
-                param l2 = 1.0;
-                param l3 = 0.8;
-                body crank   { guess: (0.1, 0.1, 0.8) }
-                body coupler { guess: (0.6, 0.5, 0.6) }
-                body rocker  { guess: (1.0, 0.4, 1.5) }
-                point coupler.p = (0.2, 0.3);
-                joint o: revolute(crank(-l1 / 2, 0), ground(0, 0));
-                joint a: revolute(crank(l1 / 2, 0), coupler(-l2 / 2, 0));
-                joint b: revolute(coupler(l2 / 2, 0), rocker(l3 / 2, 0));
-                joint d: revolute(rocker(-l3 / 2, 0), ground(1, 0));
-                driver crank_angle: abs_angle(crank, pi / 4 + 2 * pi * t);
-            }",
-            "four_bar.kin",
-        )
-        .unwrap();
+        let model = four_bar("2 * pi");
         let rows = vec![
             vec![0.5, 0.6],
             vec![0.4, 0.7],
