@@ -244,13 +244,29 @@ fn reference_node(t: &T, x: &[f64; 5], seed: Option<usize>) -> R {
             let (y, xx) = (reference(y, x, seed), reference(xx, x, seed));
             let r2 = xx.v * xx.v + y.v * y.v;
             let v = y.v.atan2(xx.v);
+            // (|x| e_y + |y| e_x) / r², scaled by the larger operand: r²
+            // overflows beyond 10¹⁵⁴ (and underflows below 10⁻¹⁶²).
+            let m = xx.v.abs().max(y.v.abs());
+            let (xs, ys) = (xx.v / m, y.v / m);
+            let e = (xs.abs() * y.e + ys.abs() * xx.e) / m / (xs * xs + ys * ys);
+            let d = (xx.v * y.d - y.v * xx.d) / r2;
+            let dm = (xx.v.abs() * y.dm + y.v.abs() * xx.dm) / r2;
+            // The operands' rounding errors move d by about this: an x
+            // that is a roundoff residue (x0 − x2 / (x2 / x0), exactly 0
+            // symbolically, 1.5e-17 in floating point; seen in a seed
+            // hunt) makes d = x y' / r² a roundoff value.
+            let moved = (xx.e * y.d.abs() + y.e * xx.d.abs()) / r2;
             R {
                 v,
-                e: (xx.v.abs() * y.e + y.v.abs() * xx.e) / r2 + EPS * v.abs(),
-                d: (xx.v * y.d - y.v * xx.d) / r2,
-                dm: (xx.v.abs() * y.dm + y.v.abs() * xx.dm) / r2,
+                e: e + EPS * v.abs(),
+                d,
+                dm,
                 // Not smooth across the branch cut (negative x axis).
-                smooth: y.smooth && xx.smooth && r2 > 1e-6 && !(xx.v < 0.0 && y.v.abs() < 1e-6),
+                smooth: y.smooth
+                    && xx.smooth
+                    && r2 > 1e-6
+                    && !(xx.v < 0.0 && y.v.abs() < 1e-6)
+                    && conditioned(d, dm, moved),
                 cut: y.cut || xx.cut || (xx.v < 0.0 && y.v == 0.0),
             }
         }

@@ -297,15 +297,12 @@ pub(super) fn value_and_error(ins: &Instr, r: &[f64], e: &[f64], trig: &mut [f64
             let p = x.powf(y);
             (
                 p,
-                (y * x.powf(y - 1.0)).abs() * err(a) + (p * x.ln()).abs() * err(b),
+                power_error(y, x, p, err(a)) + (p * x.ln()).abs() * err(b),
             )
         }
         Instr::Atan2 { y, x, .. } => {
             let (yv, xv) = (v(y), v(x));
-            (
-                yv.atan2(xv),
-                (xv.abs() * err(y) + yv.abs() * err(x)) / (xv * xv + yv * yv),
-            )
+            (yv.atan2(xv), atan2_error(yv, xv, err(y), err(x)))
         }
     }
 }
@@ -321,6 +318,21 @@ fn power_error(n: f64, x: f64, p: f64, e: f64) -> f64 {
     } else {
         n.abs() * p.abs() * (e / x.abs())
     }
+}
+
+/// The error of atan2(y, x) from the operands' errors: (|x| e_y +
+/// |y| e_x) / (x² + y²), with both scaled by the larger magnitude first so
+/// that it holds wherever the operands do: x² + y² itself overflows for
+/// operands beyond 10¹⁵⁴ (a cosh of a few hundred, whose bound came out 0
+/// and let a move of the coordinates exceed it) and underflows below
+/// 10⁻¹⁶². At (0, 0) the unscaled form (NaN: the kink check stops there).
+fn atan2_error(y: f64, x: f64, ey: f64, ex: f64) -> f64 {
+    let m = x.abs().max(y.abs());
+    if m == 0.0 || !m.is_finite() {
+        return (x.abs() * ey + y.abs() * ex) / (x * x + y * y);
+    }
+    let (xs, ys) = (x / m, y / m);
+    (xs.abs() * ey + ys.abs() * ex) / m / (xs * xs + ys * ys)
 }
 
 /// sin x (`sine`) or cos x from (sin x, cos x), with the bound from x's
@@ -519,6 +531,44 @@ mod tests {
                 e[0] >= 0.99 * expected && e[0] <= 8.0 * expected,
                 "x = {x:e}: bound {:e}, expected {expected:e}",
                 e[0]
+            );
+        }
+    }
+
+    #[test]
+    fn atan2_bounds_hold_where_the_sum_of_squares_overflows_or_underflows() {
+        let u = super::UNIT;
+        // atan2(2, cosh x) at x = 480: cosh x ≈ 1.5e208, whose square
+        // overflows; the value ≈ 2 / cosh x moves with x like itself
+        // (slope −tanh x · value), so x's 1e-9 moves it by 1e-9 · value.
+        let mut a = Arena::new();
+        let (x, y) = (a.coordinate("x", 0), a.coordinate("y", 1));
+        let two = a.num(2.0);
+        let cosh = a.unary(UnaryOp::Cosh, x);
+        let far = a.atan2(two, cosh);
+        // atan2(x, y) at (1e-170, 1e-170), the coordinates uncertain by
+        // their own roundoff u |x| alone (size 0): x² + y² underflows to
+        // 0; the bound is u (each error over |x|, times 1/2).
+        let near = a.atan2(x, y);
+        let tape = Tape::compile(&a, &[far, near]);
+        for (q, q_error, q_size, output, expected) in [
+            ([480.0, 0.0], 1e-9, 1.0, 0, 2.0 / 480f64.cosh() * 1e-9),
+            ([1e-170, 1e-170], 0.0, 0.0, 1, u),
+        ] {
+            let inputs = TapeInputs {
+                q: &q,
+                qd: &[],
+                params: &[],
+                t: 0.0,
+            };
+            let mut r = vec![0.0; tape.registers()];
+            let mut e = vec![0.0; tape.registers()];
+            tape.error_bounds(&inputs, q_error, q_size, &mut r, &mut e, &mut [])
+                .expect("slices of the tape's lengths");
+            let bound = e[output];
+            assert!(
+                bound >= 0.99 * expected && bound <= 4.0 * expected,
+                "q = {q:?}: bound {bound:e}, expected {expected:e}"
             );
         }
     }
