@@ -181,10 +181,13 @@ impl<S: System, L: LinearSolver> Solver<S, L> {
             tries += 1;
             let from = self.state.t;
             let remaining = t - from;
+            // Never `from` itself: a sub-step shorter than the resolution of
+            // t (a step of an ulp, halved) would be accepted without moving,
+            // and doubled from 0 forever.
             let t_try = if h >= remaining * (1.0 - 1e-9) {
                 t
             } else {
-                from + h
+                (from + h).max(from.next_up()).min(t)
             };
             let h_try = t_try - from;
             let attempt = self.attempt(t_try);
