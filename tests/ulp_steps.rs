@@ -72,3 +72,48 @@ fn steps_of_an_ulp_are_followed_at_regular_and_singular_states() {
         }
     }
 }
+
+/// The pendulum released from horizontal: forward dynamics through HHT-α
+/// and the accurate mode, to output times each followed by the next
+/// representable one: the twin rows equal their grid time's to the
+/// integrator's own change over an ulp.
+#[test]
+fn forward_dynamics_follows_output_times_an_ulp_apart() {
+    let model = kinema::Model::from_source(
+        "mechanism Pendulum {
+            body bar { guess: (1, 0, 0), mass: 2, inertia: 0.3 }
+            gravity = (0, -9.81);
+            constraint pivot_x: abs_x(bar(-1, 0), 0);
+            constraint pivot_y: abs_y(bar(-1, 0), 0);
+        }",
+        "pendulum.kin",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let q0 = model.initial_configuration();
+    let qd0 = vec![0.0; q0.len()];
+    let system = || {
+        model
+            .forward_system()
+            .unwrap_or_else(|| panic!("no dynamics"))
+    };
+    let (mut hht, _) = kinema::Hht::new(system(), &q0, &qd0, 0.0, kinema::HhtOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut accurate =
+        kinema::Accurate::new(system(), &q0, &qd0, 0.0, 1e-10).unwrap_or_else(|e| panic!("{e}"));
+    for k in 1..=20 {
+        let t = f64::from(k) * 0.05;
+        hht.advance_to(t, 0.01)
+            .unwrap_or_else(|e| panic!("HHT to {t}: {e}"));
+        accurate
+            .advance_to(t)
+            .unwrap_or_else(|e| panic!("accurate to {t}: {e}"));
+        let (q_hht, q_acc) = (hht.q()[2], accurate.q()[2]);
+        hht.advance_to(t.next_up(), 0.01)
+            .unwrap_or_else(|e| panic!("HHT to {t} + ulp: {e}"));
+        accurate
+            .advance_to(t.next_up())
+            .unwrap_or_else(|e| panic!("accurate to {t} + ulp: {e}"));
+        assert!((hht.q()[2] - q_hht).abs() <= 1e-12, "HHT at {t}");
+        assert!((accurate.q()[2] - q_acc).abs() <= 1e-12, "accurate at {t}");
+    }
+}

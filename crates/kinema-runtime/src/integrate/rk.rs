@@ -349,7 +349,11 @@ impl<S: ForwardSystem> Accurate<S> {
             }
             let last = self.h >= t_end - self.t;
             let h = if last { t_end - self.t } else { self.h };
-            if h <= 1e-14 * self.t.abs().max(1.0) {
+            // Only the step the error control chose can fall too low: the
+            // last one is shortened onto t_end, as short as output times
+            // are close (an ulp apart, where a schedule computes one time
+            // two ways).
+            if !last && h <= 1e-14 * self.t.abs().max(1.0) {
                 return Err(IntegrateError::Setup(format!(
                     "the step fell to {h:e} at t = {}: the tolerance {:e} cannot be met \
                      (a singularity or a stiff force?)",
@@ -432,7 +436,10 @@ impl<S: ForwardSystem> Accurate<S> {
                 self.t = t1;
                 self.watch();
                 self.stats.accepted += 1;
-                if !last || factor < 1.0 {
+                // A last step much shorter than the chosen one says little
+                // of it (its error may be the drift off Φ = 0 alone, which
+                // no step size lowers): the chosen one is kept.
+                if !last || (factor < 1.0 && h >= 0.5 * self.h) {
                     self.h = h * factor;
                 }
             } else {
