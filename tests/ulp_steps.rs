@@ -73,22 +73,14 @@ fn steps_of_an_ulp_are_followed_at_regular_and_singular_states() {
     }
 }
 
-/// The pendulum released from horizontal: forward dynamics through HHT-α
-/// and the accurate mode, to output times each followed by the next
-/// representable one: the twin rows equal their grid time's to the
-/// integrator's own change over an ulp.
+/// The IFToMM A01 pendulum released from horizontal: forward dynamics
+/// through HHT-α and the accurate mode, to output times each followed by
+/// the next representable one: the twin rows equal their grid time's to
+/// the integrator's own change over an ulp.
 #[test]
 fn forward_dynamics_follows_output_times_an_ulp_apart() {
-    let model = kinema::Model::from_source(
-        "mechanism Pendulum {
-            body bar { guess: (1, 0, 0), mass: 2, inertia: 0.3 }
-            gravity = (0, -9.81);
-            constraint pivot_x: abs_x(bar(-1, 0), 0);
-            constraint pivot_y: abs_y(bar(-1, 0), 0);
-        }",
-        "pendulum.kin",
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let model = kinema::Model::from_file("models/iftomm/a01_pendulum.kin")
+        .unwrap_or_else(|e| panic!("{e}"));
     let q0 = model.initial_configuration();
     let qd0 = vec![0.0; q0.len()];
     let system = || {
