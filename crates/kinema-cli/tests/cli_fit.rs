@@ -156,6 +156,19 @@ fn bad_input_is_refused_with_its_cause() {
     );
     let untimed = file(&dir, "u.csv", "psi\n0\n0.5\n");
     refused(&["--target", &untimed, "--vary", "l1"], "--t-end");
+    // Times whose grid cannot be run: steps below the resolution of t
+    // (a cycle of 1e-323: the grid stepped by 0 and filled memory), and
+    // prescribed times spanning a million cycles of the grid.
+    let subnormal = file(&dir, "s.csv", "t,psi\n0,0\n5e-324,0.1\n1e-323,0.2\n");
+    refused(
+        &["--target", &subnormal, "--vary", "l1"],
+        "give a longer cycle or fewer steps",
+    );
+    let far = file(&dir, "f.csv", "t,psi\n0,0\n0.5,0.1\n1e6,0.2\n");
+    refused(
+        &["--target", &far, "--vary", "l1", "--t-end", "1"],
+        "(at most 2000000)",
+    );
     refused(&["--target", "no/such.csv", "--vary", "l1"], "no/such.csv");
 }
 

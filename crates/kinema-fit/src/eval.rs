@@ -117,7 +117,8 @@ impl Worker {
         singular_window: Option<[f64; 2]>,
     ) -> Result<(), Failure> {
         self.set_params(plan, params);
-        self.schedule(plan, times, span);
+        self.schedule(plan, times, span)
+            .map_err(|why| Failure::Assembly { t: span[0], why })?;
         self.events.clear();
         self.residuals.fill(0.0);
         self.jacobian.fill(0.0);
@@ -368,16 +369,15 @@ impl Worker {
     /// The times of a run: a uniform grid over `span` (the plan's steps
     /// per cycle), the targets' times and the objectives' samples, in time
     /// order; equal times share a step.
-    fn schedule(&mut self, plan: &Plan, times: &[f64], span: [f64; 2]) {
+    ///
+    /// # Errors
+    /// As [`grid`](crate::plan::grid) (not met: a plan's times are checked
+    /// to give a bounded grid).
+    fn schedule(&mut self, plan: &Plan, times: &[f64], span: [f64; 2]) -> Result<(), String> {
         let s = &mut self.schedule;
         s.clear();
         let h = plan.cycle_length() / plan.steps as f64;
-        let mut t = span[0];
-        while t < span[1] {
-            s.push((t, Tag::Step));
-            t += h;
-        }
-        s.push((span[1], Tag::Step));
+        crate::plan::grid(span, h, |t| s.push((t, Tag::Step)))?;
         s.extend(times.iter().enumerate().map(|(i, &t)| (t, Tag::Target(i))));
         for n in 0..plan.objective_samples() {
             s.push((plan.sample_time(n), Tag::Sample(n)));
@@ -385,6 +385,7 @@ impl Worker {
         // Targets and samples after the steps at the same time; a stable
         // sort keeps their order.
         s.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(())
     }
 
     /// Each objective's unweighted value over the last run's samples: the

@@ -713,12 +713,7 @@ impl Fitter {
         let span = plan.check_span(&design.times);
         let h = plan.t_end / plan.steps as f64;
         let mut times = Vec::new();
-        let mut t = span[0];
-        while t < span[1] {
-            times.push(t);
-            t += h;
-        }
-        times.push(span[1]);
+        plan::grid(span, h, |t| times.push(t)).map_err(FitError::Usage)?;
         let mut trace = Trace {
             columns: plan.targets.columns.clone(),
             t: Vec::with_capacity(times.len()),

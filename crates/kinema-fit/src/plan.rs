@@ -45,6 +45,63 @@ pub(crate) struct PlannedObjective {
 /// array of this length).
 pub(crate) const MAX_VARIED: usize = 64;
 
+/// The most grid steps one run of a design takes (prescribed times may
+/// span many cycles): 2 million, about 50 MB of schedule.
+pub(crate) const MAX_RUN_STEPS: usize = 2_000_000;
+
+/// Calls `push` with the uniform grid over `span` in steps of `h` (the
+/// times `span[0]`, `span[0] + h`, … below `span[1]`, accumulated), then
+/// with `span[1]`.
+///
+/// # Errors
+/// Why, where the grid would hold more than [`MAX_RUN_STEPS`] steps or a
+/// step would not advance t (below its resolution): nothing is pushed
+/// beyond that bound, so no run spins or exhausts memory on it.
+pub(crate) fn grid(span: [f64; 2], h: f64, mut push: impl FnMut(f64)) -> Result<(), String> {
+    let steps = ((span[1] - span[0]) / h).ceil();
+    // NaN-safe: a comparison with NaN is false.
+    if !(h > 0.0 && steps <= MAX_RUN_STEPS as f64) {
+        return Err(format!(
+            "a run from t = {} to t = {} in steps of {} would take {} of them (at most \
+             {MAX_RUN_STEPS})",
+            Short(span[0]),
+            Short(span[1]),
+            Short(h),
+            Short(steps)
+        ));
+    }
+    let mut t = span[0];
+    while t < span[1] {
+        push(t);
+        let next = t + h;
+        if next <= t {
+            return Err(format!(
+                "steps of {} do not advance t beyond {}: they are below its resolution",
+                Short(h),
+                Short(t)
+            ));
+        }
+        t = next;
+    }
+    push(span[1]);
+    Ok(())
+}
+
+/// A number in a message: plain where that is short, else in exponent
+/// form (a subnormal cycle would print 300 zeros).
+struct Short(f64);
+
+impl std::fmt::Display for Short {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || (1e-4..1e9).contains(&a) || !a.is_finite() {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// A checked fit.
 #[derive(Clone, Debug)]
 pub(crate) struct Plan {
@@ -213,6 +270,25 @@ impl Plan {
                 spec.steps
             )));
         }
+        // The longest run a fit makes: over the cycle and the prescribed
+        // times (unknown ones stay within [−t_end, 3 t_end]); its grid
+        // must advance t and stay within bounds.
+        let span = match spec.targets.times() {
+            Some(ts) => [
+                ts.first().copied().unwrap_or(0.0).min(0.0),
+                ts.last().copied().unwrap_or(0.0).max(t_end),
+            ],
+            None => [-t_end, 3.0 * t_end],
+        };
+        let h = t_end / spec.steps as f64;
+        if let Err(why) = grid(span, h, |_| ()) {
+            return Err(FitError::Usage(format!(
+                "a cycle of {} (--t-end, or the last prescribed time) in {} steps (--steps): \
+                 {why}; give a longer cycle or fewer steps",
+                Short(t_end),
+                spec.steps
+            )));
+        }
         let mut objectives = Vec::with_capacity(spec.objectives.len());
         for o in &spec.objectives {
             if !(o.weight.is_finite() && o.weight > 0.0) {
@@ -340,5 +416,40 @@ impl Plan {
     pub(crate) fn check_span(&self, times: &[f64]) -> [f64; 2] {
         let [lo, hi] = self.fit_span(times);
         [lo, hi.max(self.t_end)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MAX_RUN_STEPS, grid};
+
+    fn times(span: [f64; 2], h: f64) -> Result<Vec<f64>, String> {
+        let mut out = Vec::new();
+        grid(span, h, |t| out.push(t)).map(|()| out)
+    }
+
+    #[test]
+    fn a_grid_is_the_accumulated_steps_then_the_end() {
+        let got = times([0.0, 1.0], 0.3).unwrap_or_default();
+        assert_eq!(got, vec![0.0, 0.3, 0.6, 0.3 + 0.3 + 0.3, 1.0]);
+        assert_eq!(times([2.0, 2.0], 0.5), Ok(vec![2.0]));
+    }
+
+    #[test]
+    fn a_grid_that_cannot_be_run_is_refused_with_nothing_spun() {
+        // A step of 0 (a subnormal cycle over 360 steps), NaN, too many
+        // steps, and steps below the resolution of t near 1e17.
+        for (span, h, says) in [
+            ([0.0, 1e-323], 1e-323 / 360.0, "at most"),
+            ([0.0, 1.0], f64::NAN, "at most"),
+            ([0.0, 1.0], 1.0 / (2.0 * MAX_RUN_STEPS as f64), "at most"),
+            ([1e17, 1e17 + 64.0], 4.0, "below its resolution"),
+        ] {
+            let got = times(span, h);
+            assert!(
+                matches!(&got, Err(why) if why.contains(says)),
+                "{span:?} by {h:e}: {got:?}"
+            );
+        }
     }
 }
