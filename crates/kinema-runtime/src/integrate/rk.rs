@@ -337,14 +337,30 @@ impl<S: ForwardSystem> Accurate<S> {
             )));
         }
         let mut attempts = 0usize;
+        let (start, rejected) = (self.t, self.stats.rejected);
         while self.t < t_end {
             attempts += 1;
             if attempts > MAX_ATTEMPTS {
+                let stiff = 2 * (self.stats.rejected - rejected) >= MAX_ATTEMPTS;
+                let cause = if stiff {
+                    format!(
+                        "the motion is too stiff for the explicit accurate mode at rtol {:e}; \
+                         try --integrator hht",
+                        self.rtol
+                    )
+                } else {
+                    // Mostly accepted steps: the interval, not the motion.
+                    format!(
+                        "the interval between these output times is too long for steps of \
+                         this size (about {:.1e} more of them to go): ask for output times \
+                         closer together",
+                        ((t_end - self.t) / self.h).ceil()
+                    )
+                };
                 return Err(IntegrateError::Setup(format!(
-                    "{MAX_ATTEMPTS} steps from t = {} did not reach t = {t_end} (the step is \
-                     {:e}): the motion is too stiff for the explicit accurate mode at rtol {:e}; \
-                     try --integrator hht",
-                    self.t, self.h, self.rtol
+                    "{MAX_ATTEMPTS} steps from t = {start} did not reach t = {t_end} (they reached \
+                     t = {}, the step is {:e}): {cause}",
+                    self.t, self.h
                 )));
             }
             let last = self.h >= t_end - self.t;
