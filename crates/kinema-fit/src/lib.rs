@@ -700,7 +700,16 @@ impl Fitter {
     /// The design does not run (it did when it was fitted).
     pub fn trace(&self, design: &Design, per_step: usize) -> Result<Trace, FitError> {
         let mut plan = self.plan.clone();
-        plan.steps = (plan.steps * per_step.max(1)).min(1_000_000);
+        let span = plan.check_span(&design.times);
+        // Refined as asked while the whole span stays within a run's
+        // bound (the fit's own grid, within it by the plan's check, is
+        // never coarsened).
+        let cycles = ((span[1] - span[0]) / plan.t_end).max(1.0);
+        let most = (0.99 * plan::MAX_RUN_STEPS as f64 / cycles) as usize;
+        plan.steps = (plan.steps * per_step.max(1))
+            .min(1_000_000)
+            .min(most)
+            .max(plan.steps);
         plan.objectives.clear();
         let mut solver = self
             .model
@@ -710,7 +719,6 @@ impl Fitter {
             let _ = solver.system_mut().set_param_at(v.index, *value);
         }
         solver.system_mut().set_guess(Some(&design.start_q));
-        let span = plan.check_span(&design.times);
         let h = plan.t_end / plan.steps as f64;
         let mut times = Vec::new();
         plan::grid(span, h, |t| times.push(t)).map_err(FitError::Usage)?;
