@@ -96,14 +96,9 @@ fn jit(c: &mut Criterion, name: &str, model: Model, samples: usize) {
     let mut group = c.benchmark_group(format!("sensitivity/{name}"));
     group.sample_size(samples);
     let model = model.with_backend(Backend::Jit);
-    let names: Vec<String> = model
-        .derivation()
-        .params
-        .iter()
-        .map(|p| p.name.clone())
-        .collect();
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let mut sens = model.sensitivity(&names).unwrap_or_else(|e| panic!("{e}"));
+    let mut sens = model
+        .sensitivity_to_every_param()
+        .unwrap_or_else(|e| panic!("{e}"));
     let system = model.system();
     if system.wait_for_jit() != Backend::Jit {
         println!(

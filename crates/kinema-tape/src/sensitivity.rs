@@ -141,6 +141,17 @@ impl Level {
 }
 
 impl Model {
+    /// [`sensitivity`](Self::sensitivity) with respect to every param of
+    /// the model, in declaration order.
+    ///
+    /// # Errors
+    /// As [`sensitivity`](Self::sensitivity) (a model without params).
+    pub fn sensitivity_to_every_param(&self) -> Result<Sensitivity, SensitivityError> {
+        let d = self.derivation();
+        let names: Vec<&str> = d.params.iter().map(|p| p.name.as_str()).collect();
+        self.sensitivity(&names)
+    }
+
     /// The sensitivities of this model's solution and result columns with
     /// respect to the params `params` (in that order), derived
     /// symbolically and compiled to tapes; compute them after each solver

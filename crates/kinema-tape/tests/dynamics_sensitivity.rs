@@ -291,14 +291,9 @@ fn steps_with_dynamics_sensitivities_do_not_allocate() {
     for (name, model) in models {
         for backend in [Backend::Jit, Backend::Tape] {
             let model = model.clone().with_backend(backend);
-            let names: Vec<String> = model
-                .derivation()
-                .params
-                .iter()
-                .map(|p| p.name.clone())
-                .collect();
-            let names: Vec<&str> = names.iter().map(String::as_str).collect();
-            let mut sens = model.sensitivity(&names).unwrap_or_else(|e| panic!("{e}"));
+            let mut sens = model
+                .sensitivity_to_every_param()
+                .unwrap_or_else(|e| panic!("{e}"));
             let mut dsens = model
                 .dynamics_sensitivity(&sens)
                 .unwrap_or_else(|e| panic!("{e}"))

@@ -72,8 +72,10 @@ fn worst(name: &str, backend: Backend, times: &[f64]) -> f64 {
     let d = model.derivation();
     let names: Vec<String> = d.params.iter().map(|p| p.name.clone()).collect();
     let values = d.param_values();
-    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    let mut sens = model.sensitivity(&refs).unwrap_or_else(|e| panic!("{e}"));
+    let mut sens = model
+        .sensitivity_to_every_param()
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Every param, in declaration order.
     assert_eq!(sens.params(), &names[..]);
     let mut solver = model.solver(Options::default()).expect("solver");
     // computed[t][k]: param k's sensitivities at times[t], laid out as a
@@ -231,22 +233,15 @@ fn compute_before_a_step_is_an_error() {
 #[test]
 fn the_position_level_alone_is_the_full_ones() {
     let m = model("four_bar.kin");
-    let names: Vec<String> = m
-        .derivation()
-        .params
-        .iter()
-        .map(|p| p.name.clone())
-        .collect();
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let mut full = m.sensitivity(&names).expect("params");
-    let mut positions = m.sensitivity(&names).expect("params");
+    let mut full = m.sensitivity_to_every_param().expect("params");
+    let mut positions = m.sensitivity_to_every_param().expect("params");
     let mut solver = m.solver(Options::default()).expect("solver");
     solver.assemble(0.0).expect("assembles");
     for t in [0.1, 0.37, 0.8] {
         solver.step(t).expect("steps");
         full.compute(&mut solver).expect("full");
         positions.compute_positions(&mut solver).expect("positions");
-        for k in 0..names.len() {
+        for k in 0..full.params().len() {
             assert_eq!(full.coordinates(k)[0], positions.coordinates(k)[0]);
             assert_eq!(full.outputs(k)[0], positions.outputs(k)[0]);
             assert!(full.coordinates(k)[1].iter().all(|x| x.is_finite()));

@@ -22,14 +22,9 @@ fn steps_with_sensitivities_do_not_allocate() {
             let model = Model::from_file(&path)
                 .unwrap_or_else(|e| panic!("{}", e.render()))
                 .with_backend(backend);
-            let names: Vec<String> = model
-                .derivation()
-                .params
-                .iter()
-                .map(|p| p.name.clone())
-                .collect();
-            let names: Vec<&str> = names.iter().map(String::as_str).collect();
-            let mut sens = model.sensitivity(&names).unwrap_or_else(|e| panic!("{e}"));
+            let mut sens = model
+                .sensitivity_to_every_param()
+                .unwrap_or_else(|e| panic!("{e}"));
             let system = model.system();
             system.wait_for_jit();
             let mut solver = kinema_runtime::Solver::<_, kinema_runtime::Auto>::with_options(
